@@ -1,0 +1,300 @@
+//! Two-level CWBVH construction on the CPU with obvhs.
+//!
+//! **Instances.** All static meshes (world-space vertices) are merged into
+//! one bottom-level BVH (BLAS) placed with the identity; every moving mesh
+//! gets its own BLAS over its object-space vertices, placed by its
+//! keyframes. A top-level BVH (TLAS) is built over the instances' world
+//! bounds — for moving instances the bounds swept over all time
+//! ([`super::motion::swept_bounds`]).
+//!
+//! **Builder.** Each BVH is a compressed wide 8-ary BVH (Ylitie, Karras &
+//! Laine 2017, "Efficient Incoherent Ray Traversal on GPUs Through
+//! Compressed Wide BVHs"): obvhs builds a binary BVH with PLOC (Meister &
+//! Bittner 2018, "Parallel Locally-Ordered Clustering for Bounding Volume
+//! Hierarchy Construction"), improves it by reinsertion and collapses it to
+//! 8-wide nodes with the paper's SAH-based conversion (≤ 3 triangles per
+//! leaf). [`BUILD_PARAMS`] is obvhs' `fast_build` preset: PLOC search
+//! radius "low", 2 % reinsertion, and *no pre-splits* — so every triangle
+//! appears in exactly one leaf and leaves can index triangles directly.
+//!
+//! **One flat layout.** Triangles are stored in BVH leaf order
+//! (`primitive_indices`), instance after instance, so a leaf's primitive
+//! index *is* the global triangle index. All node arrays are concatenated
+//! into one: the TLAS first (root at node 0), then each BLAS with its
+//! `child_base_idx` rebased by its node offset and its `primitive_base_idx`
+//! by its triangle offset. Instances are stored in TLAS leaf order, so a
+//! TLAS leaf's primitive index is the instance index. Traversal therefore
+//! never adds per-instance offsets; [`GpuInstance::node_root`] says where a
+//! BLAS starts and [`GpuInstance::prim_offset`] where its triangles start.
+//!
+//! The traversal stack must hold one entry per level of the TLAS and of a
+//! BLAS plus one (see bvh.wgsl); [`BuiltScene::stack_depth`] is that bound
+//! and [`BuiltScene::new`] fails if it exceeds [`super::BVH_STACK_SIZE`].
+
+use anyhow::{bail, Result};
+use glam::{Vec3, Vec3A};
+use obvhs::{
+    aabb::Aabb,
+    cwbvh::{builder, node::CwBvhNode, CwBvh},
+    triangle::Triangle,
+    BvhBuildParams,
+};
+use std::time::{Duration, Instant};
+
+use super::layout::{GpuInstance, GpuKeyframe};
+use super::motion::{self, Rigid};
+use crate::scene::{Keyframe, Scene};
+
+/// obvhs build parameters for every BLAS and the TLAS (see module docs).
+pub const BUILD_PARAMS: BvhBuildParams = BvhBuildParams::fast_build();
+
+/// The scene's geometry in the flat GPU layout, kept on the CPU.
+#[derive(Clone, Debug, Default)]
+pub struct BuiltScene {
+    /// TLAS then every BLAS, offsets rebased (see module docs).
+    pub nodes: Vec<CwBvhNode>,
+    /// Three per triangle: v0.xyz | bitcast material, v1.xyz | bitcast
+    /// instance, v2.xyz | 0. World space for the static instance, object
+    /// space for moving ones.
+    pub triangles: Vec<[f32; 4]>,
+    /// Per global triangle: (mesh index in the scene, triangle index in
+    /// that mesh).
+    pub source: Vec<[u32; 2]>,
+    /// In TLAS leaf order.
+    pub instances: Vec<GpuInstance>,
+    /// Sorted by time per instance, unit rotations.
+    pub keyframes: Vec<GpuKeyframe>,
+    /// Node index of the TLAS root (0).
+    pub tlas_root: u32,
+    /// Traversal stack entries a ray can need (TLAS depth + 1 + deepest
+    /// BLAS depth).
+    pub stack_depth: u32,
+    /// Wall time of the obvhs builds (BLASes and TLAS), milliseconds.
+    pub build_ms: f64,
+    /// Time obvhs reports for its core build (no AABB setup), ms.
+    pub core_build_ms: f64,
+}
+
+/// Triangles of one BLAS before reordering.
+struct Group {
+    /// Scene mesh of each triangle and its index there.
+    source: Vec<[u32; 2]>,
+    tris: Vec<Triangle>,
+    motion: Vec<Keyframe>,
+}
+
+impl BuiltScene {
+    /// Builds the BVHs for `scene`. Fails on out-of-range vertex indices,
+    /// non-finite vertices or a hierarchy too deep for the GPU stack.
+    pub fn new(scene: &Scene) -> Result<BuiltScene> {
+        let groups = groups(scene)?;
+        let start = Instant::now();
+        let mut core = Duration::ZERO;
+
+        let blases: Vec<CwBvh> = groups
+            .iter()
+            .map(|g| builder::build_cwbvh_from_tris(&g.tris, BUILD_PARAMS, &mut core))
+            .collect();
+        let bounds: Vec<Aabb> = groups
+            .iter()
+            .zip(&blases)
+            .map(|(g, b)| motion::swept_bounds(&g.motion, &b.total_aabb))
+            .collect();
+        let tlas = if bounds.is_empty() {
+            CwBvh::default()
+        } else {
+            builder::build_cwbvh(&bounds, BUILD_PARAMS, &mut core)
+        };
+        let build_ms = start.elapsed().as_secs_f64() * 1e3;
+
+        let mut out = BuiltScene {
+            nodes: tlas.nodes.clone(),
+            build_ms,
+            core_build_ms: core.as_secs_f64() * 1e3,
+            ..Default::default()
+        };
+        let mut max_blas_depth = 0;
+        // Instance i of the flat layout is group tlas.primitive_indices[i].
+        for (instance, &g) in tlas.primitive_indices.iter().enumerate() {
+            let (group, blas) = (&groups[g as usize], &blases[g as usize]);
+            let node_offset = out.nodes.len() as u32;
+            let prim_offset = (out.triangles.len() / 3) as u32;
+            out.instances.push(GpuInstance {
+                node_root: node_offset,
+                prim_offset,
+                key_offset: out.keyframes.len() as u32,
+                key_count: group.motion.len() as u32,
+            });
+            out.keyframes
+                .extend(group.motion.iter().map(|k| GpuKeyframe {
+                    translation: k.translation.into(),
+                    time: k.time,
+                    rotation: k.rotation.into(),
+                }));
+            out.nodes.extend(blas.nodes.iter().map(|n| CwBvhNode {
+                child_base_idx: n.child_base_idx + node_offset,
+                primitive_base_idx: n.primitive_base_idx + prim_offset,
+                ..*n
+            }));
+            for &p in &blas.primitive_indices {
+                let [mesh, tri] = group.source[p as usize];
+                let Triangle { v0, v1, v2 } = group.tris[p as usize];
+                let material = scene.meshes[mesh as usize].material;
+                out.triangles
+                    .push([v0.x, v0.y, v0.z, f32::from_bits(material)]);
+                out.triangles
+                    .push([v1.x, v1.y, v1.z, f32::from_bits(instance as u32)]);
+                out.triangles.push([v2.x, v2.y, v2.z, 0.0]);
+                out.source.push([mesh, tri]);
+            }
+            max_blas_depth = max_blas_depth.max(depth(blas));
+        }
+        out.stack_depth = if out.instances.is_empty() {
+            0
+        } else {
+            depth(&tlas) + 1 + max_blas_depth
+        };
+        if out.stack_depth > super::BVH_STACK_SIZE {
+            bail!(
+                "the scene's BVH needs a traversal stack of {} entries but the GPU traversal has {}; \
+                 the geometry is probably degenerate (many coincident triangles)",
+                out.stack_depth,
+                super::BVH_STACK_SIZE
+            );
+        }
+        Ok(out)
+    }
+
+    pub fn triangle_count(&self) -> u32 {
+        (self.triangles.len() / 3) as u32
+    }
+
+    /// Instance of global triangle `prim`.
+    pub fn triangle_instance(&self, prim: u32) -> u32 {
+        self.triangles[3 * prim as usize + 1][3].to_bits()
+    }
+
+    /// Material of global triangle `prim`.
+    pub fn triangle_material(&self, prim: u32) -> u32 {
+        self.triangles[3 * prim as usize][3].to_bits()
+    }
+
+    /// Stored (world or object space) vertices of global triangle `prim`.
+    pub fn triangle_stored(&self, prim: u32) -> [Vec3; 3] {
+        let t = &self.triangles[3 * prim as usize..3 * prim as usize + 3];
+        [0, 1, 2].map(|i| Vec3::new(t[i][0], t[i][1], t[i][2]))
+    }
+
+    /// Keyframes of instance `inst`, as scene keyframes.
+    pub fn instance_keys(&self, inst: u32) -> Vec<Keyframe> {
+        let i = self.instances[inst as usize];
+        self.keyframes[i.key_offset as usize..(i.key_offset + i.key_count) as usize]
+            .iter()
+            .map(|k| Keyframe {
+                time: k.time,
+                translation: k.translation.into(),
+                rotation: glam::Quat::from_array(k.rotation),
+            })
+            .collect()
+    }
+
+    /// Transform of instance `inst` at scene time `time` (identity if static).
+    pub fn instance_transform_at(&self, inst: u32, time: f32) -> Rigid {
+        motion::transform_at(&self.instance_keys(inst), time)
+    }
+
+    /// World-space vertices of global triangle `prim` at scene time `time`
+    /// (the CPU twin of `triangle_world` in scene.wgsl).
+    pub fn triangle_world(&self, prim: u32, time: f32) -> [Vec3; 3] {
+        let v = self.triangle_stored(prim);
+        let inst = self.triangle_instance(prim);
+        if self.instances[inst as usize].key_count == 0 {
+            return v;
+        }
+        let rigid = self.instance_transform_at(inst, time);
+        v.map(|p| rigid.apply_point(p))
+    }
+}
+
+/// Splits the scene's triangles into BLAS groups: all static meshes
+/// together, then one group per moving mesh. Empty groups are dropped.
+fn groups(scene: &Scene) -> Result<Vec<Group>> {
+    let mut fixed = Group {
+        source: Vec::new(),
+        tris: Vec::new(),
+        motion: Vec::new(),
+    };
+    let mut moving = Vec::new();
+    for (m, mesh) in scene.meshes.iter().enumerate() {
+        if mesh.material as usize >= scene.materials.len() {
+            bail!(
+                "mesh '{}' uses material {} but the scene has {}",
+                mesh.name,
+                mesh.material,
+                scene.materials.len()
+            );
+        }
+        if let Some(p) = mesh.positions.iter().find(|p| !p.is_finite()) {
+            bail!("mesh '{}' has a non-finite vertex {p}", mesh.name);
+        }
+        let mut group = if mesh.motion.is_empty() {
+            None
+        } else {
+            Some(Group {
+                source: Vec::new(),
+                tris: Vec::new(),
+                motion: motion::normalized_keys(&mesh.motion),
+            })
+        };
+        let target = group.as_mut().unwrap_or(&mut fixed);
+        for (t, idx) in mesh.indices.iter().enumerate() {
+            let vertex = |i: u32| -> Result<Vec3A> {
+                match mesh.positions.get(i as usize) {
+                    Some(p) => Ok((*p).into()),
+                    None => bail!(
+                        "mesh '{}' triangle {t} uses vertex {i} but the mesh has {}",
+                        mesh.name,
+                        mesh.positions.len()
+                    ),
+                }
+            };
+            target.tris.push(Triangle {
+                v0: vertex(idx[0])?,
+                v1: vertex(idx[1])?,
+                v2: vertex(idx[2])?,
+            });
+            target.source.push([m as u32, t as u32]);
+        }
+        if let Some(g) = group.filter(|g| !g.tris.is_empty()) {
+            moving.push(g);
+        }
+    }
+    let mut out = Vec::new();
+    if !fixed.tris.is_empty() {
+        out.push(fixed);
+    }
+    out.extend(moving);
+    if out.len() > u32::MAX as usize / 2
+        || out.iter().map(|g| g.tris.len()).sum::<usize>() > (u32::MAX / 4) as usize
+    {
+        bail!("too many triangles for 32-bit indices");
+    }
+    Ok(out)
+}
+
+/// Levels of internal nodes on the longest root-to-leaf path.
+fn depth(bvh: &CwBvh) -> u32 {
+    fn go(bvh: &CwBvh, node: usize) -> u32 {
+        let n = &bvh.nodes[node];
+        1 + (0..8)
+            .filter(|&c| !n.is_child_empty(c) && !n.is_leaf(c))
+            .map(|c| go(bvh, n.child_node_index(c) as usize))
+            .max()
+            .unwrap_or(0)
+    }
+    if bvh.nodes.is_empty() {
+        0
+    } else {
+        go(bvh, 0)
+    }
+}

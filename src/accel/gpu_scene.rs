@@ -1,0 +1,257 @@
+//! Upload of a scene to the device: the `@group(1)` scene bindings.
+//!
+//! [`GpuScene`] owns the buffers and bind group that `wgsl/shared/scene.wgsl`
+//! declares (uniforms, CWBVH nodes, triangles, instances, keyframes,
+//! materials, emitters, lights) and the bind-group layout every kernel that
+//! uses the scene puts at group 1. Besides the BVH ([`BuiltScene`]) it
+//! derives the camera frame of DESIGN.md "Conventions" for the render film
+//! and the emissive-triangle selection table ([`emitter_table`]).
+
+use anyhow::Result;
+use glam::Vec3;
+
+use super::build::BuiltScene;
+use super::layout::{
+    GpuEmitter, GpuLight, GpuMaterial, SceneUniforms, LIGHT_DIRECTIONAL, LIGHT_POINT,
+};
+use crate::gpu::buffer::STORAGE;
+use crate::gpu::shader::{bind_buffers, storage_entry, uniform_entry};
+use crate::gpu::Gpu;
+use crate::scene::{Film, Light, Scene};
+
+/// What was built and uploaded, for logs and reports.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SceneStats {
+    pub triangles: u32,
+    pub instances: u32,
+    /// CWBVH nodes, TLAS and BLASes together (80 bytes each).
+    pub nodes: u32,
+    pub emitters: u32,
+    /// Wall time of the obvhs builds, milliseconds.
+    pub build_ms: f64,
+    /// Bytes of all scene buffers on the device.
+    pub gpu_bytes: u64,
+}
+
+/// A scene on the device, bound at `@group(1)` (see `shared/scene.wgsl`).
+pub struct GpuScene {
+    pub layout: wgpu::BindGroupLayout,
+    pub bind_group: wgpu::BindGroup,
+    pub stats: SceneStats,
+    /// Host copy of the uniform buffer's contents.
+    pub uniforms: SceneUniforms,
+}
+
+impl GpuScene {
+    /// Builds the BVHs and uploads `scene` for rendering at resolution
+    /// `film` (which may differ from `scene.film`).
+    pub fn new(gpu: &Gpu, scene: &Scene, film: Film) -> Result<GpuScene> {
+        let built = BuiltScene::new(scene)?;
+        GpuScene::upload(gpu, scene, &built, film)
+    }
+
+    /// Uploads an already built scene; `built` must come from `scene`.
+    pub fn upload(gpu: &Gpu, scene: &Scene, built: &BuiltScene, film: Film) -> Result<GpuScene> {
+        let materials: Vec<GpuMaterial> = scene
+            .materials
+            .iter()
+            .map(|m| GpuMaterial {
+                albedo: m.albedo.into(),
+                checker_scale: m.checker.map_or(0.0, |c| c.scale),
+                emission: m.emission.into(),
+                albedo2: m.checker.map_or(m.albedo, |c| c.albedo2).into(),
+                ..Default::default()
+            })
+            .collect();
+        let lights: Vec<GpuLight> = scene.lights.iter().map(gpu_light).collect();
+        let emitters = emitter_table(scene, built);
+        let uniforms = scene_uniforms(
+            scene,
+            built,
+            film,
+            emitters.len() as u32,
+            lights.len() as u32,
+        );
+
+        let n = built.triangle_count();
+        gpu.check_binding_size(
+            &format!("mdas.scene.triangles ({n} triangles, 48 bytes each)"),
+            std::mem::size_of_val(built.triangles.as_slice()) as u64,
+        )?;
+        gpu.check_binding_size(
+            &format!(
+                "mdas.scene.nodes ({} CWBVH nodes for {n} triangles)",
+                built.nodes.len()
+            ),
+            std::mem::size_of_val(built.nodes.as_slice()) as u64,
+        )?;
+
+        gpu.scoped("uploading the scene", || {
+            let buffers = [
+                gpu.uniform("mdas.scene.uniforms", &uniforms),
+                gpu.buffer_from("mdas.scene.nodes", &non_empty(&built.nodes), STORAGE)?,
+                gpu.buffer_from(
+                    "mdas.scene.triangles",
+                    &non_empty(&built.triangles),
+                    STORAGE,
+                )?,
+                gpu.buffer_from(
+                    "mdas.scene.instances",
+                    &non_empty(&built.instances),
+                    STORAGE,
+                )?,
+                gpu.buffer_from(
+                    "mdas.scene.keyframes",
+                    &non_empty(&built.keyframes),
+                    STORAGE,
+                )?,
+                gpu.buffer_from("mdas.scene.materials", &non_empty(&materials), STORAGE)?,
+                gpu.buffer_from("mdas.scene.emitters", &non_empty(&emitters), STORAGE)?,
+                gpu.buffer_from("mdas.scene.lights", &non_empty(&lights), STORAGE)?,
+            ];
+            let layout = Self::bind_group_layout(gpu);
+            let bind_group = bind_buffers(
+                gpu,
+                "mdas.scene",
+                &layout,
+                &buffers.iter().collect::<Vec<_>>(),
+            );
+            let stats = SceneStats {
+                triangles: n,
+                instances: built.instances.len() as u32,
+                nodes: built.nodes.len() as u32,
+                emitters: emitters.len() as u32,
+                build_ms: built.build_ms,
+                gpu_bytes: buffers.iter().map(|b| b.size()).sum(),
+            };
+            Ok(GpuScene {
+                layout,
+                bind_group,
+                stats,
+                uniforms,
+            })
+        })
+    }
+
+    /// The layout of `@group(1)`: binding 0 uniform, 1–7 read-only storage.
+    pub fn bind_group_layout(gpu: &Gpu) -> wgpu::BindGroupLayout {
+        let mut entries = vec![uniform_entry(0)];
+        entries.extend((1..=7).map(|b| storage_entry(b, true)));
+        gpu.device
+            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("mdas.scene"),
+                entries: &entries,
+            })
+    }
+}
+
+/// `data`, or one zeroed element if it is empty: a binding must hold at
+/// least one element of the WGSL array (the counts in the uniforms stay 0).
+fn non_empty<T: bytemuck::Pod>(data: &[T]) -> std::borrow::Cow<'_, [T]> {
+    if data.is_empty() {
+        std::borrow::Cow::Owned(vec![T::zeroed()])
+    } else {
+        std::borrow::Cow::Borrowed(data)
+    }
+}
+
+fn gpu_light(light: &Light) -> GpuLight {
+    match *light {
+        Light::Point {
+            position,
+            intensity,
+        } => GpuLight {
+            kind: LIGHT_POINT,
+            position: position.into(),
+            intensity: intensity.into(),
+            ..Default::default()
+        },
+        Light::Directional {
+            direction,
+            irradiance,
+        } => GpuLight {
+            kind: LIGHT_DIRECTIONAL,
+            position: direction.normalize_or_zero().into(),
+            intensity: irradiance.into(),
+            ..Default::default()
+        },
+    }
+}
+
+/// Camera frame (DESIGN.md "Conventions"), film, shutter and counts.
+pub fn scene_uniforms(
+    scene: &Scene,
+    built: &BuiltScene,
+    film: Film,
+    emitters: u32,
+    lights: u32,
+) -> SceneUniforms {
+    let cam = &scene.camera;
+    let f = (cam.look_at - cam.position).normalize();
+    let r = f.cross(cam.up).normalize();
+    let u = r.cross(f);
+    SceneUniforms {
+        cam_position: cam.position.into(),
+        cam_lens_radius: cam.aperture_radius,
+        cam_forward: f.into(),
+        cam_focus_distance: cam.focus_distance,
+        cam_right: r.into(),
+        cam_tan_half_fov_y: (cam.fov_y.to_radians() * 0.5).tan(),
+        cam_up: u.into(),
+        cam_aspect: film.width as f32 / film.height as f32,
+        film_size: [film.width as f32, film.height as f32],
+        shutter: [cam.shutter_open, cam.shutter_close],
+        background: scene.background.into(),
+        emitter_count: emitters,
+        light_count: lights,
+        instance_count: built.instances.len() as u32,
+        tlas_root: built.tlas_root,
+        triangle_count: built.triangle_count(),
+    }
+}
+
+/// Rec. 709 luminance of linear RGB.
+pub fn luminance(c: Vec3) -> f32 {
+    c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
+}
+
+/// The emissive triangles of `built` with selection pmf ∝
+/// luminance(emission) · area, in global triangle order. Triangles whose
+/// weight is zero (black emission, zero area) are left out. The cdf is
+/// inclusive, accumulated in f64, and its last entry is exactly 1.
+pub fn emitter_table(scene: &Scene, built: &BuiltScene) -> Vec<GpuEmitter> {
+    let mut table: Vec<(u32, f64, f32)> = Vec::new();
+    for prim in 0..built.triangle_count() {
+        let emission = scene.materials[built.triangle_material(prim) as usize].emission;
+        if emission.max_element() <= 0.0 {
+            continue;
+        }
+        let [a, b, c] = built.triangle_stored(prim);
+        let area = 0.5 * (b - a).cross(c - a).length();
+        let weight = luminance(emission) as f64 * area as f64;
+        if weight > 0.0 && weight.is_finite() {
+            table.push((prim, weight, area));
+        }
+    }
+    let total: f64 = table.iter().map(|e| e.1).sum();
+    let mut running = 0.0;
+    let count = table.len();
+    table
+        .into_iter()
+        .enumerate()
+        .map(|(i, (prim, weight, area))| {
+            running += weight;
+            let cdf = if i + 1 == count {
+                1.0
+            } else {
+                (running / total).min(1.0) as f32
+            };
+            GpuEmitter {
+                prim,
+                cdf,
+                pmf: (weight / total) as f32,
+                area,
+            }
+        })
+        .collect()
+}

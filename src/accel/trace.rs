@@ -1,0 +1,214 @@
+//! Batch ray tracing kernel (`wgsl/trace.wgsl`), for tests and benchmarks.
+//!
+//! [`TraceKernel::run`] uploads rays, traces each with both queries of
+//! `shared/bvh.wgsl` (closest hit and any hit) and reads back one
+//! [`HitRecord`] per ray. [`TraceKernel::dispatch`] works on buffers that
+//! are already on the device and runs one query ([`TraceMode`]), which is
+//! what the benchmarks time. Large batches are split so that each ray and
+//! hit buffer fits one storage binding, and each dispatch uses a 2D grid
+//! ([`Gpu::dispatch_dims`]) when the ray count exceeds the per-dimension
+//! workgroup limit.
+
+use anyhow::Result;
+use bytemuck::{Pod, Zeroable};
+
+use super::GpuScene;
+use crate::gpu::buffer::STORAGE;
+use crate::gpu::shader::{bind_buffers, storage_entry, uniform_entry, Wgsl};
+use crate::gpu::Gpu;
+
+/// `prim` of a miss.
+pub const MISS: u32 = u32::MAX;
+
+/// Invocations per workgroup of the trace kernels.
+pub const TRACE_WORKGROUP_SIZE: u32 = 64;
+
+/// A ray: origin, t_max, direction (need not be normalized; t is in units
+/// of |dir|) and scene time.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct Ray {
+    pub origin: [f32; 3],
+    pub t_max: f32,
+    pub dir: [f32; 3],
+    /// Scene time (not the [0, 1) sample time).
+    pub time: f32,
+}
+
+/// Result of tracing one ray.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct HitRecord {
+    /// Closest hit distance; `t_max` on a miss.
+    pub t: f32,
+    /// Global triangle index; [`MISS`] on a miss.
+    pub prim: u32,
+    /// Barycentrics of v1 and v2.
+    pub bary: [f32; 2],
+    /// 1 when the any-hit query found something in (t_min, t_max).
+    pub any_hit: u32,
+    /// Traversal loop iterations of the closest-hit query.
+    pub steps_closest: u32,
+    /// Traversal loop iterations of the any-hit query.
+    pub steps_any: u32,
+    pub _pad: u32,
+}
+
+impl HitRecord {
+    pub fn is_hit(&self) -> bool {
+        self.prim != MISS
+    }
+}
+
+/// Which queries a dispatch runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TraceMode {
+    /// Closest hit and any hit (all fields of [`HitRecord`]).
+    Both,
+    /// Closest hit only (`any_hit` = whether it hit, `steps_any` = 0).
+    Closest,
+    /// Any hit only (`t` = t_max, `prim` = MISS, `steps_closest` = 0).
+    Any,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+struct TraceParams {
+    ray_count: u32,
+    /// Invocations per grid row: the linear index is x + y · row_stride.
+    row_stride: u32,
+    _pad: [u32; 2],
+}
+
+pub struct TraceKernel {
+    layout: wgpu::BindGroupLayout,
+    both: wgpu::ComputePipeline,
+    closest: wgpu::ComputePipeline,
+    any: wgpu::ComputePipeline,
+}
+
+impl TraceKernel {
+    pub fn new(gpu: &Gpu, scene: &GpuScene) -> Result<TraceKernel> {
+        let layout = gpu
+            .device
+            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("mdas.trace"),
+                entries: &[
+                    uniform_entry(0),
+                    storage_entry(1, true),
+                    storage_entry(2, false),
+                ],
+            });
+        let source = Wgsl::new()
+            .constant("TRACE_WORKGROUP_SIZE", TRACE_WORKGROUP_SIZE)
+            .include(&GpuScene::wgsl())
+            .part(crate::wgsl_file!("trace.wgsl"));
+        let layouts = [&layout, &scene.layout];
+        Ok(TraceKernel {
+            both: gpu.compute_pipeline("mdas.trace.both", &source, "trace_both", &layouts)?,
+            closest: gpu.compute_pipeline(
+                "mdas.trace.closest",
+                &source,
+                "trace_closest_only",
+                &layouts,
+            )?,
+            any: gpu.compute_pipeline("mdas.trace.any", &source, "trace_any_only", &layouts)?,
+            layout,
+        })
+    }
+
+    /// Most rays per dispatch: the ray and hit buffers must each fit one
+    /// storage binding.
+    pub fn max_rays_per_dispatch(gpu: &Gpu) -> usize {
+        let per_ray = std::mem::size_of::<Ray>().max(std::mem::size_of::<HitRecord>()) as u64;
+        (gpu.max_binding_bytes() / per_ray).min(u32::MAX as u64) as usize
+    }
+
+    /// Traces `rays` with both queries and returns one record per ray.
+    pub fn run(&self, gpu: &Gpu, scene: &GpuScene, rays: &[Ray]) -> Result<Vec<HitRecord>> {
+        let mut out = Vec::with_capacity(rays.len());
+        for batch in rays.chunks(Self::max_rays_per_dispatch(gpu).max(1)) {
+            let hits = gpu.scoped("tracing rays", || {
+                let ray_buffer = gpu.buffer_from("mdas.trace.rays", batch, STORAGE)?;
+                let hit_buffer = gpu.buffer_zeroed(
+                    "mdas.trace.hits",
+                    (batch.len() * std::mem::size_of::<HitRecord>()) as u64,
+                    STORAGE,
+                )?;
+                self.dispatch(
+                    gpu,
+                    scene,
+                    &ray_buffer,
+                    &hit_buffer,
+                    batch.len() as u32,
+                    TraceMode::Both,
+                )?;
+                gpu.read_buffer::<HitRecord>(&hit_buffer, batch.len())
+            })?;
+            out.extend(hits);
+        }
+        Ok(out)
+    }
+
+    /// Records and submits one dispatch over `count` rays already in
+    /// `rays` (an array of [`Ray`]), writing [`HitRecord`]s to `hits`.
+    /// Does not wait; follow with [`Gpu::wait`] to time it.
+    pub fn dispatch(
+        &self,
+        gpu: &Gpu,
+        scene: &GpuScene,
+        rays: &wgpu::Buffer,
+        hits: &wgpu::Buffer,
+        count: u32,
+        mode: TraceMode,
+    ) -> Result<()> {
+        let mut encoder = gpu
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("mdas.trace"),
+            });
+        self.encode(gpu, &mut encoder, scene, rays, hits, count, mode, None);
+        gpu.queue.submit([encoder.finish()]);
+        Ok(())
+    }
+
+    /// Records one dispatch into `encoder` (for callers that time passes
+    /// with a [`crate::gpu::Profiler`]).
+    #[allow(clippy::too_many_arguments)]
+    pub fn encode(
+        &self,
+        gpu: &Gpu,
+        encoder: &mut wgpu::CommandEncoder,
+        scene: &GpuScene,
+        rays: &wgpu::Buffer,
+        hits: &wgpu::Buffer,
+        count: u32,
+        mode: TraceMode,
+        timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) {
+        let groups = count.div_ceil(TRACE_WORKGROUP_SIZE);
+        let (nx, ny) = gpu.dispatch_dims(groups);
+        let params = TraceParams {
+            ray_count: count,
+            row_stride: nx * TRACE_WORKGROUP_SIZE,
+            _pad: [0; 2],
+        };
+        let params = gpu.uniform("mdas.trace.params", &params);
+        let bind_group = bind_buffers(gpu, "mdas.trace", &self.layout, &[&params, rays, hits]);
+        let pipeline = match mode {
+            TraceMode::Both => &self.both,
+            TraceMode::Closest => &self.closest,
+            TraceMode::Any => &self.any,
+        };
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("mdas.trace"),
+            timestamp_writes: timestamps,
+        });
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, &bind_group, &[]);
+        pass.set_bind_group(1, &scene.bind_group, &[]);
+        if count > 0 {
+            pass.dispatch_workgroups(nx, ny, 1);
+        }
+    }
+}

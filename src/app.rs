@@ -1,0 +1,144 @@
+//! What the CLI does, as library functions (so tests can call them):
+//! setting up a scene on the GPU, rendering, references with a cache, and
+//! writing outputs.
+
+use crate::accel::GpuScene;
+use crate::gpu::Gpu;
+use crate::image_io;
+use crate::integrand::{AreaLight, Integrand};
+use crate::integrator::{Halton, Integrator, Render};
+use crate::scene::{Film, IntegrandSpec, Scene};
+use anyhow::{bail, Context, Result};
+use sha2::{Digest, Sha256};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// The film of a `--scale F` render: each side scaled and rounded, at
+/// least one pixel. The camera is unchanged, so pixels cover more of the
+/// scene.
+pub fn scaled_film(film: Film, scale: f32) -> Result<Film> {
+    if !(scale.is_finite() && scale > 0.0 && scale <= 16.0) {
+        bail!("--scale must be in (0, 16], got {scale}");
+    }
+    let side = |n: u32| ((n as f64 * scale as f64).round() as u32).max(1);
+    Ok(Film {
+        width: side(film.width),
+        height: side(film.height),
+    })
+}
+
+/// Builds the scene's GPU representation and its integrand over `film`.
+pub fn integrand_for(gpu: &Gpu, scene: &Scene, film: Film) -> Result<Box<dyn Integrand>> {
+    let gpu_scene = Arc::new(GpuScene::new(gpu, scene, film)?);
+    Ok(match scene.integrand {
+        IntegrandSpec::AreaLight => Box::new(AreaLight::new(gpu_scene, film)),
+    })
+}
+
+/// A loaded scene with its integrand, ready to render at one film size.
+pub struct Prepared {
+    pub scene: Scene,
+    pub film: Film,
+    pub integrand: Box<dyn Integrand>,
+}
+
+pub fn prepare(gpu: &Gpu, scene_path: &Path, scale: f32) -> Result<Prepared> {
+    let scene = Scene::load(scene_path)?;
+    let film = scaled_film(scene.film, scale)?;
+    let integrand = integrand_for(gpu, &scene, film)?;
+    Ok(Prepared {
+        scene,
+        film,
+        integrand,
+    })
+}
+
+/// Writes `OUT.exr` and `OUT.png` beside it (each atomically).
+pub fn write_outputs(exr: &Path, render_film: Film, image: &[[f32; 3]]) -> Result<PathBuf> {
+    if exr.extension().and_then(|e| e.to_str()) != Some("exr") {
+        bail!(
+            "output '{}' must end in .exr (a .png is written beside it)",
+            exr.display()
+        );
+    }
+    let png = exr.with_extension("png");
+    image_io::write_exr(exr, render_film.width, render_film.height, image)?;
+    image_io::write_png(&png, render_film.width, render_film.height, image)?;
+    Ok(png)
+}
+
+/// Parameters that identify a reference render.
+#[derive(Clone, Copy, Debug)]
+pub struct ReferenceSpec {
+    pub spp: u32,
+    pub scale: f32,
+    pub seed: u32,
+}
+
+/// Cache file of a reference: a hash of the scene file's bytes, the
+/// parameters and the crate version.
+pub fn reference_cache_path(
+    cache_dir: &Path,
+    scene_path: &Path,
+    spec: ReferenceSpec,
+) -> Result<PathBuf> {
+    let bytes = std::fs::read(scene_path)
+        .with_context(|| format!("cannot read {}", scene_path.display()))?;
+    let mut h = Sha256::new();
+    h.update(&bytes);
+    h.update(format!(
+        "|spp={}|scale={}|seed={}|halton|v{}",
+        spec.spp,
+        spec.scale,
+        spec.seed,
+        env!("CARGO_PKG_VERSION")
+    ));
+    let digest = h.finalize();
+    let hex: String = digest.iter().take(12).map(|b| format!("{b:02x}")).collect();
+    let stem = scene_path
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or("scene");
+    Ok(cache_dir.join(format!("{stem}-{hex}.exr")))
+}
+
+/// The reference image (Halton at `spec.spp`), from the cache or rendered
+/// and cached. Returns the image, its path and whether it was cached.
+pub fn reference(
+    gpu: &Gpu,
+    scene_path: &Path,
+    spec: ReferenceSpec,
+    cache_dir: &Path,
+    progress: Option<crate::integrator::halton::Progress>,
+) -> Result<(Film, Vec<[f32; 3]>, PathBuf, bool)> {
+    let path = reference_cache_path(cache_dir, scene_path, spec)?;
+    let prepared = prepare(gpu, scene_path, spec.scale)?;
+    if path.exists() {
+        let (w, h, image) = image_io::read_exr(&path)?;
+        if (w, h) == (prepared.film.width, prepared.film.height) {
+            return Ok((prepared.film, image, path, true));
+        }
+    }
+    std::fs::create_dir_all(cache_dir)
+        .with_context(|| format!("cannot create cache directory {}", cache_dir.display()))?;
+    let mut halton = Halton::new(spec.spp, spec.seed);
+    if let Some(p) = progress {
+        halton = halton.with_progress(p);
+    }
+    let render = halton.render(gpu, prepared.integrand.as_ref())?;
+    check_finite(&render)?;
+    write_outputs(&path, render.film, &render.image)?;
+    Ok((render.film, render.image, path, false))
+}
+
+/// References must be finite everywhere.
+fn check_finite(render: &Render) -> Result<()> {
+    let bad = render.nonfinite_pixels();
+    if bad > 0 {
+        bail!(
+            "reference has {bad} non-finite pixels ({} non-finite samples)",
+            render.nonfinite
+        );
+    }
+    Ok(())
+}

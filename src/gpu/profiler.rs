@@ -1,0 +1,164 @@
+//! Per-phase GPU timings.
+//!
+//! With `TIMESTAMP_QUERY` each compute pass gets a begin/end timestamp and
+//! a phase's time is the sum of its passes' GPU durations. Without it the
+//! phase is submitted on its own and timed on the wall clock around the
+//! submission and a blocking device wait (so the figure includes submission
+//! overhead). Either way the caller writes one closure per phase:
+//!
+//! ```ignore
+//! profiler.phase("evaluate", |encoder, timestamps| {
+//!     let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+//!         label: Some("mdas.halton.evaluate"),
+//!         timestamp_writes: timestamps,
+//!     });
+//!     // set pipeline, bind groups, dispatch ...
+//! })?;
+//! let times = profiler.finish()?;
+//! ```
+
+use super::{Gpu, Readback};
+use anyhow::Result;
+use std::time::Instant;
+
+/// Timestamp pairs per query set (a set holds 2 per pass).
+const PAIRS_PER_SET: u32 = 128;
+
+/// Named phase durations in milliseconds, in the order phases first ran.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PhaseTimes(pub Vec<(String, f64)>);
+
+impl PhaseTimes {
+    pub fn add(&mut self, name: &str, ms: f64) {
+        match self.0.iter_mut().find(|(n, _)| n == name) {
+            Some((_, t)) => *t += ms,
+            None => self.0.push((name.to_string(), ms)),
+        }
+    }
+
+    pub fn get(&self, name: &str) -> Option<f64> {
+        self.0.iter().find(|(n, _)| n == name).map(|(_, t)| *t)
+    }
+
+    pub fn total(&self) -> f64 {
+        self.0.iter().map(|(_, t)| t).sum()
+    }
+
+    /// Adds every phase of `other` into `self`.
+    pub fn merge(&mut self, other: &PhaseTimes) {
+        for (n, t) in &other.0 {
+            self.add(n, *t);
+        }
+    }
+}
+
+/// Where the times come from, for reports.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Clock {
+    GpuTimestamps,
+    WallClock,
+}
+
+pub struct Profiler<'g> {
+    gpu: &'g Gpu,
+    sets: Vec<wgpu::QuerySet>,
+    /// Phase name of each timestamp pair, in query order.
+    pairs: Vec<String>,
+    wall: PhaseTimes,
+}
+
+impl<'g> Profiler<'g> {
+    pub fn new(gpu: &'g Gpu) -> Self {
+        Profiler {
+            gpu,
+            sets: Vec::new(),
+            pairs: Vec::new(),
+            wall: PhaseTimes::default(),
+        }
+    }
+
+    pub fn clock(&self) -> Clock {
+        if self.gpu.caps.timestamps {
+            Clock::GpuTimestamps
+        } else {
+            Clock::WallClock
+        }
+    }
+
+    /// Records one phase with `record` and submits it. `record` must pass
+    /// the timestamp writes it is given to the one compute pass it begins.
+    pub fn phase(
+        &mut self,
+        name: &str,
+        record: impl FnOnce(&mut wgpu::CommandEncoder, Option<wgpu::ComputePassTimestampWrites<'_>>),
+    ) -> Result<()> {
+        let gpu = self.gpu;
+        let mut encoder = gpu
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(name) });
+        if gpu.caps.timestamps {
+            let pair = self.pairs.len() as u32;
+            if pair % PAIRS_PER_SET == 0 {
+                self.sets
+                    .push(gpu.device.create_query_set(&wgpu::QuerySetDescriptor {
+                        label: Some("mdas.profiler.timestamps"),
+                        ty: wgpu::QueryType::Timestamp,
+                        count: 2 * PAIRS_PER_SET,
+                    }));
+            }
+            self.pairs.push(name.to_string());
+            let local = pair % PAIRS_PER_SET;
+            record(
+                &mut encoder,
+                Some(wgpu::ComputePassTimestampWrites {
+                    query_set: self.sets.last().expect("just pushed"),
+                    beginning_of_pass_write_index: Some(2 * local),
+                    end_of_pass_write_index: Some(2 * local + 1),
+                }),
+            );
+            gpu.queue.submit([encoder.finish()]);
+        } else {
+            let start = Instant::now();
+            record(&mut encoder, None);
+            gpu.queue.submit([encoder.finish()]);
+            gpu.wait()?;
+            self.wall.add(name, start.elapsed().as_secs_f64() * 1e3);
+        }
+        Ok(())
+    }
+
+    /// Waits for all phases and returns their times.
+    pub fn finish(self) -> Result<PhaseTimes> {
+        let gpu = self.gpu;
+        let mut times = self.wall;
+        if self.pairs.is_empty() {
+            return Ok(times);
+        }
+        let mut encoder = gpu.device.create_command_encoder(&Default::default());
+        let mut readbacks = Vec::new();
+        for (s, set) in self.sets.iter().enumerate() {
+            let used = (self.pairs.len() as u32 - s as u32 * PAIRS_PER_SET).min(PAIRS_PER_SET);
+            let resolve = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("mdas.profiler.resolve"),
+                size: 16 * used as u64,
+                usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            });
+            encoder.resolve_query_set(set, 0..2 * used, &resolve, 0);
+            let readback = Readback::<u64>::new(gpu, &resolve, 2 * used as usize)?;
+            readback.record(&mut encoder);
+            readbacks.push(readback);
+        }
+        gpu.queue.submit([encoder.finish()]);
+        let ns_per_tick = gpu.queue.get_timestamp_period() as f64;
+        let mut ticks = Vec::new();
+        for r in readbacks {
+            ticks.extend(r.finish(gpu)?);
+        }
+        for (i, name) in self.pairs.iter().enumerate() {
+            let (begin, end) = (ticks[2 * i], ticks[2 * i + 1]);
+            times.add(name, end.saturating_sub(begin) as f64 * ns_per_tick * 1e-6);
+        }
+        Ok(times)
+    }
+}

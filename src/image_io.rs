@@ -1,0 +1,467 @@
+//! Reading and writing images: linear float EXR and sRGB PNG, written
+//! atomically.
+//!
+//! Conventions (DESIGN.md):
+//!
+//! - Images are row-major slices of linear RGB pixels, `&[[f32; 3]]`; pixel
+//!   (i, j) (i = column from the left, j = row from the top) is at index
+//!   `j * width + i`. The first row of the EXR and PNG files is the top row,
+//!   so files open the right way up in any viewer.
+//! - **EXR** holds linear radiance as 32-bit float R, G, B channels (ZIP
+//!   compressed scanlines, lossless), written and read back bit-exactly.
+//!   Non-finite values are stored as they are: an EXR is data, and hiding a
+//!   NaN there would hide a bug.
+//! - **PNG** is for eyes: 8-bit sRGB, each channel clamped to [0, 1] and
+//!   encoded with the piecewise sRGB transfer function (OETF) of IEC 61966-2-1
+//!   (see [`linear_to_srgb`]); NaN becomes 0 in the PNG only.
+//! - Every file is written through [`write_atomic`]: into a temporary file in
+//!   the target's directory, then renamed over the target, so a reader never
+//!   sees a half-written image and a failed write leaves the old file (or no
+//!   file) in place.
+
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use anyhow::{anyhow, bail, Context, Result};
+
+/// Distinguishes temporary files of concurrent writes in one process (the pid
+/// alone does not: tests and worker threads share it).
+static TEMP_COUNTER: AtomicU64 = AtomicU64::new(0);
+
+/// The temporary path used while writing `path`: a hidden file in the same
+/// directory, `.{file_name}.{pid}-{n}.tmp.{ext}`, so that it ends in the same
+/// extension as the target (format detection by extension keeps working)
+/// and the final rename never crosses file systems.
+fn temp_path_for(path: &Path) -> Result<PathBuf> {
+    let file_name = path
+        .file_name()
+        .ok_or_else(|| anyhow!("cannot write {}: the path has no file name", path.display()))?;
+    let mut temp_name = std::ffi::OsString::from(".");
+    temp_name.push(file_name);
+    temp_name.push(format!(
+        ".{}-{}.tmp",
+        std::process::id(),
+        TEMP_COUNTER.fetch_add(1, Ordering::Relaxed)
+    ));
+    if let Some(extension) = path.extension() {
+        temp_name.push(".");
+        temp_name.push(extension);
+    }
+    Ok(path.with_file_name(temp_name))
+}
+
+/// Removes the temporary file when dropped unless disarmed; covers errors and
+/// panics inside the writer alike.
+struct TempFileGuard {
+    path: PathBuf,
+    armed: bool,
+}
+
+impl Drop for TempFileGuard {
+    fn drop(&mut self) {
+        if self.armed {
+            // Best effort: the file may not exist if the writer failed early.
+            let _ = fs::remove_file(&self.path);
+        }
+    }
+}
+
+/// Writes `path` atomically: calls `write` with a temporary path in the same
+/// directory (see the module docs for the name), flushes it to disk and
+/// renames it over `path`.
+///
+/// On any error (a missing or unwritable directory, an error returned by
+/// `write`, a failed rename) the temporary file is removed, `path` is left as
+/// it was, and the error says `cannot write {path}: ...`.
+pub fn write_atomic(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
+    let directory = match path.parent() {
+        Some(parent) if !parent.as_os_str().is_empty() => parent,
+        _ => Path::new("."),
+    };
+    if !directory.is_dir() {
+        bail!(
+            "cannot write {}: directory {} does not exist",
+            path.display(),
+            directory.display()
+        );
+    }
+    if path.is_dir() {
+        bail!("cannot write {}: it is a directory", path.display());
+    }
+
+    let temp = temp_path_for(path)?;
+    let mut guard = TempFileGuard {
+        path: temp.clone(),
+        armed: true,
+    };
+    write(&temp).with_context(|| format!("cannot write {}", path.display()))?;
+    if !temp.is_file() {
+        bail!(
+            "cannot write {}: the writer did not create the temporary file {}",
+            path.display(),
+            temp.display()
+        );
+    }
+    // Make the data durable before the rename makes it visible.
+    fs::File::open(&temp)
+        .and_then(|file| file.sync_all())
+        .with_context(|| {
+            format!(
+                "cannot write {}: flushing {} failed",
+                path.display(),
+                temp.display()
+            )
+        })?;
+    fs::rename(&temp, path).with_context(|| {
+        format!(
+            "cannot write {}: renaming {} over it failed",
+            path.display(),
+            temp.display()
+        )
+    })?;
+    guard.armed = false;
+    Ok(())
+}
+
+/// Checks `rgb.len() == width * height` and a non-zero size.
+fn check_dimensions(path: &Path, width: u32, height: u32, rgb: &[[f32; 3]]) -> Result<usize> {
+    if width == 0 || height == 0 {
+        bail!(
+            "cannot write {}: image size {width}x{height} is empty",
+            path.display()
+        );
+    }
+    let pixels = (width as usize)
+        .checked_mul(height as usize)
+        .ok_or_else(|| {
+            anyhow!(
+                "cannot write {}: image size {width}x{height} overflows",
+                path.display()
+            )
+        })?;
+    if rgb.len() != pixels {
+        bail!(
+            "cannot write {}: {width}x{height} needs {pixels} pixels but {} were given",
+            path.display(),
+            rgb.len()
+        );
+    }
+    Ok(pixels)
+}
+
+/// Writes a linear RGB float32 EXR (row-major, top row first), atomically.
+pub fn write_exr(path: &Path, width: u32, height: u32, rgb: &[[f32; 3]]) -> Result<()> {
+    use exr::prelude::*;
+
+    check_dimensions(path, width, height, rgb)?;
+    let w = width as usize;
+    let channels = SpecificChannels::rgb(|Vec2(x, y): Vec2<usize>| {
+        let [r, g, b] = rgb[y * w + x];
+        (r, g, b)
+    });
+    let image =
+        Image::from_encoded_channels((w, height as usize), Encoding::SMALL_LOSSLESS, channels);
+    write_atomic(path, |temp| {
+        image
+            .write()
+            .to_file(temp)
+            .map_err(|e| anyhow!("EXR encoding failed: {e}"))
+    })
+}
+
+/// Reads the R, G, B channels of the first RGB layer of an EXR file (any
+/// sample type, converted to f32) as `(width, height, pixels)`, row-major with
+/// the top row first. Other channels (alpha, ...) are ignored.
+pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>)> {
+    use exr::prelude::*;
+
+    struct Pixels {
+        width: usize,
+        data: Vec<[f32; 3]>,
+    }
+
+    let image = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .rgb_channels(
+            |resolution: Vec2<usize>, _channels: &RgbChannels| Pixels {
+                width: resolution.width(),
+                data: vec![[0.0; 3]; resolution.area()],
+            },
+            |pixels: &mut Pixels, position: Vec2<usize>, (r, g, b): (f32, f32, f32)| {
+                pixels.data[position.y() * pixels.width + position.x()] = [r, g, b];
+            },
+        )
+        .first_valid_layer()
+        .all_attributes()
+        .from_file(path)
+        .map_err(|e| anyhow!("cannot read {}: {e}", path.display()))?;
+
+    let size = image.layer_data.size;
+    let width = u32::try_from(size.width()).map_err(|_| {
+        anyhow!(
+            "cannot read {}: width {} too large",
+            path.display(),
+            size.width()
+        )
+    })?;
+    let height = u32::try_from(size.height()).map_err(|_| {
+        anyhow!(
+            "cannot read {}: height {} too large",
+            path.display(),
+            size.height()
+        )
+    })?;
+    Ok((width, height, image.layer_data.channel_data.pixels.data))
+}
+
+/// The sRGB transfer function (OETF) of IEC 61966-2-1 for a linear value
+/// already in [0, 1]:
+///
+/// ```text
+/// v ≤ 0.0031308:  12.92 · v
+/// otherwise:      1.055 · v^(1/2.4) − 0.055
+/// ```
+pub fn linear_to_srgb(linear: f64) -> f64 {
+    if linear <= 0.0031308 {
+        12.92 * linear
+    } else {
+        1.055 * linear.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+/// One linear channel to an 8-bit sRGB code value: NaN → 0, clamp to [0, 1],
+/// sRGB-encode, round to nearest.
+pub fn linear_to_srgb8(linear: f32) -> u8 {
+    let v = if linear.is_nan() {
+        0.0
+    } else {
+        f64::from(linear).clamp(0.0, 1.0)
+    };
+    (linear_to_srgb(v) * 255.0).round().clamp(0.0, 255.0) as u8
+}
+
+/// Writes an 8-bit sRGB PNG for viewing (row-major, top row first), atomically.
+/// Values are clamped to [0, 1] and NaN is shown as 0 (black) — only in the PNG.
+pub fn write_png(path: &Path, width: u32, height: u32, rgb: &[[f32; 3]]) -> Result<()> {
+    check_dimensions(path, width, height, rgb)?;
+    let bytes: Vec<u8> = rgb
+        .iter()
+        .flat_map(|pixel| pixel.map(linear_to_srgb8))
+        .collect();
+    let image = image::RgbImage::from_raw(width, height, bytes).ok_or_else(|| {
+        anyhow!(
+            "cannot write {}: pixel buffer has the wrong size",
+            path.display()
+        )
+    })?;
+    write_atomic(path, |temp| {
+        image
+            .save_with_format(temp, image::ImageFormat::Png)
+            .map_err(|e| anyhow!("PNG encoding failed: {e}"))
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A fresh empty directory under the system temp dir, removed on drop.
+    struct TestDir(PathBuf);
+
+    impl TestDir {
+        fn new(tag: &str) -> TestDir {
+            let path = std::env::temp_dir().join(format!(
+                "mdas-image-io-{tag}-{}-{}",
+                std::process::id(),
+                TEMP_COUNTER.fetch_add(1, Ordering::Relaxed)
+            ));
+            let _ = fs::remove_dir_all(&path);
+            fs::create_dir_all(&path).unwrap();
+            TestDir(path)
+        }
+
+        fn entries(&self) -> Vec<String> {
+            let mut names: Vec<String> = fs::read_dir(&self.0)
+                .unwrap()
+                .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+                .collect();
+            names.sort();
+            names
+        }
+    }
+
+    impl Drop for TestDir {
+        fn drop(&mut self) {
+            let _ = fs::remove_dir_all(&self.0);
+        }
+    }
+
+    #[test]
+    fn exr_round_trip_is_bit_exact() {
+        let dir = TestDir::new("exr");
+        let (width, height) = (7u32, 5u32);
+        let special = [
+            0.0f32,
+            -0.0,
+            1.0,
+            f32::MIN_POSITIVE,
+            1e-45, // smallest subnormal
+            1e-30,
+            3.4e38,
+            f32::MAX,
+            -2.5,
+            0.1,
+            123456.79,
+        ];
+        let rgb: Vec<[f32; 3]> = (0..width * height)
+            .map(|k| {
+                let k = k as usize;
+                [
+                    special[k % special.len()],
+                    special[(k * 7 + 3) % special.len()],
+                    k as f32 * 0.37 + 1.0 / (k as f32 + 1.0),
+                ]
+            })
+            .collect();
+        let path = dir.0.join("round_trip.exr");
+        write_exr(&path, width, height, &rgb).unwrap();
+        let (w, h, back) = read_exr(&path).unwrap();
+        assert_eq!((w, h), (width, height));
+        assert_eq!(back.len(), rgb.len());
+        for (k, (a, b)) in rgb.iter().zip(&back).enumerate() {
+            for c in 0..3 {
+                assert_eq!(a[c].to_bits(), b[c].to_bits(), "pixel {k} channel {c}");
+            }
+        }
+        // No temporary file left next to the output.
+        assert_eq!(dir.entries(), vec!["round_trip.exr".to_string()]);
+    }
+
+    #[test]
+    fn exr_rows_are_top_first() {
+        // A top-row-only marker must come back at index j = 0.
+        let dir = TestDir::new("exr-rows");
+        let (width, height) = (3u32, 4u32);
+        let mut rgb = vec![[0.0f32; 3]; 12];
+        rgb[1] = [5.0, 6.0, 7.0]; // pixel (1, 0)
+        rgb[2 * 3] = [8.0, 9.0, 10.0]; // pixel (0, 2)
+        let path = dir.0.join("rows.exr");
+        write_exr(&path, width, height, &rgb).unwrap();
+        let (_, _, back) = read_exr(&path).unwrap();
+        assert_eq!(back, rgb);
+    }
+
+    #[test]
+    fn png_is_written_with_the_right_size_and_values() {
+        let dir = TestDir::new("png");
+        let (width, height) = (4u32, 3u32);
+        let mut rgb = vec![[0.5f32; 3]; 12];
+        rgb[0] = [f32::NAN, 2.0, -1.0]; // top-left: NaN → 0, clamp high, clamp low
+        rgb[11] = [1.0, 0.0, f32::INFINITY];
+        let path = dir.0.join("view.png");
+        write_png(&path, width, height, &rgb).unwrap();
+        let image = image::open(&path).unwrap().to_rgb8();
+        assert_eq!(image.dimensions(), (width, height));
+        assert_eq!(image.get_pixel(0, 0).0, [0, 255, 0]);
+        assert_eq!(image.get_pixel(1, 0).0, [188, 188, 188]);
+        assert_eq!(image.get_pixel(3, 2).0, [255, 0, 255]);
+        assert_eq!(dir.entries(), vec!["view.png".to_string()]);
+    }
+
+    #[test]
+    fn srgb_encoding() {
+        assert_eq!(linear_to_srgb8(0.0), 0);
+        assert_eq!(linear_to_srgb8(1.0), 255);
+        assert_eq!(linear_to_srgb8(-3.0), 0);
+        assert_eq!(linear_to_srgb8(7.0), 255);
+        assert_eq!(linear_to_srgb8(f32::NAN), 0);
+        // 0.5 → 1.055·0.5^(1/2.4) − 0.055 = 0.735357 → 187.52 → 188.
+        assert!((linear_to_srgb(0.5) - 0.735_356_983).abs() < 1e-8);
+        assert_eq!(linear_to_srgb8(0.5), 188);
+        // The two pieces meet (to 1e-7) at the breakpoint 0.0031308, where the
+        // value is 12.92 · 0.0031308 = 0.040450 → 10.31 → 10.
+        let b = 0.0031308f64;
+        let linear_piece = 12.92 * b;
+        let power_piece = 1.055 * b.powf(1.0 / 2.4) - 0.055;
+        assert!((linear_piece - power_piece).abs() < 1e-7);
+        assert_eq!(linear_to_srgb(b), linear_piece);
+        assert_eq!(linear_to_srgb8(0.0031308), 10);
+        // Monotone over the whole range.
+        let mut previous = 0u8;
+        for k in 0..=1000 {
+            let v = linear_to_srgb8(k as f32 / 1000.0);
+            assert!(v >= previous);
+            previous = v;
+        }
+    }
+
+    #[test]
+    fn atomic_write_failure_leaves_no_temp_file_and_target_untouched() {
+        let dir = TestDir::new("atomic");
+        let target = dir.0.join("out.exr");
+        fs::write(&target, b"old contents").unwrap();
+
+        let mut seen_temp = None;
+        let err = write_atomic(&target, |temp| {
+            seen_temp = Some(temp.to_path_buf());
+            fs::write(temp, b"partial")?;
+            bail!("simulated encoder failure")
+        })
+        .unwrap_err();
+        let message = format!("{err:#}");
+        assert!(message.contains("cannot write"), "{message}");
+        assert!(message.contains("simulated encoder failure"), "{message}");
+
+        let temp = seen_temp.unwrap();
+        let temp_name = temp.file_name().unwrap().to_string_lossy().into_owned();
+        assert!(temp_name.starts_with(".out.exr."), "{temp_name}");
+        assert!(temp_name.ends_with(".tmp.exr"), "{temp_name}");
+        assert_eq!(temp.parent(), target.parent());
+        assert!(!temp.exists());
+        assert_eq!(fs::read(&target).unwrap(), b"old contents");
+        assert_eq!(dir.entries(), vec!["out.exr".to_string()]);
+
+        // A writer that panics is cleaned up too (the test prints the
+        // panic message; that is expected).
+        let result = std::panic::catch_unwind(|| {
+            let _ = write_atomic(&target, |temp| {
+                fs::write(temp, b"partial").unwrap();
+                panic!("writer panicked");
+            });
+        });
+        assert!(result.is_err());
+        assert_eq!(dir.entries(), vec!["out.exr".to_string()]);
+        assert_eq!(fs::read(&target).unwrap(), b"old contents");
+
+        // A successful write replaces the target.
+        write_atomic(&target, |temp| Ok(fs::write(temp, b"new")?)).unwrap();
+        assert_eq!(fs::read(&target).unwrap(), b"new");
+        assert_eq!(dir.entries(), vec!["out.exr".to_string()]);
+    }
+
+    #[test]
+    fn missing_directory_and_bad_sizes_are_clear_errors() {
+        let dir = TestDir::new("missing");
+        let path = dir.0.join("no_such_dir").join("image.exr");
+        let rgb = vec![[0.0f32; 3]; 4];
+        let message = format!("{:#}", write_exr(&path, 2, 2, &rgb).unwrap_err());
+        assert!(message.contains("cannot write"), "{message}");
+        assert!(message.contains("does not exist"), "{message}");
+        let message = format!(
+            "{:#}",
+            write_png(&path.with_extension("png"), 2, 2, &rgb).unwrap_err()
+        );
+        assert!(message.contains("cannot write"), "{message}");
+
+        let ok_path = dir.0.join("image.exr");
+        assert!(write_exr(&ok_path, 3, 2, &rgb).is_err());
+        assert!(write_exr(&ok_path, 0, 2, &[]).is_err());
+        assert!(write_png(&ok_path.with_extension("png"), 2, 3, &rgb).is_err());
+        assert!(dir.entries().is_empty());
+
+        let message = format!("{:#}", read_exr(&dir.0.join("absent.exr")).unwrap_err());
+        assert!(message.contains("cannot read"), "{message}");
+    }
+}

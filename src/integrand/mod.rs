@@ -1,0 +1,60 @@
+//! The integrand contract.
+//!
+//! An integrand is a function f: [0, W) × [0, H) × [0, 1)^(d−2) → RGB,
+//! written in WGSL, whose integral over a pixel's footprint (divided by the
+//! footprint's area) is the pixel value (DESIGN.md: a pixel's value is the
+//! mean radiance over its footprint). Dimensions 0 and 1 are the film point
+//! in raster units; dimensions 2.. are the integrand's own (lens, time,
+//! light, bounce, …), documented by each integrand in a stable order.
+//!
+//! On the WGSL side an integrand defines
+//!
+//! ```wgsl
+//! fn integrand(p: ptr<function, IntegrandPoint>) -> vec3<f32>
+//! ```
+//!
+//! where `IntegrandPoint` (declared in `wgsl/shared/integrand_point.wgsl`)
+//! holds `film: vec2<f32>` and `u: array<f32, MAX_U_DIMS>`, `u[k]` being
+//! dimension k + 2. Its resources live in bind group 1; group 0 belongs to
+//! the integrator. An integrand knows nothing of how its points were chosen,
+//! and every integrator can drive every integrand.
+
+pub mod area_light;
+
+use crate::gpu::shader::Wgsl;
+use crate::scene::Film;
+use crate::wgsl_file;
+
+pub use area_light::AreaLight;
+
+/// Most dimensions (film included) any integrand may use.
+pub const MAX_DIMS: u32 = 16;
+
+/// The WGSL declaration of `IntegrandPoint` and `MAX_U_DIMS`.
+pub fn point_wgsl() -> Wgsl {
+    Wgsl::new()
+        .constant("MAX_DIMS", MAX_DIMS)
+        .constant("MAX_U_DIMS", MAX_DIMS - 2)
+        .part(wgsl_file!("shared/integrand_point.wgsl"))
+}
+
+pub trait Integrand {
+    /// Short name for reports, e.g. `"area_light"`.
+    fn name(&self) -> &'static str;
+
+    /// Total dimension count d, film included (2 < d ≤ [`MAX_DIMS`]).
+    fn dims(&self) -> u32;
+
+    /// The film the integrand is defined over (its first two dimensions).
+    fn film(&self) -> Film;
+
+    /// WGSL defining `fn integrand(p: ptr<function, IntegrandPoint>) -> vec3<f32>`
+    /// and everything it needs (shared parts are de-duplicated by name).
+    fn wgsl(&self) -> Wgsl;
+
+    /// Layout of bind group 1.
+    fn layout(&self) -> &wgpu::BindGroupLayout;
+
+    /// Bind group 1.
+    fn bind_group(&self) -> &wgpu::BindGroup;
+}

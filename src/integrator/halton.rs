@@ -1,0 +1,302 @@
+//! Halton quasi-Monte Carlo integrator — the baseline MDAS is compared to.
+//!
+//! Sample `i` of a pixel has coordinates Φ_{b_k}(i) in dimension k, with
+//! b_k the k-th prime (2, 3, 5, …, 53: up to [`MAX_DIMS`] dimensions),
+//! each toroidally shifted (Cranley–Patterson rotation) by a hash of
+//! (pixel, k, seed). Dimensions 0–1 place the film point inside the pixel;
+//! the pixel value is the mean of the finite samples with indices 0..spp.
+//!
+//! Radical inverses are computed in exact integer arithmetic: the base-b
+//! digits of the 32-bit index are reversed into two integers whose
+//! denominators b^n fit in 32 bits, and only the final quotient is formed in
+//! f32 (a few roundings, ≤ 3·2⁻²⁴ absolute error; correct for every u32
+//! index — unlike digit-by-digit float accumulation, which drifts).
+//!
+//! Work is split so that no invocation loops long (lavapipe silently ends a
+//! shader's loops after 65,535 iterations): each dispatch evaluates
+//! `samples_per_invocation` samples per (pixel, slot) invocation and writes
+//! a partial sum per slot; an accumulate kernel adds the slots, in order,
+//! into a Kahan-compensated f32 sum per pixel. No atomics: the image is a
+//! deterministic function of (integrand, spp, seed) on a given adapter.
+//!
+//! Phases (equal-time accounting, DESIGN.md): `evaluate` (tracing and
+//! shading) and `accumulate`.
+
+use super::{Integrator, Render};
+use crate::gpu::profiler::Profiler;
+use crate::gpu::shader::{storage_entry, uniform_entry, Wgsl};
+use crate::gpu::{buffer::STORAGE, Gpu};
+use crate::integrand::{Integrand, MAX_DIMS};
+use crate::wgsl_file;
+use anyhow::{bail, Result};
+use std::collections::HashMap;
+
+/// Samples one invocation evaluates per dispatch: bounds per-invocation
+/// loop counts (each sample traces a couple of rays).
+const SAMPLES_PER_INVOCATION: u32 = 8;
+/// Target invocations per dispatch (pixels × slots).
+const TARGET_INVOCATIONS: u64 = 1 << 20;
+/// Chunks between progress reports (each report waits for the GPU).
+const PROGRESS_EVERY: u32 = 8;
+const WORKGROUP_SIZE: u32 = 64;
+/// Uniform-buffer dynamic offsets must be multiples of this (WebGPU minimum).
+const PARAMS_STRIDE: u64 = 256;
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct HaltonParams {
+    width: u32,
+    height: u32,
+    dims: u32,
+    seed: u32,
+    spp: u32,
+    first_index: u32,
+    samples_per_invocation: u32,
+    slots: u32,
+    row_invocations: u32,
+    _pad: [u32; 3],
+}
+
+/// Progress callback: (samples per pixel done, spp).
+pub type Progress = Box<dyn FnMut(u32, u32)>;
+
+pub struct Halton {
+    pub spp: u32,
+    pub seed: u32,
+    progress: Option<Progress>,
+    layout: Option<wgpu::BindGroupLayout>,
+    pipelines:
+        HashMap<(String, wgpu::BindGroupLayout), (wgpu::ComputePipeline, wgpu::ComputePipeline)>,
+}
+
+impl Halton {
+    pub fn new(spp: u32, seed: u32) -> Self {
+        Halton {
+            spp,
+            seed,
+            progress: None,
+            layout: None,
+            pipelines: HashMap::new(),
+        }
+    }
+
+    /// Reports progress every few dispatches (waiting for the GPU to do so).
+    pub fn with_progress(mut self, progress: Progress) -> Self {
+        self.progress = Some(progress);
+        self
+    }
+
+    fn layout(&mut self, gpu: &Gpu) -> wgpu::BindGroupLayout {
+        self.layout
+            .get_or_insert_with(|| {
+                let mut params = uniform_entry(0);
+                if let wgpu::BindingType::Buffer {
+                    has_dynamic_offset, ..
+                } = &mut params.ty
+                {
+                    *has_dynamic_offset = true;
+                }
+                gpu.device
+                    .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                        label: Some("mdas.halton.layout"),
+                        entries: &[
+                            params,
+                            storage_entry(1, false),
+                            storage_entry(2, false),
+                            storage_entry(3, false),
+                        ],
+                    })
+            })
+            .clone()
+    }
+
+    fn pipelines(
+        &mut self,
+        gpu: &Gpu,
+        integrand: &dyn Integrand,
+    ) -> Result<(wgpu::ComputePipeline, wgpu::ComputePipeline)> {
+        let layout = self.layout(gpu);
+        let source = integrand
+            .wgsl()
+            .include(
+                &Wgsl::new()
+                    .part(wgsl_file!("shared/rng.wgsl"))
+                    .part(wgsl_file!("shared/sampling.wgsl")),
+            )
+            .part(wgsl_file!("shared/halton.wgsl"))
+            .part(wgsl_file!("halton.wgsl"));
+        let key = (source.source(), integrand.layout().clone());
+        if let Some(p) = self.pipelines.get(&key) {
+            return Ok(p.clone());
+        }
+        let layouts = [&layout, integrand.layout()];
+        let label = format!("mdas.halton.evaluate[{}]", integrand.name());
+        let evaluate = gpu.compute_pipeline(&label, &source, "evaluate", &layouts)?;
+        let accumulate =
+            gpu.compute_pipeline("mdas.halton.accumulate", &source, "accumulate", &layouts)?;
+        self.pipelines
+            .insert(key, (evaluate.clone(), accumulate.clone()));
+        Ok((evaluate, accumulate))
+    }
+}
+
+impl Integrator for Halton {
+    fn name(&self) -> &'static str {
+        "halton"
+    }
+
+    fn render(&mut self, gpu: &Gpu, integrand: &dyn Integrand) -> Result<Render> {
+        let film = integrand.film();
+        let dims = integrand.dims();
+        if !(2..=MAX_DIMS).contains(&dims) {
+            bail!(
+                "integrand '{}' has {dims} dimensions; Halton supports 2..={MAX_DIMS}",
+                integrand.name()
+            );
+        }
+        if self.spp == 0 {
+            bail!("spp must be at least 1");
+        }
+        let pixels = film.width as u64 * film.height as u64;
+        if pixels == 0 {
+            bail!("empty film {}×{}", film.width, film.height);
+        }
+
+        // Work decomposition: `slots` invocations per pixel per dispatch.
+        let spi = SAMPLES_PER_INVOCATION.min(self.spp);
+        let max_slots = self.spp.div_ceil(spi) as u64;
+        let slots = (TARGET_INVOCATIONS / pixels).clamp(1, max_slots) as u32;
+        let per_chunk = slots * spi;
+        let chunks = self.spp.div_ceil(per_chunk);
+        let invocations = pixels * slots as u64;
+        let groups = invocations.div_ceil(WORKGROUP_SIZE as u64);
+        if groups > u32::MAX as u64 {
+            bail!("film of {pixels} pixels is too large to dispatch");
+        }
+        let (gx, gy) = gpu.dispatch_dims(groups as u32);
+        let row_invocations = gx * WORKGROUP_SIZE;
+        let acc_groups = pixels.div_ceil(WORKGROUP_SIZE as u64) as u32;
+        let (acc_gx, acc_gy) = (acc_groups.min(gx), acc_groups.div_ceil(gx));
+
+        let (evaluate, accumulate) = self.pipelines(gpu, integrand)?;
+        let layout = self.layout(gpu);
+
+        gpu.scoped("Halton render", || {
+            let params: Vec<u8> = (0..chunks)
+                .flat_map(|c| {
+                    let p = HaltonParams {
+                        width: film.width,
+                        height: film.height,
+                        dims,
+                        seed: self.seed,
+                        spp: self.spp,
+                        first_index: c * per_chunk,
+                        samples_per_invocation: spi,
+                        slots,
+                        row_invocations,
+                        _pad: [0; 3],
+                    };
+                    let mut bytes = bytemuck::bytes_of(&p).to_vec();
+                    bytes.resize(PARAMS_STRIDE as usize, 0);
+                    bytes
+                })
+                .collect();
+            let params_buf = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("mdas.halton.params"),
+                size: params.len() as u64,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
+            gpu.queue.write_buffer(&params_buf, 0, &params);
+            let partial = gpu.buffer_zeroed("mdas.halton.partial", invocations * 16, STORAGE)?;
+            let accum = gpu.buffer_zeroed("mdas.halton.accum", pixels * 16, STORAGE)?;
+            let comp = gpu.buffer_zeroed("mdas.halton.compensation", pixels * 16, STORAGE)?;
+            let group0 = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("mdas.halton.group0"),
+                layout: &layout,
+                entries: &[
+                    wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                            buffer: &params_buf,
+                            offset: 0,
+                            size: std::num::NonZeroU64::new(
+                                std::mem::size_of::<HaltonParams>() as u64
+                            ),
+                        }),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 1,
+                        resource: partial.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 2,
+                        resource: accum.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 3,
+                        resource: comp.as_entire_binding(),
+                    },
+                ],
+            });
+
+            let mut profiler = Profiler::new(gpu);
+            let clock = profiler.clock();
+            for chunk in 0..chunks {
+                let offset = [(chunk as u64 * PARAMS_STRIDE) as u32];
+                profiler.phase("evaluate", |encoder, timestamps| {
+                    let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                        label: Some("mdas.halton.evaluate"),
+                        timestamp_writes: timestamps,
+                    });
+                    pass.set_pipeline(&evaluate);
+                    pass.set_bind_group(0, &group0, &offset);
+                    pass.set_bind_group(1, integrand.bind_group(), &[]);
+                    pass.dispatch_workgroups(gx, gy, 1);
+                })?;
+                profiler.phase("accumulate", |encoder, timestamps| {
+                    let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                        label: Some("mdas.halton.accumulate"),
+                        timestamp_writes: timestamps,
+                    });
+                    pass.set_pipeline(&accumulate);
+                    pass.set_bind_group(0, &group0, &offset);
+                    pass.set_bind_group(1, integrand.bind_group(), &[]);
+                    pass.dispatch_workgroups(acc_gx, acc_gy, 1);
+                })?;
+                let done = chunk + 1;
+                if let Some(progress) = self.progress.as_mut() {
+                    if done % PROGRESS_EVERY == 0 || done == chunks {
+                        gpu.wait()?;
+                        progress((done * per_chunk).min(self.spp), self.spp);
+                    }
+                }
+            }
+            let times = profiler.finish()?;
+            let sums: Vec<[f32; 4]> = gpu.read_buffer(&accum, pixels as usize)?;
+            let mut finite_total = 0u64;
+            let image = sums
+                .iter()
+                .map(|s| {
+                    finite_total += s[3] as u64;
+                    let n = s[3];
+                    if n > 0.0 {
+                        [s[0] / n, s[1] / n, s[2] / n]
+                    } else {
+                        [f32::NAN; 3]
+                    }
+                })
+                .collect();
+            let samples = pixels * self.spp as u64;
+            Ok(Render {
+                film,
+                image,
+                samples,
+                nonfinite: samples - finite_total,
+                times,
+                clock,
+                gpu_bytes: params.len() as u64 + invocations * 16 + 2 * pixels * 16,
+            })
+        })
+    }
+}

@@ -1,0 +1,19 @@
+//! mdas — multidimensional adaptive sampling and quasi-Monte Carlo
+//! integrators on the GPU (wgpu + WGSL compute).
+//!
+//! The flow is one-directional (see `shared/DESIGN.md`):
+//! a [`scene::Scene`] is loaded from TOML and uploaded as an
+//! [`accel::GpuScene`] (CWBVH + buffers); an [`integrand::Integrand`]
+//! is a WGSL function f(film point, u ∈ [0,1)^d) → RGB with its bindings;
+//! an [`integrator::Integrator`] drives kernels around any integrand and
+//! returns a [`integrator::Render`]; [`metrics`] compare renders.
+
+pub mod accel;
+pub mod analytic;
+pub mod app;
+pub mod gpu;
+pub mod image_io;
+pub mod integrand;
+pub mod integrator;
+pub mod metrics;
+pub mod scene;

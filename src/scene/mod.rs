@@ -1,0 +1,161 @@
+//! Scenes: the CPU-side description of what is rendered.
+//!
+//! A [`Scene`] is loaded from a TOML file (format documented in
+//! [`format`](mod@format) and `docs/scene-format.md`) and holds everything in world space
+//! (right-handed, +y up, linear RGB; see `shared/DESIGN.md`):
+//! the film, the camera, materials, triangle meshes (every shape is
+//! tessellated to triangles on load), per-mesh rigid motion over the
+//! shutter, analytic lights (point, directional) and the integrand and
+//! MDAS parameter tables. Area lights are emissive triangles: a
+//! `[[light]] type = "quad"` becomes a one-sided emissive quad mesh.
+
+pub mod format;
+pub mod obj;
+pub mod shapes;
+
+use glam::{Quat, Vec3};
+use std::path::Path;
+
+pub use format::{load, parse, SceneError};
+
+/// Film resolution in pixels. Pixel (i, j) covers [i, i+1) × [j, j+1),
+/// i = column from the left, j = row from the top.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Film {
+    pub width: u32,
+    pub height: u32,
+}
+
+/// Pinhole or thin-lens camera (DESIGN.md "Camera").
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    pub position: Vec3,
+    pub look_at: Vec3,
+    pub up: Vec3,
+    /// Full vertical field of view, degrees.
+    pub fov_y: f32,
+    /// Lens radius in world units; 0 = pinhole.
+    pub aperture_radius: f32,
+    /// Distance of the plane of focus along the view axis.
+    pub focus_distance: f32,
+    /// Scene time at shutter open / close; sample time t ∈ [0, 1) maps to
+    /// `shutter_open + t·(shutter_close − shutter_open)`.
+    pub shutter_open: f32,
+    pub shutter_close: f32,
+}
+
+/// Procedural checker texture modulating albedo: the cell of world point
+/// p is floor(p / scale) per axis (x, y and z); cells whose three indices
+/// sum to an even number use the material's albedo, odd ones `albedo2`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Checker {
+    pub albedo2: Vec3,
+    /// Cell size in world units.
+    pub scale: f32,
+}
+
+/// Lambertian material with optional one-sided emission (emitted toward
+/// the side the geometric normal faces) and optional checker texture.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    pub name: String,
+    pub albedo: Vec3,
+    pub emission: Vec3,
+    pub checker: Option<Checker>,
+}
+
+/// One rigid-motion keyframe: at scene time `time` the mesh is rotated by
+/// `rotation` (about the object-space origin) and then translated by
+/// `translation`. Between keyframes translation is interpolated linearly
+/// and rotation by slerp; before the first / after the last keyframe the
+/// end keyframe holds.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Keyframe {
+    pub time: f32,
+    pub translation: Vec3,
+    pub rotation: Quat,
+}
+
+/// A triangle mesh with one material. Vertices are in world space for
+/// static meshes and in object space when `motion` is non-empty.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Mesh {
+    pub name: String,
+    pub positions: Vec<Vec3>,
+    /// Counter-clockwise triangles: geometric normal (v1 − v0) × (v2 − v0).
+    pub indices: Vec<[u32; 3]>,
+    pub material: u32,
+    /// Keyframes sorted by time; empty = static.
+    pub motion: Vec<Keyframe>,
+}
+
+/// Analytic (delta) lights. Area lights are emissive meshes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Light {
+    /// Contributes I·cosθ/d² to irradiance.
+    Point { position: Vec3, intensity: Vec3 },
+    /// Light travelling along `direction` (normalized); gives irradiance E
+    /// on a surface facing it.
+    Directional { direction: Vec3, irradiance: Vec3 },
+}
+
+/// Which integrand renders the scene, with its parameters.
+#[derive(Clone, Debug, PartialEq)]
+pub enum IntegrandSpec {
+    /// Area-light direct lighting (4D: film x, y + 2 light dims).
+    AreaLight,
+}
+
+/// Parameters of the MDAS integrator (paper §5.1); defaults per the paper.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MdasParams {
+    pub bits_per_dim: u32,
+    pub extra_image_bits: u32,
+    pub initial_samples_per_cell: u32,
+    pub scale_factor: f32,
+    pub alpha: f32,
+    pub candidates: u32,
+    pub max_samples_per_leaf: u32,
+    pub spp: f32,
+    pub seed: u32,
+}
+
+impl Default for MdasParams {
+    fn default() -> Self {
+        MdasParams {
+            bits_per_dim: 1,
+            extra_image_bits: 8,
+            initial_samples_per_cell: 1,
+            scale_factor: 1.0,
+            alpha: 0.25,
+            candidates: 4,
+            max_samples_per_leaf: 4,
+            spp: 8.0,
+            seed: 0,
+        }
+    }
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Scene {
+    pub film: Film,
+    pub camera: Camera,
+    /// Radiance of rays that hit nothing.
+    pub background: Vec3,
+    pub materials: Vec<Material>,
+    pub meshes: Vec<Mesh>,
+    pub lights: Vec<Light>,
+    pub integrand: IntegrandSpec,
+    pub mdas: MdasParams,
+}
+
+impl Scene {
+    /// Load and validate a scene file; see [`format`](mod@format).
+    pub fn load(path: &Path) -> Result<Scene, SceneError> {
+        format::load(path)
+    }
+
+    pub fn triangle_count(&self) -> usize {
+        self.meshes.iter().map(|m| m.indices.len()).sum()
+    }
+}

@@ -1,0 +1,1074 @@
+//! GPU CWBVH traversal (`wgsl/shared/bvh.wgsl`) against CPU brute force.
+//!
+//! Every test builds a scene, uploads it, traces at least 10,000 rays on
+//! the GPU with `TraceKernel` (closest hit and any hit) and checks each
+//! against `BuiltScene::brute_force_*`, which runs the same watertight
+//! triangle test (src/accel/cpu.rs) over every triangle, moved to the
+//! world at the ray's time. The rays mix: random origins and directions,
+//! rays aimed at random surface points, axis-aligned directions with +0.0
+//! and −0.0 components, rays starting exactly on a triangle, rays starting
+//! inside closed boxes, finite and infinite t_max, unnormalized directions.
+//!
+//! Agreement rule (see [`compare`]): the triangle ids must be equal and
+//! the distances equal within [`T_TOL`], except for *ties* — rays where the
+//! two answers are both right up to rounding: two triangles at the same
+//! distance (a shared edge or vertex, coincident faces), or a hit that
+//! sits on a triangle's boundary (a barycentric within [`BARY_TOL`] of 0)
+//! or at t_min / t_max within tolerance, which one side's rounding keeps
+//! and the other's drops. Ties must be rare (asserted per test).
+//!
+//! The GPU tests fail, never skip, without an adapter (lavapipe is fine).
+
+use glam::{Quat, Vec3};
+use mdas::accel::cpu::{ray_t_min, ShearedRay};
+use mdas::accel::{BuiltScene, GpuScene, HitRecord, Ray, TraceKernel, BVH_MAX_STEPS, MISS};
+use mdas::gpu::Gpu;
+use mdas::scene::shapes::{self, TriMesh};
+use mdas::scene::{
+    Camera, Checker, Film, IntegrandSpec, Keyframe, Light, Material, MdasParams, Mesh, Scene,
+};
+use rand::rngs::StdRng;
+use rand::{RngExt, SeedableRng};
+
+/// Distance tolerance, relative to max(1, t). Both sides evaluate the same
+/// f32 expressions on coordinates of magnitude ≤ 10; they differ only by
+/// FMA contraction and division rounding on the GPU (a few ulps, ~1e-6
+/// relative) and, for moving instances, by where the rigid transform is
+/// applied (the GPU moves the ray into object space, the CPU moves the
+/// vertices to the world: a few ulps of the coordinates, ~1e-6 · 10,
+/// magnified at grazing incidence). 1e-4 leaves two orders of magnitude
+/// of headroom while still telling apart surfaces 1e-3 apart.
+const T_TOL: f32 = 1e-4;
+
+/// A hit whose smallest barycentric is below this lies on the triangle's
+/// boundary to within rounding of U, V, W (relative error ~1e-6 for well
+/// shaped triangles, larger for slivers).
+const BARY_TOL: f32 = 1e-4;
+
+fn gpu() -> &'static Gpu {
+    Gpu::shared().expect("no GPU adapter: these tests need one (Mesa lavapipe is enough)")
+}
+
+// ---------------------------------------------------------------- scenes
+
+fn scene_of(materials: Vec<Material>, meshes: Vec<Mesh>) -> Scene {
+    Scene {
+        film: Film {
+            width: 64,
+            height: 48,
+        },
+        camera: Camera {
+            position: Vec3::new(0.0, 1.0, -6.0),
+            look_at: Vec3::ZERO,
+            up: Vec3::Y,
+            fov_y: 40.0,
+            aperture_radius: 0.0,
+            focus_distance: 6.0,
+            shutter_open: 0.0,
+            shutter_close: 1.0,
+        },
+        background: Vec3::ZERO,
+        materials,
+        meshes,
+        lights: Vec::new(),
+        integrand: IntegrandSpec::AreaLight,
+        mdas: MdasParams::default(),
+    }
+}
+
+fn material(name: &str, albedo: Vec3) -> Material {
+    Material {
+        name: name.into(),
+        albedo,
+        emission: Vec3::ZERO,
+        checker: None,
+    }
+}
+
+fn mesh(name: &str, m: TriMesh, material: u32, motion: Vec<Keyframe>) -> Mesh {
+    Mesh {
+        name: name.into(),
+        positions: m.positions,
+        indices: m.indices,
+        material,
+        motion,
+    }
+}
+
+fn ground() -> TriMesh {
+    shapes::quad([
+        Vec3::new(-5.0, 0.0, -5.0),
+        Vec3::new(-5.0, 0.0, 5.0),
+        Vec3::new(5.0, 0.0, 5.0),
+        Vec3::new(5.0, 0.0, -5.0),
+    ])
+}
+
+/// The axis-aligned box of scene (a) (its bottom face lies on the ground).
+const BOX_MIN: Vec3 = Vec3::new(-2.0, 0.0, -1.0);
+const BOX_MAX: Vec3 = Vec3::new(-0.5, 1.5, 0.5);
+
+fn box_sphere_quad() -> Scene {
+    scene_of(
+        vec![
+            material("white", Vec3::splat(0.7)),
+            material("red", Vec3::new(0.7, 0.1, 0.1)),
+        ],
+        vec![
+            mesh("ground", ground(), 0, vec![]),
+            mesh("box", shapes::cuboid(BOX_MIN, BOX_MAX), 1, vec![]),
+            mesh(
+                "sphere",
+                shapes::uv_sphere(Vec3::new(1.2, 1.0, 0.0), 1.0, 48, 24),
+                0,
+                vec![],
+            ),
+        ],
+    )
+}
+
+fn triangle_soup(n: usize, seed: u64) -> Scene {
+    let mut rng = StdRng::seed_from_u64(seed);
+    let mut m = TriMesh::default();
+    for i in 0..n as u32 {
+        let centre = Vec3::new(
+            rng.random_range(-2.0..2.0),
+            rng.random_range(-2.0..2.0),
+            rng.random_range(-2.0..2.0),
+        );
+        let size = 0.02 + 0.8 * rng.random::<f32>().powi(3);
+        for _ in 0..3 {
+            m.positions.push(centre + size * random_unit(&mut rng));
+        }
+        m.indices.push([3 * i, 3 * i + 1, 3 * i + 2]);
+    }
+    scene_of(
+        vec![material("grey", Vec3::splat(0.5))],
+        vec![mesh("soup", m, 0, vec![])],
+    )
+}
+
+/// A lumpy sphere: a UV sphere with 2·256·195 = 99,840 triangles whose
+/// radius varies smoothly, plus the ground.
+fn lumpy_sphere() -> Scene {
+    let mut m = shapes::uv_sphere(Vec3::ZERO, 1.0, 256, 196);
+    for p in &mut m.positions {
+        let r = 1.0 + 0.15 * (5.0 * p.x).sin() * (4.0 * p.y).cos() + 0.05 * (17.0 * p.z).sin();
+        *p = *p * r + Vec3::new(0.0, 1.3, 0.0);
+    }
+    scene_of(
+        vec![material("grey", Vec3::splat(0.5))],
+        vec![
+            mesh("lumpy", m, 0, vec![]),
+            mesh("ground", ground(), 0, vec![]),
+        ],
+    )
+}
+
+/// Static ground and box, a box turning and sliding through three
+/// keyframes at uneven times, and a sphere moving between two keyframes
+/// inside the shutter [0, 1] (so rays before 0.3 see it clamped).
+fn moving_scene() -> Scene {
+    let spin = vec![
+        Keyframe {
+            time: 0.0,
+            translation: Vec3::new(-1.5, 1.0, 0.0),
+            rotation: Quat::IDENTITY,
+        },
+        Keyframe {
+            time: 0.15,
+            translation: Vec3::new(-0.5, 1.4, 0.3),
+            rotation: Quat::from_rotation_y(1.2) * Quat::from_rotation_x(0.4),
+        },
+        Keyframe {
+            time: 1.0,
+            translation: Vec3::new(1.5, 0.8, -0.2),
+            rotation: Quat::from_rotation_z(2.5) * Quat::from_rotation_y(-0.7),
+        },
+    ];
+    let slide = vec![
+        Keyframe {
+            time: 0.3,
+            translation: Vec3::new(0.0, 0.6, 2.0),
+            rotation: Quat::from_rotation_x(0.3),
+        },
+        Keyframe {
+            time: 0.9,
+            translation: Vec3::new(0.5, 2.0, 1.0),
+            rotation: Quat::from_rotation_x(-2.9),
+        },
+    ];
+    scene_of(
+        vec![
+            material("white", Vec3::splat(0.7)),
+            material("blue", Vec3::new(0.1, 0.1, 0.7)),
+        ],
+        vec![
+            mesh("ground", ground(), 0, vec![]),
+            mesh(
+                "box",
+                shapes::cuboid(Vec3::new(2.0, 0.0, 2.0), Vec3::new(3.0, 1.0, 3.0)),
+                0,
+                vec![],
+            ),
+            mesh(
+                "spinner",
+                shapes::cuboid(Vec3::new(-0.6, -0.3, -0.4), Vec3::new(0.6, 0.3, 0.4)),
+                1,
+                spin,
+            ),
+            mesh(
+                "slider",
+                shapes::uv_sphere(Vec3::new(0.2, 0.0, 0.0), 0.5, 24, 12),
+                1,
+                slide,
+            ),
+        ],
+    )
+}
+
+// ------------------------------------------------------------------ rays
+
+fn random_unit(rng: &mut StdRng) -> Vec3 {
+    loop {
+        let v = Vec3::new(
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+        );
+        let l = v.length_squared();
+        if l > 1e-4 && l <= 1.0 {
+            return v / l.sqrt();
+        }
+    }
+}
+
+/// World bounds of the scene over the shutter (sampled times).
+fn scene_bounds(built: &BuiltScene) -> (Vec3, Vec3) {
+    let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
+    for prim in 0..built.triangle_count() {
+        for time in [0.0, 0.15, 0.5, 1.0] {
+            for v in built.triangle_world(prim, time) {
+                lo = lo.min(v);
+                hi = hi.max(v);
+            }
+        }
+    }
+    (lo, hi)
+}
+
+struct RayGen<'a> {
+    built: &'a BuiltScene,
+    rng: StdRng,
+    lo: Vec3,
+    hi: Vec3,
+    moving: bool,
+}
+
+impl<'a> RayGen<'a> {
+    fn new(built: &'a BuiltScene, seed: u64) -> Self {
+        let (lo, hi) = scene_bounds(built);
+        let moving = built.instances.iter().any(|i| i.key_count > 0);
+        RayGen {
+            built,
+            rng: StdRng::seed_from_u64(seed),
+            lo,
+            hi,
+            moving,
+        }
+    }
+
+    /// Scene time: mostly inside the shutter [0, 1], 10 % outside (clamped
+    /// motion), for moving scenes.
+    fn time(&mut self) -> f32 {
+        if !self.moving {
+            return 0.0;
+        }
+        if self.rng.random::<f32>() < 0.1 {
+            self.rng.random_range(-0.5..1.5)
+        } else {
+            self.rng.random::<f32>()
+        }
+    }
+
+    fn point_in_bounds(&mut self, grow: f32) -> Vec3 {
+        let size = self.hi - self.lo;
+        let u = Vec3::new(self.rng.random(), self.rng.random(), self.rng.random());
+        self.lo - grow * size + u * size * (1.0 + 2.0 * grow)
+    }
+
+    fn t_max(&mut self) -> f32 {
+        if self.rng.random::<f32>() < 0.3 {
+            self.rng.random_range(0.0..(self.hi - self.lo).length())
+        } else {
+            f32::INFINITY
+        }
+    }
+
+    /// A point on a random triangle at `time` and that triangle.
+    fn surface_point(&mut self, time: f32) -> (Vec3, u32) {
+        let prim = self.rng.random_range(0..self.built.triangle_count());
+        let [a, b, c] = self.built.triangle_world(prim, time);
+        let (mut u, mut v) = (self.rng.random::<f32>(), self.rng.random::<f32>());
+        if u + v > 1.0 {
+            (u, v) = (1.0 - u, 1.0 - v);
+        }
+        (a + u * (b - a) + v * (c - a), prim)
+    }
+
+    fn ray(origin: Vec3, dir: Vec3, t_max: f32, time: f32) -> Ray {
+        Ray {
+            origin: origin.into(),
+            t_max,
+            dir: dir.into(),
+            time,
+        }
+    }
+
+    /// Random origins around the scene, uniformly random directions.
+    fn random(&mut self, n: usize) -> Vec<Ray> {
+        (0..n)
+            .map(|_| {
+                let (o, d, t, time) = (
+                    self.point_in_bounds(0.2),
+                    random_unit(&mut self.rng),
+                    self.t_max(),
+                    self.time(),
+                );
+                Self::ray(o, d, t, time)
+            })
+            .collect()
+    }
+
+    /// Rays from random origins aimed at random surface points; half of
+    /// the directions are left unnormalized.
+    fn aimed(&mut self, n: usize) -> Vec<Ray> {
+        (0..n)
+            .map(|i| {
+                let time = self.time();
+                let o = self.point_in_bounds(0.3);
+                let (target, _) = self.surface_point(time);
+                let d = if i % 2 == 0 {
+                    (target - o).normalize()
+                } else {
+                    target - o
+                };
+                let t_max = self.t_max();
+                Self::ray(o, d, t_max, time)
+            })
+            .collect()
+    }
+
+    /// Axis-aligned directions, every combination of +0.0 / −0.0 in the
+    /// other two components.
+    fn axis_aligned(&mut self, n: usize) -> Vec<Ray> {
+        (0..n)
+            .map(|i| {
+                let axis = i % 3;
+                let sign = if (i / 3) % 2 == 0 { 1.0 } else { -1.0 };
+                let zeros = (i / 6) % 4;
+                let mut d = Vec3::new(
+                    if zeros & 1 == 0 { 0.0 } else { -0.0 },
+                    if zeros & 2 == 0 { 0.0 } else { -0.0 },
+                    if zeros & 1 == 0 { -0.0 } else { 0.0 },
+                );
+                d[axis] = sign;
+                let (o, t_max, time) = (self.point_in_bounds(0.2), self.t_max(), self.time());
+                Self::ray(o, d, t_max, time)
+            })
+            .collect()
+    }
+
+    /// Rays starting exactly on a triangle (the point computed in f32),
+    /// random directions.
+    fn from_surface(&mut self, n: usize) -> Vec<Ray> {
+        (0..n)
+            .map(|_| {
+                let time = self.time();
+                let (o, _) = self.surface_point(time);
+                let (d, t_max) = (random_unit(&mut self.rng), self.t_max());
+                Self::ray(o, d, t_max, time)
+            })
+            .collect()
+    }
+
+    /// Rays starting inside the box [lo, hi].
+    fn inside_box(&mut self, n: usize, lo: Vec3, hi: Vec3) -> Vec<Ray> {
+        (0..n)
+            .map(|_| {
+                let u = Vec3::new(self.rng.random(), self.rng.random(), self.rng.random());
+                let o = lo + u * (hi - lo);
+                let (d, t_max, time) = (random_unit(&mut self.rng), self.t_max(), self.time());
+                Self::ray(o, d, t_max, time)
+            })
+            .collect()
+    }
+}
+
+// ------------------------------------------------------------ comparison
+
+#[derive(Debug, Default)]
+struct Report {
+    rays: usize,
+    hits: usize,
+    any_hits: usize,
+    ties: usize,
+    any_ties: usize,
+    max_steps: u32,
+    mean_steps: f64,
+}
+
+fn t_close(a: f32, b: f32) -> bool {
+    a == b || (a - b).abs() <= T_TOL * a.abs().max(b.abs()).max(1.0)
+}
+
+fn on_boundary(bary: [f32; 2]) -> bool {
+    let b0 = 1.0 - bary[0] - bary[1];
+    b0.min(bary[0]).min(bary[1]) <= BARY_TOL
+}
+
+/// Brute force on all cores.
+fn brute_force(built: &BuiltScene, rays: &[Ray]) -> Vec<(HitRecord, bool)> {
+    let threads = std::thread::available_parallelism().map_or(2, |n| n.get());
+    let chunk = rays.len().div_ceil(threads).max(1);
+    std::thread::scope(|s| {
+        let handles: Vec<_> = rays
+            .chunks(chunk)
+            .map(|c| {
+                s.spawn(move || {
+                    c.iter()
+                        .map(|r| (built.brute_force_closest(r), built.brute_force_any(r)))
+                        .collect::<Vec<_>>()
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .flat_map(|h| h.join().expect("brute-force thread"))
+            .collect()
+    })
+}
+
+/// The hit distance of `prim` computed the GPU's way for a moving
+/// instance: the ray moved into object space. The CPU oracle moves the
+/// triangle to the world instead; the two agree to rounding except at
+/// grazing incidence, where a position difference δ moves the hit by
+/// δ/|cos θ| along the ray (e.g. cos θ = 7e-4 turns 1e-6 into 1.5e-3).
+/// Either answer is the exact result of the same rigid motion up to f32
+/// rounding, so either is accepted.
+fn object_space_t(built: &BuiltScene, ray: &Ray, prim: u32) -> Option<f32> {
+    let inst = built.triangle_instance(prim);
+    if built.instances[inst as usize].key_count == 0 {
+        return None;
+    }
+    let x = built.instance_transform_at(inst, ray.time);
+    let (o, d) = (Vec3::from(ray.origin), Vec3::from(ray.dir));
+    ShearedRay::new(x.inverse_point(o), x.inverse_vector(d))
+        .intersect(built.triangle_stored(prim), ray_t_min(o, d), f32::INFINITY)
+        .map(|(t, _)| t)
+}
+
+/// Whether the GPU and CPU closest hits are both right up to rounding
+/// (see the module docs).
+fn is_tie(ray: &Ray, gpu: &HitRecord, cpu: &HitRecord) -> bool {
+    let t_min = ray_t_min(ray.origin.into(), ray.dir.into());
+    let marginal_t = |t: f32| t_close(t, ray.t_max) || t_close(t, t_min);
+    match (gpu.is_hit(), cpu.is_hit()) {
+        (true, true) => t_close(gpu.t, cpu.t),
+        (true, false) => on_boundary(gpu.bary) || marginal_t(gpu.t),
+        (false, true) => on_boundary(cpu.bary) || marginal_t(cpu.t),
+        (false, false) => unreachable!(),
+    }
+}
+
+/// Traces `rays` on the GPU and checks them against brute force; panics on
+/// any disagreement that is not a tie.
+fn compare(scene: &Scene, rays: &[Ray]) -> Report {
+    let built = BuiltScene::new(scene).expect("BVH build");
+    compare_built(scene, &built, rays)
+}
+
+fn compare_built(scene: &Scene, built: &BuiltScene, rays: &[Ray]) -> Report {
+    let gpu = gpu();
+    let gpu_scene = GpuScene::upload(gpu, scene, built, scene.film).expect("scene upload");
+    let kernel = TraceKernel::new(gpu, &gpu_scene).expect("trace kernel");
+    let gpu_hits = kernel.run(gpu, &gpu_scene, rays).expect("GPU trace");
+    let cpu_hits = brute_force(built, rays);
+    assert_eq!(gpu_hits.len(), rays.len());
+
+    let mut report = Report {
+        rays: rays.len(),
+        ..Default::default()
+    };
+    let mut failures = Vec::new();
+    let mut steps = 0u64;
+    for (i, ((ray, g), (c, c_any))) in rays.iter().zip(&gpu_hits).zip(&cpu_hits).enumerate() {
+        report.hits += c.is_hit() as usize;
+        report.any_hits += *c_any as usize;
+        report.max_steps = report.max_steps.max(g.steps_closest).max(g.steps_any);
+        steps += g.steps_closest as u64;
+
+        let exact = g.prim == c.prim
+            && (!c.is_hit()
+                || t_close(g.t, c.t)
+                || object_space_t(built, ray, g.prim).is_some_and(|t| t_close(g.t, t)));
+        let tie = !exact && is_tie(ray, g, c);
+        if !exact {
+            if tie {
+                report.ties += 1;
+            } else {
+                failures.push(format!(
+                    "ray {i} {ray:?}: GPU prim {} t {} bary {:?}, CPU prim {} t {} bary {:?}",
+                    g.prim as i64, g.t, g.bary, c.prim as i64, c.t, c.bary
+                ));
+            }
+        }
+        if (g.any_hit == 1) != *c_any {
+            // Any hit may differ only where the closest hit is itself a tie
+            // or the CPU's nearest hit sits at t_max within tolerance.
+            let unbounded = built.brute_force_closest(&Ray {
+                t_max: f32::INFINITY,
+                ..*ray
+            });
+            if tie
+                || (unbounded.is_hit() && t_close(unbounded.t, ray.t_max))
+                || (exact && on_boundary(c.bary))
+            {
+                report.any_ties += 1;
+            } else {
+                failures.push(format!(
+                    "ray {i} {ray:?}: GPU any-hit {} but CPU {}",
+                    g.any_hit, c_any
+                ));
+            }
+        }
+    }
+    report.mean_steps = steps as f64 / rays.len().max(1) as f64;
+    assert!(
+        failures.is_empty(),
+        "{} of {} rays disagree with brute force, e.g.:\n{}",
+        failures.len(),
+        rays.len(),
+        failures
+            .iter()
+            .take(10)
+            .cloned()
+            .collect::<Vec<_>>()
+            .join("\n")
+    );
+    assert!(
+        report.max_steps < BVH_MAX_STEPS,
+        "a ray used {} traversal steps, at the budget {BVH_MAX_STEPS}",
+        report.max_steps
+    );
+    eprintln!("{report:?}");
+    report
+}
+
+/// Ties must stay rare: at most 0.2 % of the rays (they need a ray to
+/// meet an edge or a t bound to within rounding).
+fn assert_few_ties(report: &Report) {
+    let allowed = report.rays / 500;
+    assert!(
+        report.ties <= allowed,
+        "{} closest-hit ties in {} rays",
+        report.ties,
+        report.rays
+    );
+    assert!(
+        report.any_ties <= allowed,
+        "{} any-hit ties in {} rays",
+        report.any_ties,
+        report.rays
+    );
+}
+
+/// Hits and misses both well represented, so the comparison means something.
+fn assert_mixed(report: &Report) {
+    assert!(report.hits > report.rays / 5, "too few hits: {report:?}");
+    assert!(
+        report.hits < report.rays * 19 / 20,
+        "too few misses: {report:?}"
+    );
+}
+
+// ----------------------------------------------------------------- tests
+
+#[test]
+fn struct_sizes_match_wgsl() {
+    use mdas::accel::*;
+    use std::mem::size_of;
+    assert_eq!(size_of::<SceneUniforms>(), 112);
+    assert_eq!(size_of::<GpuMaterial>(), 48);
+    assert_eq!(size_of::<GpuEmitter>(), 16);
+    assert_eq!(size_of::<GpuLight>(), 48);
+    assert_eq!(size_of::<GpuInstance>(), 16);
+    assert_eq!(size_of::<GpuKeyframe>(), 32);
+    assert_eq!(size_of::<Ray>(), 32);
+    assert_eq!(size_of::<HitRecord>(), 32);
+}
+
+#[test]
+fn box_sphere_quad_matches_brute_force() {
+    let scene = box_sphere_quad();
+    let built = BuiltScene::new(&scene).unwrap();
+    let mut gen = RayGen::new(&built, 1);
+    let mut rays = gen.random(3000);
+    rays.extend(gen.aimed(3000));
+    rays.extend(gen.axis_aligned(2400));
+    rays.extend(gen.from_surface(1600));
+    rays.extend(gen.inside_box(1000, BOX_MIN, BOX_MAX));
+    let report = compare_built(&scene, &built, &rays);
+    assert_few_ties(&report);
+    assert_mixed(&report);
+}
+
+/// Watertightness on the GPU: rays from inside the closed box aimed at
+/// points on its triangles' edges and at its vertices must all hit it
+/// (which of the triangles sharing the edge is reported is a tie).
+#[test]
+fn rays_through_shared_edges_never_slip_through() {
+    let scene = box_sphere_quad();
+    let built = BuiltScene::new(&scene).unwrap();
+    let box_prims: Vec<u32> = (0..built.triangle_count())
+        .filter(|&p| built.source[p as usize][0] == 1)
+        .collect();
+    let mut rng = StdRng::seed_from_u64(9);
+    let rays: Vec<Ray> = (0..10_000)
+        .map(|i| {
+            let u = Vec3::new(rng.random(), rng.random(), rng.random());
+            let o = BOX_MIN + (0.05 + 0.9 * u) * (BOX_MAX - BOX_MIN);
+            let v = built.triangle_world(box_prims[rng.random_range(0..box_prims.len())], 0.0);
+            let k = rng.random_range(0..3);
+            let target = if i % 4 == 0 {
+                v[k]
+            } else {
+                v[k] + rng.random::<f32>() * (v[(k + 1) % 3] - v[k])
+            };
+            Ray {
+                origin: o.into(),
+                t_max: f32::INFINITY,
+                dir: (target - o).into(),
+                time: 0.0,
+            }
+        })
+        .collect();
+    let gpu = gpu();
+    let gpu_scene = GpuScene::upload(gpu, &scene, &built, scene.film).unwrap();
+    let hits = TraceKernel::new(gpu, &gpu_scene)
+        .unwrap()
+        .run(gpu, &gpu_scene, &rays)
+        .unwrap();
+    for (ray, h) in rays.iter().zip(&hits) {
+        assert!(
+            h.is_hit() && h.any_hit == 1,
+            "{ray:?} slipped through the box: {h:?}"
+        );
+        // The target is at t = 1; the box's bottom face coincides with the
+        // ground, so the hit may be a ground triangle at that same t.
+        assert!(h.t <= 1.0 + 1e-4, "{ray:?} left the box: {h:?}");
+    }
+    let report = compare_built(&scene, &built, &rays);
+    assert_eq!(report.hits, rays.len());
+    // Every ray meets an edge or vertex, so ties are expected here; they
+    // were each checked to be at equal t by compare_built.
+    eprintln!("edge rays: {} ties of {}", report.ties, report.rays);
+}
+
+#[test]
+fn triangle_soup_matches_brute_force() {
+    let scene = triangle_soup(3000, 2);
+    let built = BuiltScene::new(&scene).unwrap();
+    let mut gen = RayGen::new(&built, 2);
+    let mut rays = gen.random(4000);
+    rays.extend(gen.aimed(3000));
+    rays.extend(gen.axis_aligned(1500));
+    rays.extend(gen.from_surface(1500));
+    let report = compare_built(&scene, &built, &rays);
+    assert_few_ties(&report);
+    assert_mixed(&report);
+}
+
+#[test]
+fn hundred_thousand_triangle_mesh_matches_brute_force() {
+    let scene = lumpy_sphere();
+    assert!(scene.triangle_count() >= 99_000);
+    let built = BuiltScene::new(&scene).unwrap();
+    let mut gen = RayGen::new(&built, 3);
+    let mut rays = gen.random(3000);
+    rays.extend(gen.aimed(3500));
+    rays.extend(gen.axis_aligned(1500));
+    rays.extend(gen.from_surface(2000));
+    let report = compare_built(&scene, &built, &rays);
+    assert_few_ties(&report);
+    assert_mixed(&report);
+}
+
+#[test]
+fn moving_instances_match_brute_force_at_each_ray_time() {
+    let scene = moving_scene();
+    let built = BuiltScene::new(&scene).unwrap();
+    assert_eq!(built.instances.len(), 3, "static BLAS + two moving BLASes");
+    let mut gen = RayGen::new(&built, 4);
+    let mut rays = gen.random(3000);
+    rays.extend(gen.aimed(4000));
+    rays.extend(gen.axis_aligned(1500));
+    rays.extend(gen.from_surface(1500));
+    // Rays at exactly the keyframe times.
+    for (i, r) in rays.iter_mut().enumerate().step_by(25) {
+        r.time = [0.0, 0.15, 0.3, 0.9, 1.0][i % 5];
+    }
+    let report = compare_built(&scene, &built, &rays);
+    assert_few_ties(&report);
+    assert_mixed(&report);
+}
+
+#[test]
+fn empty_scene_misses_everything() {
+    let mut scene = scene_of(vec![material("grey", Vec3::splat(0.5))], vec![]);
+    let mut gen_rng = StdRng::seed_from_u64(5);
+    let rays: Vec<Ray> = (0..10_000)
+        .map(|_| Ray {
+            origin: (random_unit(&mut gen_rng) * 3.0).into(),
+            t_max: f32::INFINITY,
+            dir: random_unit(&mut gen_rng).into(),
+            time: 0.0,
+        })
+        .collect();
+    for with_empty_mesh in [false, true] {
+        if with_empty_mesh {
+            scene
+                .meshes
+                .push(mesh("nothing", TriMesh::default(), 0, vec![]));
+        }
+        let built = BuiltScene::new(&scene).unwrap();
+        assert_eq!(built.triangle_count(), 0);
+        let gpu = gpu();
+        let gpu_scene = GpuScene::upload(gpu, &scene, &built, scene.film).unwrap();
+        let hits = TraceKernel::new(gpu, &gpu_scene)
+            .unwrap()
+            .run(gpu, &gpu_scene, &rays)
+            .unwrap();
+        assert!(hits
+            .iter()
+            .all(|h| h.prim == MISS && h.any_hit == 0 && h.t == f32::INFINITY));
+    }
+}
+
+#[test]
+fn single_triangle_scene() {
+    let tri = shapes::triangle([
+        Vec3::new(-1.0, -1.0, 0.0),
+        Vec3::new(1.0, -1.0, 0.0),
+        Vec3::new(0.0, 1.0, 0.0),
+    ]);
+    let scene = scene_of(
+        vec![material("grey", Vec3::splat(0.5))],
+        vec![mesh("tri", tri, 0, vec![])],
+    );
+    let mut rng = StdRng::seed_from_u64(6);
+    let rays: Vec<Ray> = (0..10_000)
+        .map(|_| {
+            let o = Vec3::new(
+                rng.random_range(-2.0..2.0),
+                rng.random_range(-2.0..2.0),
+                -3.0,
+            );
+            let target = Vec3::new(
+                rng.random_range(-1.5..1.5),
+                rng.random_range(-1.5..1.5),
+                0.0,
+            );
+            Ray {
+                origin: o.into(),
+                t_max: f32::INFINITY,
+                dir: (target - o).into(),
+                time: 0.0,
+            }
+        })
+        .collect();
+    let report = compare(&scene, &rays);
+    assert_few_ties(&report);
+    assert_mixed(&report);
+}
+
+#[test]
+fn watertight_test_hits_a_shared_edge_from_both_sides() {
+    // Two triangles sharing the edge x = 0; a ray through the edge hits both.
+    let (a, b, c, d) = (
+        Vec3::new(0.0, -1.0, 0.0),
+        Vec3::new(0.0, 1.0, 0.0),
+        Vec3::new(-1.0, 0.0, 0.0),
+        Vec3::new(1.0, 0.0, 0.0),
+    );
+    let ray = ShearedRay::new(Vec3::new(0.0, 0.25, -1.0), Vec3::new(0.0, 0.0, 1.0));
+    assert!(ray.intersect([a, b, c], 0.0, f32::INFINITY).is_some());
+    assert!(ray.intersect([b, a, d], 0.0, f32::INFINITY).is_some());
+    // Hits at t <= t_min are rejected.
+    let on_surface = ShearedRay::new(Vec3::new(0.1, 0.1, 0.0), Vec3::new(0.3, 0.2, 1.0));
+    assert!(on_surface
+        .intersect([a, b, d], 1e-5, f32::INFINITY)
+        .is_none());
+}
+
+/// The scene bindings as WGSL reads them equal what the host wrote:
+/// uniforms, materials, emitters, lights, and `triangle_world` /
+/// `triangle_material` agree with the CPU.
+#[test]
+fn scene_bindings_read_back_in_wgsl() {
+    let mut scene = moving_scene();
+    scene.materials.push(Material {
+        name: "lamp".into(),
+        albedo: Vec3::new(0.1, 0.2, 0.3),
+        emission: Vec3::new(4.0, 3.0, 2.0),
+        checker: Some(Checker {
+            albedo2: Vec3::new(0.9, 0.8, 0.7),
+            scale: 0.25,
+        }),
+    });
+    let lamp = scene.materials.len() as u32 - 1;
+    scene.meshes.push(mesh(
+        "lamp",
+        shapes::quad([
+            Vec3::new(-0.5, 3.0, -0.5),
+            Vec3::new(0.5, 3.0, -0.5),
+            Vec3::new(0.5, 3.0, 0.5),
+            Vec3::new(-0.5, 3.0, 0.5),
+        ]),
+        lamp,
+        vec![],
+    ));
+    scene.lights = vec![
+        Light::Point {
+            position: Vec3::new(1.0, 2.0, 3.0),
+            intensity: Vec3::new(5.0, 6.0, 7.0),
+        },
+        Light::Directional {
+            direction: Vec3::new(0.0, -2.0, 0.0),
+            irradiance: Vec3::new(0.5, 0.25, 0.125),
+        },
+    ];
+    scene.camera.aperture_radius = 0.05;
+    scene.camera.shutter_open = 0.1;
+    scene.camera.shutter_close = 0.7;
+    let film = Film {
+        width: 40,
+        height: 30,
+    };
+    let built = BuiltScene::new(&scene).unwrap();
+    let gpu = gpu();
+    let gpu_scene = GpuScene::upload(gpu, &scene, &built, film).unwrap();
+    let emitters = mdas::accel::emitter_table(&scene, &built);
+    assert_eq!(emitters.len(), 2);
+    assert_eq!(emitters.last().unwrap().cdf, 1.0);
+    assert!((emitters.iter().map(|e| e.pmf).sum::<f32>() - 1.0).abs() < 1e-6);
+    for e in &emitters {
+        assert_eq!(built.triangle_material(e.prim), lamp);
+    }
+    // `source` maps global triangles back to the scene's meshes.
+    for prim in 0..built.triangle_count() {
+        let [m, t] = built.source[prim as usize];
+        let mesh = &scene.meshes[m as usize];
+        let stored = built.triangle_stored(prim);
+        for k in 0..3 {
+            assert_eq!(
+                stored[k],
+                mesh.positions[mesh.indices[t as usize][k] as usize]
+            );
+        }
+    }
+
+    const DUMP: &str = r#"
+struct Query { prim: u32, time: f32 }
+@group(0) @binding(0) var<storage, read> queries: array<Query>;
+@group(0) @binding(1) var<storage, read_write> out: array<f32>;
+const HEADER: u32 = 64u;
+@compute @workgroup_size(1)
+fn dump(@builtin(workgroup_id) id: vec3<u32>) {
+  if id.x == 0u {
+    let s = scene;
+    let u = array<f32, 28>(s.cam_position.x, s.cam_position.y, s.cam_position.z, s.cam_lens_radius,
+      s.cam_forward.x, s.cam_forward.y, s.cam_forward.z, s.cam_focus_distance,
+      s.cam_right.x, s.cam_right.y, s.cam_right.z, s.cam_tan_half_fov_y,
+      s.cam_up.x, s.cam_up.y, s.cam_up.z, s.cam_aspect,
+      s.film_size.x, s.film_size.y, s.shutter.x, s.shutter.y,
+      s.background.x, s.background.y, s.background.z, bitcast<f32>(s.emitter_count),
+      bitcast<f32>(s.light_count), bitcast<f32>(s.instance_count), bitcast<f32>(s.tlas_root), bitcast<f32>(s.triangle_count));
+    for (var i = 0u; i < 28u; i++) { out[i] = u[i]; }
+    let m = materials[arrayLength(&materials) - 1u];
+    let mm = array<f32, 10>(m.albedo.x, m.albedo.y, m.albedo.z, m.checker_scale, m.emission.x, m.emission.y, m.emission.z, m.albedo2.x, m.albedo2.y, m.albedo2.z);
+    for (var i = 0u; i < 10u; i++) { out[28u + i] = mm[i]; }
+    let e = emitters[1];
+    out[38] = bitcast<f32>(e.prim); out[39] = e.cdf; out[40] = e.pmf; out[41] = e.area;
+    for (var l = 0u; l < 2u; l++) {
+      let li = lights[l];
+      out[42u + 7u * l] = bitcast<f32>(li.kind);
+      out[43u + 7u * l] = li.position.x; out[44u + 7u * l] = li.position.y; out[45u + 7u * l] = li.position.z;
+      out[46u + 7u * l] = li.intensity.x; out[47u + 7u * l] = li.intensity.y; out[48u + 7u * l] = li.intensity.z;
+    }
+  }
+  let q = queries[id.x];
+  let v = triangle_world(q.prim, q.time);
+  let base = HEADER + 10u * id.x;
+  for (var k = 0u; k < 3u; k++) {
+    out[base + 3u * k] = v[k].x; out[base + 3u * k + 1u] = v[k].y; out[base + 3u * k + 2u] = v[k].z;
+  }
+  out[base + 9u] = bitcast<f32>(triangle_material(q.prim));
+}
+"#;
+    let mut rng = StdRng::seed_from_u64(8);
+    let queries: Vec<[u32; 2]> = (0..256)
+        .map(|_| {
+            [
+                rng.random_range(0..built.triangle_count()),
+                rng.random_range(-0.3f32..1.3).to_bits(),
+            ]
+        })
+        .collect();
+    let source = GpuScene::wgsl().part(("bvh_traversal_test_dump.wgsl", DUMP));
+    let out = gpu
+        .scoped("scene dump", || {
+            use mdas::gpu::buffer::STORAGE;
+            use mdas::gpu::shader::{bind_buffers, storage_entry};
+            let layout = gpu
+                .device
+                .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                    label: Some("test.dump"),
+                    entries: &[storage_entry(0, true), storage_entry(1, false)],
+                });
+            let pipeline =
+                gpu.compute_pipeline("test.dump", &source, "dump", &[&layout, &gpu_scene.layout])?;
+            let q = gpu.buffer_from("test.queries", &queries, STORAGE)?;
+            let words = 64 + 10 * queries.len();
+            let o = gpu.buffer_zeroed("test.out", 4 * words as u64, STORAGE)?;
+            let bind = bind_buffers(gpu, "test.dump", &layout, &[&q, &o]);
+            let mut enc = gpu.device.create_command_encoder(&Default::default());
+            {
+                let mut pass = enc.begin_compute_pass(&Default::default());
+                pass.set_pipeline(&pipeline);
+                pass.set_bind_group(0, &bind, &[]);
+                pass.set_bind_group(1, &gpu_scene.bind_group, &[]);
+                pass.dispatch_workgroups(queries.len() as u32, 1, 1);
+            }
+            gpu.queue.submit([enc.finish()]);
+            gpu.read_buffer::<f32>(&o, words)
+        })
+        .unwrap();
+
+    let expected_uniforms: &[f32] = bytemuck::cast_slice(bytemuck::bytes_of(&gpu_scene.uniforms));
+    assert_eq!(&out[..28], &expected_uniforms[..28]);
+    let u = &gpu_scene.uniforms;
+    assert_eq!(u.cam_aspect, 40.0 / 30.0);
+    assert_eq!(u.shutter, [0.1, 0.7]);
+    assert_eq!(u.emitter_count, 2);
+    assert_eq!(u.light_count, 2);
+    assert_eq!(u.triangle_count, built.triangle_count());
+    assert_eq!(
+        &out[28..38],
+        &[0.1, 0.2, 0.3, 0.25, 4.0, 3.0, 2.0, 0.9, 0.8, 0.7]
+    );
+    assert_eq!(out[38].to_bits(), emitters[1].prim);
+    assert_eq!(
+        &out[39..42],
+        &[emitters[1].cdf, emitters[1].pmf, emitters[1].area]
+    );
+    assert_eq!(out[42].to_bits(), 0);
+    assert_eq!(&out[43..49], &[1.0, 2.0, 3.0, 5.0, 6.0, 7.0]);
+    assert_eq!(out[49].to_bits(), 1);
+    assert_eq!(&out[50..56], &[0.0, -1.0, 0.0, 0.5, 0.25, 0.125]);
+    for (i, q) in queries.iter().enumerate() {
+        let got = &out[64 + 10 * i..64 + 10 * i + 10];
+        let want = built.triangle_world(q[0], f32::from_bits(q[1]));
+        for k in 0..3 {
+            let g = Vec3::new(got[3 * k], got[3 * k + 1], got[3 * k + 2]);
+            assert!(
+                g.distance(want[k]) < 1e-5 * want[k].length().max(1.0),
+                "triangle_world({}, {}) vertex {k}: GPU {g} CPU {}",
+                q[0],
+                f32::from_bits(q[1]),
+                want[k]
+            );
+        }
+        assert_eq!(got[9].to_bits(), built.triangle_material(q[0]));
+    }
+}
+
+/// The trig-free slerp agrees with glam's slerp to ~1e-6 and keeps the
+/// shortest arc; keyframe clamping and segment choice follow the scene's
+/// definition.
+#[test]
+fn keyframe_interpolation_matches_slerp() {
+    use glam::Vec4;
+    use mdas::accel::motion::{quat_slerp, transform_at};
+    let mut rng = StdRng::seed_from_u64(10);
+    for _ in 0..2000 {
+        let a = Quat::from_axis_angle(random_unit(&mut rng), rng.random_range(-3.1..3.1));
+        let b = Quat::from_axis_angle(random_unit(&mut rng), rng.random_range(-3.1..3.1));
+        let s = rng.random::<f32>();
+        let ours = quat_slerp(Vec4::from(a), Vec4::from(b), s);
+        let glam = Vec4::from(a.slerp(b, s));
+        assert!(
+            ours.dot(glam).abs() > 1.0 - 1e-6,
+            "slerp({a}, {b}, {s}) = {ours} vs glam {glam}"
+        );
+    }
+    let keys = vec![
+        Keyframe {
+            time: 0.2,
+            translation: Vec3::X,
+            rotation: Quat::IDENTITY,
+        },
+        Keyframe {
+            time: 0.5,
+            translation: Vec3::Y,
+            rotation: Quat::from_rotation_z(1.0),
+        },
+        Keyframe {
+            time: 0.6,
+            translation: Vec3::Z,
+            rotation: Quat::from_rotation_z(2.0),
+        },
+    ];
+    assert_eq!(transform_at(&keys, -1.0).translation, Vec3::X);
+    assert_eq!(transform_at(&keys, 5.0).translation, Vec3::Z);
+    let mid = transform_at(&keys, 0.35);
+    assert!((mid.translation - Vec3::new(0.5, 0.5, 0.0)).length() < 1e-6);
+    assert!(
+        (mid.apply_vector(Vec3::X) - Vec3::new(0.5f32.cos(), 0.5f32.sin(), 0.0)).length() < 1e-6
+    );
+    let late = transform_at(&keys, 0.55);
+    assert!(
+        (late.apply_vector(Vec3::X) - Vec3::new(1.5f32.cos(), 1.5f32.sin(), 0.0)).length() < 1e-6
+    );
+}
+
+/// Swept instance bounds contain the moving object at every time.
+#[test]
+fn swept_bounds_contain_the_motion() {
+    let scene = moving_scene();
+    let built = BuiltScene::new(&scene).unwrap();
+    for inst in 0..built.instances.len() as u32 {
+        let keys = built.instance_keys(inst);
+        let prims: Vec<u32> = (0..built.triangle_count())
+            .filter(|&p| built.triangle_instance(p) == inst)
+            .collect();
+        let mut local = obvhs::aabb::Aabb::empty();
+        for &p in &prims {
+            for v in built.triangle_stored(p) {
+                local.extend(v.into());
+            }
+        }
+        let bounds = mdas::accel::motion::swept_bounds(&keys, &local);
+        for step in 0..=400 {
+            let time = -0.2 + 1.4 * step as f32 / 400.0;
+            for &p in &prims {
+                for v in built.triangle_world(p, time) {
+                    assert!(
+                        bounds.contains_point(v.into()),
+                        "instance {inst} at {time}: {v} outside {bounds:?}"
+                    );
+                }
+            }
+        }
+    }
+}

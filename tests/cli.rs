@@ -1,0 +1,213 @@
+//! The `mdas` binary: exit codes, messages and outputs, including bad input
+//! (each must fail with a clear message, a non-zero exit, no panic and no
+//! output file left behind).
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn mdas(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_mdas"))
+        .args(args)
+        .output()
+        .expect("run mdas")
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("mdas-cli-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// A copy of area_light_plane.toml with `edit` applied, in `dir`.
+fn scene_variant(dir: &Path, name: &str, edit: impl Fn(String) -> String) -> PathBuf {
+    let text = std::fs::read_to_string("scenes/area_light_plane.toml").unwrap();
+    let path = dir.join(name);
+    std::fs::write(&path, edit(text)).unwrap();
+    path
+}
+
+fn assert_fails_cleanly(args: &[&str], out: &Path, expect: &[&str]) {
+    let o = mdas(args);
+    let err = stderr(&o);
+    assert!(!o.status.success(), "{args:?} should fail; stderr: {err}");
+    assert!(!err.contains("panicked"), "{args:?} panicked: {err}");
+    for e in expect {
+        assert!(err.contains(e), "{args:?}: expected '{e}' in: {err}");
+    }
+    assert!(!out.exists(), "{args:?} left {} behind", out.display());
+    assert!(
+        !out.with_extension("png").exists(),
+        "{args:?} left a PNG behind"
+    );
+}
+
+#[test]
+fn render_writes_exr_and_png() {
+    let dir = temp_dir("ok");
+    let out = dir.join("plane.exr");
+    let o = mdas(&[
+        "render",
+        "scenes/area_light_plane.toml",
+        "--spp",
+        "4",
+        "--scale",
+        "0.25",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "stderr: {}", stderr(&o));
+    let (w, h, image) = mdas::image_io::read_exr(&out).unwrap();
+    assert_eq!((w, h), (32, 24));
+    assert!(image.iter().any(|p| p[0] > 0.0), "the lit plane is visible");
+    assert!(out.with_extension("png").exists());
+    // No temporary files are left in the output directory.
+    let names: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(names.len(), 2, "{names:?}");
+}
+
+#[test]
+fn reference_is_cached() {
+    let dir = temp_dir("ref");
+    let cache = dir.join("cache");
+    let args = [
+        "reference",
+        "scenes/area_light_plane.toml",
+        "--spp",
+        "8",
+        "--scale",
+        "0.125",
+        "--cache",
+        cache.to_str().unwrap(),
+    ];
+    let first = mdas(&args);
+    assert!(first.status.success(), "stderr: {}", stderr(&first));
+    assert!(String::from_utf8_lossy(&first.stdout).contains("rendered"));
+    let second = mdas(&args);
+    assert!(second.status.success());
+    assert!(String::from_utf8_lossy(&second.stdout).contains("cached"));
+}
+
+#[test]
+fn info_names_the_adapter() {
+    let o = mdas(&["info"]);
+    assert!(o.status.success(), "stderr: {}", stderr(&o));
+    let s = String::from_utf8_lossy(&o.stdout);
+    assert!(s.contains("adapter:") && s.contains("backend:"), "{s}");
+}
+
+#[test]
+fn bad_scene_files_fail_with_file_line_and_column() {
+    let dir = temp_dir("bad");
+    let out = dir.join("out.exr");
+    let o = out.to_str().unwrap();
+    let cases: Vec<(PathBuf, Vec<&str>)> = vec![
+        (
+            scene_variant(&dir, "malformed.toml", |t| t.replacen("[film]", "[film", 1)),
+            vec!["malformed.toml:"],
+        ),
+        (
+            scene_variant(&dir, "unknown_key.toml", |t| {
+                t.replacen("[film]", "[film]\nwidht = 3", 1)
+            }),
+            vec!["unknown_key.toml:", "widht"],
+        ),
+        (
+            scene_variant(&dir, "nan.toml", |t| {
+                t.replacen("fov_y = 45", "fov_y = nan", 1)
+            }),
+            vec!["nan.toml:"],
+        ),
+        (
+            scene_variant(&dir, "zero_res.toml", |t| {
+                t.replacen("width = 128", "width = 0", 1)
+            }),
+            vec!["zero_res.toml:"],
+        ),
+        (
+            scene_variant(&dir, "neg_res.toml", |t| {
+                t.replacen("width = 128", "width = -128", 1)
+            }),
+            vec!["neg_res.toml:"],
+        ),
+        (
+            scene_variant(&dir, "huge_res.toml", |t| {
+                t.replacen("width = 128", "width = 1000000", 1)
+            }),
+            vec!["huge_res.toml:"],
+        ),
+        (
+            scene_variant(&dir, "neg_radiance.toml", |t| {
+                t.replacen("radiance = [10", "radiance = [-10", 1)
+            }),
+            vec!["neg_radiance.toml:"],
+        ),
+        (
+            scene_variant(&dir, "missing_mesh.toml", |t| {
+                t + "\n[[shape]]\ntype = \"mesh\"\nfile = \"does_not_exist.obj\"\nmaterial = \"grey\"\n"
+            }),
+            vec!["missing_mesh.toml:", "does_not_exist.obj"],
+        ),
+    ];
+    for (scene, expect) in &cases {
+        assert_fails_cleanly(
+            &["render", scene.to_str().unwrap(), "--spp", "1", "-o", o],
+            &out,
+            expect,
+        );
+    }
+    assert_fails_cleanly(
+        &["render", "scenes/no_such_scene.toml", "-o", o],
+        &out,
+        &["no_such_scene.toml"],
+    );
+}
+
+#[test]
+fn bad_arguments_fail_cleanly() {
+    let dir = temp_dir("args");
+    let out = dir.join("out.exr");
+    let o = out.to_str().unwrap();
+    let scene = "scenes/area_light_plane.toml";
+    assert_fails_cleanly(
+        &["render", scene, "--scale", "0", "-o", o],
+        &out,
+        &["scale"],
+    );
+    assert_fails_cleanly(&["render", scene, "--spp", "0", "-o", o], &out, &["spp"]);
+    assert_fails_cleanly(&["render", scene, "--spp", "-3", "-o", o], &out, &["-3"]);
+    assert_fails_cleanly(
+        &[
+            "render",
+            scene,
+            "--scale",
+            "0.1",
+            "-o",
+            dir.join("x.png").to_str().unwrap(),
+        ],
+        &out,
+        &[".exr"],
+    );
+    let unwritable = Path::new("/proc/mdas-cannot-write-here/out.exr");
+    assert_fails_cleanly(
+        &[
+            "render",
+            scene,
+            "--spp",
+            "1",
+            "--scale",
+            "0.1",
+            "-o",
+            unwritable.to_str().unwrap(),
+        ],
+        unwritable,
+        &["mdas-cannot-write-here"],
+    );
+}

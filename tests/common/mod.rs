@@ -1,0 +1,69 @@
+//! Test support: integrands with known answers that need no scene.
+#![allow(dead_code)]
+
+use mdas::gpu::shader::{storage_entry, Wgsl};
+use mdas::gpu::Gpu;
+use mdas::integrand::{point_wgsl, Integrand};
+use mdas::scene::Film;
+
+/// One of the cases of `tests/kernels/test_integrands.wgsl`.
+pub struct TestIntegrand {
+    pub case: u32,
+    pub dims: u32,
+    pub film: Film,
+    layout: wgpu::BindGroupLayout,
+    bind_group: wgpu::BindGroup,
+}
+
+impl TestIntegrand {
+    pub fn new(gpu: &Gpu, case: u32, dims: u32, film: Film) -> Self {
+        let layout = gpu
+            .device
+            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("test.integrand.layout"),
+                entries: &[storage_entry(0, true)],
+            });
+        let buffer = gpu
+            .buffer_from::<u32>("test.integrand.unused", &[], wgpu::BufferUsages::STORAGE)
+            .unwrap();
+        let bind_group =
+            mdas::gpu::shader::bind_buffers(gpu, "test.integrand", &layout, &[&buffer]);
+        TestIntegrand {
+            case,
+            dims,
+            film,
+            layout,
+            bind_group,
+        }
+    }
+}
+
+impl Integrand for TestIntegrand {
+    fn name(&self) -> &'static str {
+        "test"
+    }
+    fn dims(&self) -> u32 {
+        self.dims
+    }
+    fn film(&self) -> Film {
+        self.film
+    }
+    fn wgsl(&self) -> Wgsl {
+        point_wgsl().constant("TEST_CASE", self.case).part((
+            "tests/kernels/test_integrands.wgsl",
+            include_str!("../kernels/test_integrands.wgsl"),
+        ))
+    }
+    fn layout(&self) -> &wgpu::BindGroupLayout {
+        &self.layout
+    }
+    fn bind_group(&self) -> &wgpu::BindGroup {
+        &self.bind_group
+    }
+}
+
+pub fn gpu() -> &'static Gpu {
+    Gpu::shared().expect(
+        "GPU tests need a wgpu adapter (CI uses lavapipe: apt-get install mesa-vulkan-drivers)",
+    )
+}

@@ -1,0 +1,637 @@
+//! Scene-file loader: the shipped scenes, the known-answer scene's exact
+//! content, and the error messages (file:line:column) for bad files.
+
+use glam::{Quat, Vec3};
+use mdas::scene::{self, IntegrandSpec, Light, Mesh, Scene, SceneError};
+use std::path::{Path, PathBuf};
+
+fn scene_path(rel: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes")
+        .join(rel)
+}
+
+/// Write `text` to a fresh file in a per-test temp directory and load it
+/// through the public `load`, as the CLI does.
+fn load_text(test: &str, text: &str) -> (PathBuf, Result<Scene, SceneError>) {
+    let dir = std::env::temp_dir().join(format!("mdas-scene-format-{}-{test}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("scene.toml");
+    std::fs::write(&path, text).unwrap();
+    let result = scene::load(&path);
+    (path, result)
+}
+
+/// The error message of a scene that must fail, checked to start with
+/// `file:line:column: `.
+fn error_at(test: &str, text: &str, line: usize, column: usize) -> String {
+    let (path, result) = load_text(test, text);
+    let e = result.expect_err("scene should be rejected");
+    let message = e.to_string();
+    let prefix = format!("{}:{line}:{column}: ", path.display());
+    assert!(
+        message.starts_with(&prefix),
+        "expected prefix {prefix:?}, got {message:?}"
+    );
+    assert_eq!(e.position(), Some((line, column)));
+    message[prefix.len()..].to_string()
+}
+
+/// A valid scene, 11 lines; tests append to it.
+const BASE: &str = "\
+[film]
+width = 8
+height = 6
+[camera]
+position = [0, 1, 5]
+look_at = [0, 0, 0]
+up = [0, 1, 0]
+fov_y = 40
+[[material]]
+name = \"white\"
+albedo = [0.5, 0.5, 0.5]
+";
+
+fn normals(m: &Mesh) -> Vec<Vec3> {
+    m.indices
+        .iter()
+        .map(|&[a, b, c]| {
+            let [a, b, c] = [a, b, c].map(|i| m.positions[i as usize]);
+            (b - a).cross(c - a).normalize()
+        })
+        .collect()
+}
+
+fn area(m: &Mesh) -> f32 {
+    m.indices
+        .iter()
+        .map(|&[a, b, c]| {
+            let [a, b, c] = [a, b, c].map(|i| m.positions[i as usize]);
+            0.5 * (b - a).cross(c - a).length()
+        })
+        .sum()
+}
+
+#[test]
+fn area_light_plane_is_exactly_the_known_answer_scene() {
+    let s = scene::load(&scene_path("area_light_plane.toml")).unwrap();
+    assert_eq!((s.film.width, s.film.height), (128, 96));
+    let c = s.camera;
+    assert_eq!(
+        (c.position, c.look_at, c.up),
+        (Vec3::new(0.0, 0.5, 4.0), Vec3::ZERO, Vec3::Y)
+    );
+    assert_eq!((c.fov_y, c.aperture_radius), (45.0, 0.0));
+    assert_eq!(s.background, Vec3::ZERO);
+    assert_eq!(s.integrand, IntegrandSpec::AreaLight);
+    assert!(
+        s.lights.is_empty(),
+        "the area light is a mesh, not a delta light"
+    );
+    let m = s.mdas;
+    assert_eq!(
+        (
+            m.scale_factor,
+            m.bits_per_dim,
+            m.extra_image_bits,
+            m.alpha,
+            m.spp
+        ),
+        (1.0, 1, 7, 0.25, 16.0)
+    );
+
+    assert_eq!(s.meshes.len(), 2);
+    let (plane, light) = (&s.meshes[0], &s.meshes[1]);
+
+    assert_eq!(plane.indices.len(), 2);
+    assert!(
+        normals(plane).iter().all(|n| n.abs_diff_eq(Vec3::Y, 1e-6)),
+        "plane must face +y"
+    );
+    assert!(plane
+        .positions
+        .iter()
+        .all(|p| p.y == 0.0 && p.x.abs() == 10.0 && p.z.abs() == 10.0));
+    assert_eq!(area(plane), 400.0);
+    let plane_material = &s.materials[plane.material as usize];
+    assert_eq!(
+        (plane_material.albedo, plane_material.emission),
+        (Vec3::splat(0.5), Vec3::ZERO)
+    );
+    assert!(plane_material.checker.is_none());
+
+    assert_eq!(light.name, "light0");
+    assert_eq!(light.indices.len(), 2);
+    assert!(
+        normals(light)
+            .iter()
+            .all(|n| n.abs_diff_eq(Vec3::NEG_Y, 1e-6)),
+        "light must face -y"
+    );
+    assert!(light
+        .positions
+        .iter()
+        .all(|p| p.y == 2.0 && p.x.abs() == 0.5 && p.z.abs() == 0.5));
+    assert_eq!(area(light), 1.0);
+    let light_material = &s.materials[light.material as usize];
+    assert_eq!(
+        (light_material.albedo, light_material.emission),
+        (Vec3::ZERO, Vec3::splat(10.0))
+    );
+    assert!(s.meshes.iter().all(|m| m.motion.is_empty()));
+}
+
+#[test]
+fn cornell_box_loads_with_closed_outward_blocks_and_the_ceiling_light() {
+    let s = scene::load(&scene_path("cornell.toml")).unwrap();
+    assert_eq!((s.film.width, s.film.height), (256, 256));
+    assert_eq!(s.integrand, IntegrandSpec::AreaLight);
+    let m = s.mdas;
+    assert_eq!(
+        (
+            m.scale_factor,
+            m.bits_per_dim,
+            m.extra_image_bits,
+            m.alpha,
+            m.spp
+        ),
+        (1.0, 1, 8, 0.25, 8.0)
+    );
+    // 5 walls + 2 blocks + the light.
+    assert_eq!(s.meshes.len(), 8);
+    assert_eq!(s.triangle_count(), 5 * 2 + 2 * 12 + 2);
+    let room_center = Vec3::splat(2.775);
+    for wall in &s.meshes[..5] {
+        let [a, b, c] = wall.indices[0].map(|i| wall.positions[i as usize]);
+        let n = (b - a).cross(c - a);
+        assert!(
+            n.dot(room_center - a) > 0.0,
+            "{} must face into the room",
+            wall.name
+        );
+    }
+    for block in &s.meshes[5..7] {
+        let center = block.positions.iter().copied().sum::<Vec3>() / block.positions.len() as f32;
+        for (t, n) in normals(block).iter().enumerate() {
+            let a = block.positions[block.indices[t][0] as usize];
+            assert!(
+                n.dot(a - center) > 0.0,
+                "{} normals must point outward",
+                block.name
+            );
+        }
+        assert!(block
+            .positions
+            .iter()
+            .all(|p| p.min_element() >= 0.0 && p.max_element() < 5.55));
+    }
+    let light = &s.meshes[7];
+    assert!(normals(light)
+        .iter()
+        .all(|n| n.abs_diff_eq(Vec3::NEG_Y, 1e-6)));
+    assert_eq!(
+        s.materials[light.material as usize].emission,
+        Vec3::new(17.0, 12.0, 4.0)
+    );
+    let albedo = |name: &str| s.materials.iter().find(|m| m.name == name).unwrap().albedo;
+    assert_eq!(albedo("red"), Vec3::new(0.65, 0.05, 0.05));
+    assert_eq!(albedo("green"), Vec3::new(0.12, 0.45, 0.15));
+}
+
+#[test]
+fn every_shape_type_loads() {
+    let s = scene::load(&scene_path("tests/shapes.toml")).unwrap();
+    assert_eq!(s.meshes.len(), 8);
+    assert_eq!(s.background, Vec3::splat(0.1));
+    assert_eq!(
+        (
+            s.camera.aperture_radius,
+            s.camera.focus_distance,
+            s.camera.shutter_close
+        ),
+        (0.05, 11.0, 0.5)
+    );
+    let checker = s.materials[0].checker.unwrap();
+    assert_eq!((checker.albedo2, checker.scale), (Vec3::splat(0.1), 0.5));
+    let by_type: Vec<usize> = s.meshes.iter().map(|m| m.indices.len()).collect();
+    assert_eq!(by_type[..5], [2, 1, 12, 2 * 48 * 23, 32]);
+    assert_eq!(by_type[6], 2 * 64 * 32);
+    assert_eq!(by_type[7], 20 * 64);
+    assert_eq!(s.meshes[0].name, "shape0");
+    // The transformed box: scaled ×2 in y before moving.
+    let top = s.meshes[2]
+        .positions
+        .iter()
+        .map(|p| p.y)
+        .fold(f32::MIN, f32::max);
+    assert_eq!(top, 2.0);
+    // The disk faces down.
+    assert!(normals(&s.meshes[4])
+        .iter()
+        .all(|n| n.abs_diff_eq(Vec3::NEG_Y, 1e-5)));
+    assert_eq!(
+        s.lights,
+        vec![
+            Light::Point {
+                position: Vec3::new(0.0, 6.0, 0.0),
+                intensity: Vec3::splat(5.0)
+            },
+            Light::Directional {
+                direction: Vec3::new(1.0, -2.0, 0.0).normalize(),
+                irradiance: Vec3::splat(0.5)
+            },
+        ]
+    );
+}
+
+#[test]
+fn obj_mesh_loads_relative_to_the_scene_file_with_motion() {
+    let s = scene::load(&scene_path("tests/mesh.toml")).unwrap();
+    let m = &s.meshes[0];
+    assert_eq!(m.name, "tetra");
+    assert_eq!(m.indices.len(), 4);
+    assert_eq!(m.positions.len(), 4);
+    // Object space = after transform (scale 2, up 1), before motion.
+    let center = Vec3::new(0.5, 1.5, 0.5);
+    for (t, n) in normals(m).iter().enumerate() {
+        let a = m.positions[m.indices[t][0] as usize];
+        assert!(
+            n.dot(a - center) > 0.0,
+            "OBJ winding must be kept (outward)"
+        );
+    }
+    assert!(m.positions.contains(&Vec3::new(0.0, 3.0, 0.0)));
+    assert_eq!(m.motion.len(), 3);
+    assert_eq!(
+        m.motion.iter().map(|k| k.time).collect::<Vec<_>>(),
+        [0.0, 0.5, 1.0]
+    );
+    assert_eq!(m.motion[0].rotation, Quat::IDENTITY);
+    assert_eq!(m.motion[1].translation, Vec3::X);
+    let expected = Quat::from_rotation_y(std::f32::consts::FRAC_PI_2);
+    assert!(m.motion[1].rotation.abs_diff_eq(expected, 1e-6));
+    assert!(m.motion[2]
+        .rotation
+        .abs_diff_eq(Quat::from_rotation_y(std::f32::consts::PI), 1e-6));
+}
+
+#[test]
+fn message_format_names_file_line_column() {
+    let text = format!("{BASE}[[material]]\nname = \"red\"\nalbdo = [1, 0, 0]\n");
+    let e = scene::parse(&text, Path::new("scenes/x.toml"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.starts_with(
+            "scenes/x.toml:14:1: unknown field 'albdo', expected one of 'name', 'albedo'"
+        ),
+        "{e}"
+    );
+}
+
+#[test]
+fn unreadable_file_is_an_io_error() {
+    let path = scene_path("tests/does-not-exist.toml");
+    let e = scene::load(&path).unwrap_err();
+    assert!(matches!(e, SceneError::Io { .. }));
+    assert!(
+        e.to_string()
+            .starts_with(&format!("cannot read {}: ", path.display())),
+        "{e}"
+    );
+    assert_eq!(e.position(), None);
+}
+
+#[test]
+fn malformed_toml_points_at_the_syntax_error() {
+    let m = error_at(
+        "syntax",
+        &format!("{BASE}[[shape]\ntype = \"quad\"\n"),
+        12,
+        9,
+    );
+    assert!(m.contains("']'"), "{m}");
+    let m = error_at("syntax2", "[film]\nwidth = 8\nheight = = 6\n", 3, 10);
+    assert!(!m.is_empty());
+}
+
+#[test]
+fn unknown_keys_are_named_with_their_line() {
+    let m = error_at("unknown-top", &format!("{BASE}resolution = 3\n"), 12, 1);
+    assert!(m.contains("unknown field 'resolution'"), "{m}");
+    let m = error_at(
+        "unknown-camera",
+        &BASE.replace("fov_y = 40", "fov_y = 40\nfocal = 3"),
+        9,
+        1,
+    );
+    assert!(m.contains("unknown field 'focal'"), "{m}");
+    let text = format!(
+        "{BASE}[[shape]]\ntype = \"sphere\"\nmaterial = \"white\"\nradius = 1\ncornrs = 2\n"
+    );
+    let m = error_at("unknown-shape", &text, 16, 1);
+    assert!(m.contains("unknown field 'cornrs'"), "{m}");
+    // A real key of another shape type is rejected at its value.
+    let text = format!(
+        "{BASE}[[shape]]\ntype = \"sphere\"\nmaterial = \"white\"\nradius = 1\nfile = \"a.obj\"\n"
+    );
+    let m = error_at("foreign-key", &text, 16, 8);
+    assert!(
+        m.contains("key 'file' does not apply to a sphere shape"),
+        "{m}"
+    );
+    let m = error_at(
+        "unknown-type",
+        &format!("{BASE}[[shape]]\ntype = \"cone\"\nmaterial = \"white\"\n"),
+        13,
+        8,
+    );
+    assert!(
+        m.contains("unknown shape type 'cone', expected one of 'quad'"),
+        "{m}"
+    );
+    let m = error_at(
+        "unknown-integrand",
+        &format!("{BASE}[integrand]\ntype = \"path\"\n"),
+        13,
+        8,
+    );
+    assert!(
+        m.contains("unknown integrand type 'path', expected one of 'area_light'"),
+        "{m}"
+    );
+    let m = error_at("unknown-mdas", &format!("{BASE}[mdas]\nsp = 4\n"), 13, 1);
+    assert!(m.contains("unknown field 'sp'"), "{m}");
+}
+
+#[test]
+fn missing_mesh_file_is_named_at_the_file_key() {
+    let text =
+        format!("{BASE}[[shape]]\ntype = \"mesh\"\nmaterial = \"white\"\nfile = \"missing.obj\"\n");
+    let (path, _) = load_text("missing-mesh", "");
+    let m = error_at("missing-mesh", &text, 15, 8);
+    let expected = path.parent().unwrap().join("missing.obj");
+    assert!(
+        m.starts_with(&format!("cannot read mesh file '{}'", expected.display())),
+        "{m}"
+    );
+}
+
+#[test]
+fn nan_and_inf_are_rejected_where_they_stand() {
+    let m = error_at("nan", &BASE.replace("fov_y = 40", "fov_y = nan"), 8, 9);
+    assert!(m.contains("finite") && m.contains("nan"), "{m}");
+    let m = error_at("inf", &BASE.replace("[0, 1, 5]", "[0, -inf, 5]"), 5, 16);
+    assert!(m.contains("finite") && m.contains("-inf"), "{m}");
+    let text = format!("{BASE}[mdas]\nalpha = inf\n");
+    let m = error_at("inf-mdas", &text, 13, 9);
+    assert!(m.contains("finite"), "{m}");
+    let m = error_at(
+        "f32-overflow",
+        &BASE.replace("fov_y = 40", "fov_y = 1e39"),
+        8,
+        9,
+    );
+    assert!(m.contains("out of range"), "{m}");
+}
+
+#[test]
+fn film_resolution_must_be_positive_and_sane() {
+    let m = error_at("zero", &BASE.replace("width = 8", "width = 0"), 2, 9);
+    assert!(m.contains("film width must be positive"), "{m}");
+    let m = error_at(
+        "negative",
+        &BASE.replace("height = 6", "height = -6"),
+        3,
+        10,
+    );
+    assert!(m.contains("film height must be positive"), "{m}");
+    let m = error_at(
+        "huge-side",
+        &BASE.replace("width = 8", "width = 100000"),
+        2,
+        9,
+    );
+    assert!(m.contains("absurdly large"), "{m}");
+    let text = BASE
+        .replace("width = 8", "width = 16384")
+        .replace("height = 6", "height = 16384");
+    let m = error_at("huge-area", &text, 3, 10);
+    assert!(
+        m.contains("absurdly large") && m.contains("268435456 pixels"),
+        "{m}"
+    );
+    let m = error_at(
+        "float-width",
+        &BASE.replace("width = 8", "width = 8.5"),
+        2,
+        9,
+    );
+    assert!(m.contains("expected an integer"), "{m}");
+    let m = error_at(
+        "no-film",
+        &BASE.replace("[film]\nwidth = 8\nheight = 6\n", ""),
+        1,
+        1,
+    );
+    assert!(m.contains("missing field 'film'"), "{m}");
+}
+
+#[test]
+fn negative_or_zero_radiance_is_rejected() {
+    let light =
+        "[[light]]\ntype = \"quad\"\ncorners = [[0, 2, 0], [1, 2, 0], [1, 2, 1], [0, 2, 1]]\n";
+    let m = error_at(
+        "neg-radiance",
+        &format!("{BASE}{light}radiance = [1, -0.5, 1]\n"),
+        15,
+        12,
+    );
+    assert!(m.contains("radiance must be ≥ 0"), "{m}");
+    let m = error_at(
+        "zero-radiance",
+        &format!("{BASE}{light}radiance = [0, 0, 0]\n"),
+        15,
+        12,
+    );
+    assert!(m.contains("must not be all 0"), "{m}");
+    let text = format!(
+        "{BASE}[[light]]\ntype = \"point\"\nposition = [0, 1, 0]\nintensity = [-1, 0, 0]\n"
+    );
+    let m = error_at("neg-intensity", &text, 15, 13);
+    assert!(m.contains("intensity must be ≥ 0"), "{m}");
+    let m = error_at(
+        "neg-albedo",
+        &BASE.replace("[0.5, 0.5, 0.5]", "[0.5, -0.1, 0.5]"),
+        11,
+        10,
+    );
+    assert!(m.contains("albedo must be in [0, 1]"), "{m}");
+    let m = error_at(
+        "big-albedo",
+        &BASE.replace("[0.5, 0.5, 0.5]", "[0.5, 1.5, 0.5]"),
+        11,
+        10,
+    );
+    assert!(m.contains("albedo must be in [0, 1]"), "{m}");
+}
+
+#[test]
+fn unknown_material_is_reported_at_the_reference() {
+    let text = format!("{BASE}[[shape]]\ntype = \"triangle\"\nmaterial = \"whtie\"\nvertices = [[0, 0, 0], [1, 0, 0], [0, 1, 0]]\n");
+    let m = error_at("unknown-material", &text, 14, 12);
+    assert_eq!(m, "unknown material 'whtie' (defined: 'white')");
+    let text = format!("{BASE}[[material]]\nname = \"white\"\nalbedo = [1, 1, 1]\n");
+    let m = error_at("duplicate-material", &text, 13, 8);
+    assert!(m.contains("material 'white' is defined twice"), "{m}");
+}
+
+#[test]
+fn motion_keyframes_parse_and_must_increase() {
+    let shape = format!("{BASE}[[shape]]\ntype = \"sphere\"\nmaterial = \"white\"\nradius = 1\n");
+    let (_, ok) = load_text(
+        "motion-ok",
+        &format!("{shape}motion = [{{ time = 0 }}, {{ time = 1, translate = [0, 2, 0], rotate = [1, 0, 0, 90] }}]\n"),
+    );
+    let s = ok.unwrap();
+    let motion = &s.meshes[0].motion;
+    assert_eq!(motion.len(), 2);
+    assert_eq!(
+        (motion[0].time, motion[0].translation, motion[0].rotation),
+        (0.0, Vec3::ZERO, Quat::IDENTITY)
+    );
+    assert_eq!(
+        (motion[1].time, motion[1].translation),
+        (1.0, Vec3::new(0.0, 2.0, 0.0))
+    );
+    assert!(motion[1]
+        .rotation
+        .abs_diff_eq(Quat::from_rotation_x(std::f32::consts::FRAC_PI_2), 1e-6));
+    // Object space: the sphere stays at the origin; motion moves it.
+    let centroid =
+        s.meshes[0].positions.iter().copied().sum::<Vec3>() / s.meshes[0].positions.len() as f32;
+    assert!(centroid.length() < 1e-5);
+
+    let text = format!(
+        "{shape}motion = [\n  {{ time = 0.0 }},\n  {{ time = 0.7 }},\n  {{ time = 0.5 }},\n]\n"
+    );
+    let m = error_at("motion-unsorted", &text, 19, 12);
+    assert!(m.contains("strictly increasing: 0.5 follows 0.7"), "{m}");
+    let m = error_at(
+        "motion-equal",
+        &format!("{shape}motion = [{{ time = 0.5 }}, {{ time = 0.5 }}]\n"),
+        16,
+        36,
+    );
+    assert!(m.contains("strictly increasing"), "{m}");
+    let m = error_at(
+        "motion-one",
+        &format!("{shape}motion = [{{ time = 0.5 }}]\n"),
+        16,
+        10,
+    );
+    assert!(m.contains("at least 2 keyframes"), "{m}");
+    let text =
+        format!("{shape}motion = [{{ time = 0 }}, {{ time = 1, rotate = [0, 0, 0, 90] }}]\n");
+    let m = error_at("motion-axis", &text, 16, 46);
+    assert!(m.contains("rotate axis must be a nonzero vector"), "{m}");
+}
+
+#[test]
+fn degenerate_and_invalid_geometry_is_rejected() {
+    let quad = |corners: &str| {
+        format!("{BASE}[[shape]]\ntype = \"quad\"\nmaterial = \"white\"\ncorners = {corners}\n")
+    };
+    let m = error_at(
+        "coincident",
+        &quad("[[1, 1, 1], [1, 1, 1], [1, 1, 1], [1, 1, 1]]"),
+        15,
+        11,
+    );
+    assert!(m.contains("entirely degenerate"), "{m}");
+    let m = error_at(
+        "nonplanar",
+        &quad("[[0, 0, 0], [1, 0, 0], [1, 1, 1], [0, 1, 0]]"),
+        15,
+        11,
+    );
+    assert!(m.contains("planar"), "{m}");
+    let m = error_at(
+        "three-corners",
+        &quad("[[0, 0, 0], [1, 0, 0], [1, 1, 0]]"),
+        15,
+        11,
+    );
+    assert!(m.contains("4 points"), "{m}");
+    let sphere = format!("{BASE}[[shape]]\ntype = \"sphere\"\nmaterial = \"white\"\n");
+    let m = error_at("radius0", &format!("{sphere}radius = 0\n"), 15, 10);
+    assert!(m.contains("radius must be > 0"), "{m}");
+    let m = error_at("no-radius", &sphere, 13, 8);
+    assert!(m.contains("a sphere shape needs 'radius'"), "{m}");
+    let m = error_at(
+        "segments",
+        &format!("{sphere}radius = 1\nsegments = 2\n"),
+        16,
+        12,
+    );
+    assert!(m.contains("segments must be at least 3"), "{m}");
+    let blob = format!("{BASE}[[shape]]\ntype = \"blob\"\nmaterial = \"white\"\nradius = 1\n");
+    let m = error_at("blob-huge", &format!("{blob}subdivisions = 11\n"), 16, 16);
+    assert!(m.contains("absurdly large"), "{m}");
+    let box_ = format!("{BASE}[[shape]]\ntype = \"box\"\nmaterial = \"white\"\nmin = [0, 0, 0]\n");
+    let m = error_at("flat-box", &format!("{box_}max = [1, 0, 1]\n"), 16, 7);
+    assert!(m.contains("box max must be greater than min"), "{m}");
+    let text = format!("{box_}max = [1, 1, 1]\ntransform = {{ scale = [1, 0, 1] }}\n");
+    let m = error_at("zero-scale", &text, 17, 23);
+    assert!(m.contains("scale must be nonzero"), "{m}");
+}
+
+#[test]
+fn camera_must_be_well_posed() {
+    let m = error_at("look-at", &BASE.replace("[0, 0, 0]", "[0, 1, 5]"), 6, 11);
+    assert!(m.contains("look_at must differ from position"), "{m}");
+    let m = error_at(
+        "up",
+        &BASE.replace("up = [0, 1, 0]", "up = [0, -2, -10]"),
+        7,
+        6,
+    );
+    assert!(m.contains("parallel"), "{m}");
+    let m = error_at("fov", &BASE.replace("fov_y = 40", "fov_y = 0"), 8, 9);
+    assert!(m.contains("fov_y must be in (0, 180)"), "{m}");
+    let text = BASE.replace(
+        "fov_y = 40",
+        "fov_y = 40\nshutter_open = 0.5\nshutter_close = 0.5",
+    );
+    let m = error_at("shutter", &text, 10, 17);
+    assert!(m.contains("shutter_close"), "{m}");
+}
+
+/// No input may panic: every truncation of a real scene and a batch of
+/// byte-level corruptions must come back as Ok or Err.
+#[test]
+fn corrupted_scenes_never_panic() {
+    let text = std::fs::read_to_string(scene_path("tests/shapes.toml")).unwrap();
+    let file = scene_path("tests/shapes.toml");
+    for end in (0..text.len()).filter(|&i| text.is_char_boundary(i)) {
+        let _ = scene::parse(&text[..end], &file);
+    }
+    let mut state = 0x2545_F491_4F6C_DD1Du64;
+    let mut next = || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        state
+    };
+    let replacements = b"0-9.e[]{}=\"\n #nai,";
+    for _ in 0..2000 {
+        let mut bytes = text.clone().into_bytes();
+        for _ in 0..1 + next() % 3 {
+            let at = (next() % bytes.len() as u64) as usize;
+            bytes[at] = replacements[(next() % replacements.len() as u64) as usize];
+        }
+        if let Ok(corrupt) = String::from_utf8(bytes) {
+            let _ = scene::parse(&corrupt, &file);
+        }
+    }
+}

@@ -1,0 +1,85 @@
+// Halton quasi-Monte Carlo sampling of an integrand, one sample mean per
+// pixel. See src/integrator/halton.rs.
+//
+// `evaluate`: invocation (pixel, slot) evaluates the samples with indices
+//   first_index + slot·samples_per_invocation + k, k < samples_per_invocation,
+//   below spp, and writes (Σ finite f, number of finite f) to
+//   partial[slot · pixels + pixel].
+// `accumulate`: invocation `pixel` adds the slots' partial sums, in slot
+//   order, into accum[pixel] with Kahan compensation (deterministic).
+
+struct HaltonParams {
+    width: u32,
+    height: u32,
+    dims: u32,
+    seed: u32,
+    spp: u32,
+    first_index: u32,
+    samples_per_invocation: u32,
+    slots: u32,
+    // Invocations per row of the 2D dispatch grid.
+    row_invocations: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+}
+
+@group(0) @binding(0) var<uniform> params: HaltonParams;
+@group(0) @binding(1) var<storage, read_write> partial: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read_write> accum: array<vec4<f32>>;
+@group(0) @binding(3) var<storage, read_write> compensation: array<vec4<f32>>;
+
+const WORKGROUP_SIZE: u32 = 64u;
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn evaluate(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let pixels = params.width * params.height;
+    let id = gid.x + gid.y * params.row_invocations;
+    if (id >= pixels * params.slots) {
+        return;
+    }
+    let pixel = id % pixels;
+    let slot = id / pixels;
+    let px = vec2<f32>(f32(pixel % params.width), f32(pixel / params.width));
+
+    var sum = vec3<f32>(0.0);
+    var finite = 0.0;
+    let start = params.first_index + slot * params.samples_per_invocation;
+    for (var k = 0u; k < params.samples_per_invocation; k++) {
+        let index = start + k;
+        if (index >= params.spp) {
+            break;
+        }
+        var point: IntegrandPoint;
+        point.film = px + vec2<f32>(halton_sample(0u, index, pixel, params.seed),
+                                    halton_sample(1u, index, pixel, params.seed));
+        for (var d = 2u; d < params.dims; d++) {
+            point.u[d - 2u] = halton_sample(d, index, pixel, params.seed);
+        }
+        let f = integrand(&point);
+        if (is_finite3(f)) {
+            sum += f;
+            finite += 1.0;
+        }
+    }
+    partial[slot * pixels + pixel] = vec4<f32>(sum, finite);
+}
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn accumulate(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let pixels = params.width * params.height;
+    let pixel = gid.x + gid.y * params.row_invocations;
+    if (pixel >= pixels) {
+        return;
+    }
+    var s = accum[pixel];
+    var c = compensation[pixel];
+    for (var slot = 0u; slot < params.slots; slot++) {
+        let y = partial[slot * pixels + pixel] - c;
+        let t = s + y;
+        c = (t - s) - y;
+        s = t;
+    }
+    accum[pixel] = s;
+    compensation[pixel] = c;
+}
