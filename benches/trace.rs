@@ -280,10 +280,11 @@ fn trace_scene(c: &mut Criterion, group: &str, scene: &Scene, light: Vec3, light
     let bench = Bench::new(scene);
     let s = bench.scene.stats;
     eprintln!(
-        "{group}: {} triangles, {} instances, {} nodes, build {:.1} ms, {:.1} MiB on '{}'",
+        "{group}: {} triangles, {} instances, {} nodes, stack depth {}, build {:.1} ms, {:.1} MiB on '{}'",
         s.triangles,
         s.instances,
         s.nodes,
+        s.stack_depth,
         s.build_ms,
         s.gpu_bytes as f64 / 1048576.0,
         bench.gpu.info.name

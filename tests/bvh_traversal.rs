@@ -10,7 +10,9 @@
 //! inside closed boxes, finite and infinite t_max, unnormalized directions.
 //!
 //! Agreement rule (see [`compare`]): the triangle ids must be equal and
-//! the distances equal within [`T_TOL`], except for *ties* — rays where the
+//! the distances equal within [`T_TOL`] (for a moving instance, equal to
+//! the CPU's world-space or object-space evaluation, see
+//! [`object_space_t`]), except for *ties* — rays where the
 //! two answers are both right up to rounding: two triangles at the same
 //! distance (a shared edge or vertex, coincident faces), or a hit that
 //! sits on a triangle's boundary (a barycentric within [`BARY_TOL`] of 0)
@@ -381,7 +383,7 @@ impl<'a> RayGen<'a> {
 
     /// Rays starting exactly on a triangle (the point computed in f32),
     /// random directions.
-    fn from_surface(&mut self, n: usize) -> Vec<Ray> {
+    fn on_surface(&mut self, n: usize) -> Vec<Ray> {
         (0..n)
             .map(|_| {
                 let time = self.time();
@@ -616,7 +618,7 @@ fn box_sphere_quad_matches_brute_force() {
     let mut rays = gen.random(3000);
     rays.extend(gen.aimed(3000));
     rays.extend(gen.axis_aligned(2400));
-    rays.extend(gen.from_surface(1600));
+    rays.extend(gen.on_surface(1600));
     rays.extend(gen.inside_box(1000, BOX_MIN, BOX_MAX));
     let report = compare_built(&scene, &built, &rays);
     assert_few_ties(&report);
@@ -683,7 +685,7 @@ fn triangle_soup_matches_brute_force() {
     let mut rays = gen.random(4000);
     rays.extend(gen.aimed(3000));
     rays.extend(gen.axis_aligned(1500));
-    rays.extend(gen.from_surface(1500));
+    rays.extend(gen.on_surface(1500));
     let report = compare_built(&scene, &built, &rays);
     assert_few_ties(&report);
     assert_mixed(&report);
@@ -698,7 +700,7 @@ fn hundred_thousand_triangle_mesh_matches_brute_force() {
     let mut rays = gen.random(3000);
     rays.extend(gen.aimed(3500));
     rays.extend(gen.axis_aligned(1500));
-    rays.extend(gen.from_surface(2000));
+    rays.extend(gen.on_surface(2000));
     let report = compare_built(&scene, &built, &rays);
     assert_few_ties(&report);
     assert_mixed(&report);
@@ -713,7 +715,7 @@ fn moving_instances_match_brute_force_at_each_ray_time() {
     let mut rays = gen.random(3000);
     rays.extend(gen.aimed(4000));
     rays.extend(gen.axis_aligned(1500));
-    rays.extend(gen.from_surface(1500));
+    rays.extend(gen.on_surface(1500));
     // Rays at exactly the keyframe times.
     for (i, r) in rays.iter_mut().enumerate().step_by(25) {
         r.time = [0.0, 0.15, 0.3, 0.9, 1.0][i % 5];
@@ -870,12 +872,8 @@ fn scene_bindings_read_back_in_wgsl() {
         let [m, t] = built.source[prim as usize];
         let mesh = &scene.meshes[m as usize];
         let stored = built.triangle_stored(prim);
-        for k in 0..3 {
-            assert_eq!(
-                stored[k],
-                mesh.positions[mesh.indices[t as usize][k] as usize]
-            );
-        }
+        let indices = mesh.indices[t as usize];
+        assert_eq!(stored, indices.map(|i| mesh.positions[i as usize]));
     }
 
     const DUMP: &str = r#"

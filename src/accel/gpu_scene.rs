@@ -27,6 +27,9 @@ pub struct SceneStats {
     /// CWBVH nodes, TLAS and BLASes together (80 bytes each).
     pub nodes: u32,
     pub emitters: u32,
+    /// Traversal stack entries the deepest TLAS+BLAS path needs (of
+    /// [`super::BVH_STACK_SIZE`]).
+    pub stack_depth: u32,
     /// Wall time of the obvhs builds, milliseconds.
     pub build_ms: f64,
     /// Bytes of all scene buffers on the device.
@@ -121,6 +124,7 @@ impl GpuScene {
                 instances: built.instances.len() as u32,
                 nodes: built.nodes.len() as u32,
                 emitters: emitters.len() as u32,
+                stack_depth: built.stack_depth,
                 build_ms: built.build_ms,
                 gpu_bytes: buffers.iter().map(|b| b.size()).sum(),
             };

@@ -34,7 +34,7 @@ use obvhs::aabb::Aabb;
 use crate::scene::Keyframe;
 
 /// Eberly's 1 + μ for the last series term (the paper's FPU constant).
-const SLERP_ONE_PLUS_MU: f64 = 1.901_107_453_517_300_37;
+const SLERP_ONE_PLUS_MU: f64 = 1.901_107_453_517_3;
 
 /// Series coefficients u_i = 1/(i(2i+1)), v_i = i/(2i+1), i = 1..8, the
 /// last scaled by 1 + μ. Computed in f64 and rounded once, as WGSL's

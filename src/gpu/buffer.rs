@@ -25,8 +25,9 @@ impl Gpu {
         Ok(())
     }
 
-    /// A storage buffer initialised from `data` (at least 4 bytes, so that
-    /// empty arrays still bind).
+    /// A storage buffer initialised from `data`. An empty slice still
+    /// gives a bindable buffer: one zeroed element (at least 16 bytes),
+    /// since a WGSL array binding needs room for one element.
     pub fn buffer_from<T: bytemuck::Pod>(
         &self,
         label: &str,
@@ -35,13 +36,12 @@ impl Gpu {
     ) -> Result<wgpu::Buffer> {
         let bytes: &[u8] = bytemuck::cast_slice(data);
         self.check_binding_size(label, bytes.len() as u64)?;
+        let min_len = std::mem::size_of::<T>().max(16).next_multiple_of(4);
         let padded;
-        let contents = if bytes.len() < 16 {
-            padded = {
-                let mut v = bytes.to_vec();
-                v.resize(16, 0);
-                v
-            };
+        let contents = if bytes.len() < min_len {
+            let mut v = bytes.to_vec();
+            v.resize(min_len, 0);
+            padded = v;
             &padded[..]
         } else {
             bytes
