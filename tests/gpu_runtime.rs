@@ -1,0 +1,121 @@
+//! The GPU runtime: validation errors become Rust errors (never a zeroed
+//! read-back), buffers over the binding limit are refused with a message,
+//! and the profiler reports every phase.
+
+mod common;
+
+use common::gpu;
+use mdas::gpu::profiler::Profiler;
+use mdas::gpu::shader::{bind_buffers, storage_entry, Wgsl};
+
+#[test]
+fn invalid_wgsl_is_an_error_naming_the_pipeline() {
+    let gpu = gpu();
+    let layout = gpu
+        .device
+        .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("test.bad.layout"),
+            entries: &[],
+        });
+    let source = Wgsl::new().part((
+        "bad.wgsl",
+        "@compute @workgroup_size(1) fn main() { let x: f32 = undefined_name; }",
+    ));
+    let err = gpu
+        .compute_pipeline("test.bad", &source, "main", &[&layout])
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("test.bad") && err.contains("undefined_name"),
+        "{err}"
+    );
+}
+
+#[test]
+fn a_validation_error_during_dispatch_is_returned() {
+    let gpu = gpu();
+    // The kernel expects a read-write buffer at binding 0, the layout says read-only.
+    let layout = gpu
+        .device
+        .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("test.mismatch.layout"),
+            entries: &[storage_entry(0, true)],
+        });
+    let source = Wgsl::new().part((
+        "mismatch.wgsl",
+        "@group(0) @binding(0) var<storage, read_write> data: array<u32>;\n\
+         @compute @workgroup_size(1) fn main() { data[0] = 7u; }",
+    ));
+    assert!(gpu
+        .compute_pipeline("test.mismatch", &source, "main", &[&layout])
+        .is_err());
+}
+
+#[test]
+fn kernels_run_and_read_back() {
+    let gpu = gpu();
+    let layout = gpu
+        .device
+        .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("test.square.layout"),
+            entries: &[storage_entry(0, false)],
+        });
+    let source = Wgsl::new().constant("N", 1000).part((
+        "square.wgsl",
+        "@group(0) @binding(0) var<storage, read_write> data: array<u32>;\n\
+         @compute @workgroup_size(64) fn main(@builtin(global_invocation_id) id: vec3<u32>) {\n\
+             if (id.x < N) { data[id.x] = id.x * id.x; }\n\
+         }",
+    ));
+    let pipeline = gpu
+        .compute_pipeline("test.square", &source, "main", &[&layout])
+        .unwrap();
+    let buffer = gpu
+        .buffer_zeroed("test.square.data", 4000, mdas::gpu::buffer::STORAGE)
+        .unwrap();
+    let group = bind_buffers(gpu, "test.square", &layout, &[&buffer]);
+    let mut profiler = Profiler::new(gpu);
+    for phase in ["first", "second", "first"] {
+        profiler
+            .phase(phase, |encoder, timestamps| {
+                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("test.square"),
+                    timestamp_writes: timestamps,
+                });
+                pass.set_pipeline(&pipeline);
+                pass.set_bind_group(0, &group, &[]);
+                pass.dispatch_workgroups(16, 1, 1);
+            })
+            .unwrap();
+    }
+    let times = profiler.finish().unwrap();
+    let names: Vec<&str> = times.0.iter().map(|(n, _)| n.as_str()).collect();
+    assert_eq!(names, ["first", "second"]);
+    assert!(times.0.iter().all(|(_, t)| t.is_finite() && *t >= 0.0));
+    let data: Vec<u32> = gpu.read_buffer(&buffer, 1000).unwrap();
+    assert!(data.iter().enumerate().all(|(i, &v)| v == (i * i) as u32));
+}
+
+#[test]
+fn buffers_over_the_binding_limit_are_refused_with_a_message() {
+    let gpu = gpu();
+    let too_big = gpu.max_binding_bytes() + 4;
+    let err = gpu
+        .buffer_zeroed("test.huge", too_big, mdas::gpu::buffer::STORAGE)
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("test.huge") && err.contains("MiB"), "{err}");
+}
+
+#[test]
+fn large_grids_use_2d_dispatches_within_the_limit() {
+    let gpu = gpu();
+    let max = gpu.limits.max_compute_workgroups_per_dimension;
+    for n in [1, 1000, max, max + 1, 5 * max + 3] {
+        let (x, y) = gpu.dispatch_dims(n);
+        assert!(
+            x <= max && y <= max && x as u64 * y as u64 >= n as u64,
+            "{n} → ({x}, {y})"
+        );
+    }
+}
