@@ -17,3 +17,4 @@ pub mod integrand;
 pub mod integrator;
 pub mod metrics;
 pub mod scene;
+pub mod compare;
