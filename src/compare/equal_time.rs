@@ -122,7 +122,7 @@ pub fn halton_at_equal_time(
     if !(target_ms.is_finite() && target_ms > 0.0) {
         bail!("equal-time target must be a positive time, got {target_ms} ms");
     }
-    let mut run = |spp: u32| -> Result<HaltonRun> {
+    let run = |spp: u32| -> Result<HaltonRun> {
         let measured = measure(gpu, &mut Halton::new(spp, seed), integrand, repeats)?;
         let error = metrics::compare(&measured.render.image, reference)?;
         Ok(HaltonRun {
