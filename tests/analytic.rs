@@ -18,7 +18,7 @@
 
 mod common;
 
-use common::gpu;
+use common::{gpu, image_bits};
 use mdas::app;
 use mdas::integrator::{Halton, Integrator};
 use mdas::metrics;
@@ -163,11 +163,5 @@ fn halton_render_of_a_scene_is_deterministic() {
         .render(gpu, prepared.integrand.as_ref())
         .unwrap();
     assert_eq!((a.film.width, a.film.height), (32, 24));
-    let bits = |r: &mdas::integrator::Render| {
-        r.image
-            .iter()
-            .flat_map(|p| p.map(f32::to_bits))
-            .collect::<Vec<_>>()
-    };
-    assert_eq!(bits(&a), bits(&b));
+    assert_eq!(image_bits(&a), image_bits(&b));
 }

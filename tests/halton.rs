@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{gpu, TestIntegrand};
+use common::{gpu, image_bits, TestIntegrand};
 use mdas::gpu::shader::{bind_buffers, storage_entry, Wgsl};
 use mdas::integrand::MAX_DIMS;
 use mdas::integrator::{Halton, Integrator};
@@ -302,14 +302,8 @@ fn same_seed_same_bits_and_other_seed_differs() {
     let a = render(0, 4, film, 37, 9);
     let b = render(0, 4, film, 37, 9);
     let c = render(0, 4, film, 37, 10);
-    let bits = |r: &mdas::integrator::Render| {
-        r.image
-            .iter()
-            .flat_map(|p| p.map(f32::to_bits))
-            .collect::<Vec<_>>()
-    };
-    assert_eq!(bits(&a), bits(&b));
-    assert_ne!(bits(&a), bits(&c));
+    assert_eq!(image_bits(&a), image_bits(&b));
+    assert_ne!(image_bits(&a), image_bits(&c));
 }
 
 #[test]

@@ -67,3 +67,8 @@ pub fn gpu() -> &'static Gpu {
         "GPU tests need a wgpu adapter (CI uses lavapipe: apt-get install mesa-vulkan-drivers)",
     )
 }
+
+/// The image's bits, for exact determinism checks.
+pub fn image_bits(r: &mdas::integrator::Render) -> Vec<u32> {
+    r.image.iter().flat_map(|p| p.map(f32::to_bits)).collect()
+}
