@@ -7,6 +7,7 @@
 //! baseline). The MDAS integrator follows.
 
 pub mod halton;
+pub mod mdas;
 
 use crate::gpu::profiler::{Clock, PhaseTimes};
 use crate::gpu::Gpu;
@@ -15,6 +16,7 @@ use crate::scene::Film;
 use anyhow::Result;
 
 pub use halton::Halton;
+pub use mdas::Mdas;
 
 /// The result of one render.
 #[derive(Clone, Debug)]

@@ -1,0 +1,270 @@
+//! Parameter validation, capacities and the storage layout of one render.
+//!
+//! Everything that can be checked without the integrand is checked by
+//! [`validate`] (called from [`super::Mdas::new`]); [`Config::new`] adds the
+//! checks that need the dimension count and the film, and derives the
+//! buffer sizes. [`Config::check_device`] compares them with the adapter's
+//! limits before any GPU work starts.
+//!
+//! ## Capacities
+//!
+//! With C = 2^(d·b + 2e) cells, l initial samples per cell and a budget of
+//! N = round(spp × pixels) samples, the run never holds more than N samples
+//! (the last iteration is trimmed to the budget, see `adapt.wgsl`). A split
+//! leaves h = ⌊(m+1)/2⌋ and m + 1 − h ≥ h samples in its children, leaves
+//! never lose samples, and an unsplit cell keeps its l, so
+//! N ≥ C·min(l, h) + (L − C)·h, i.e. the leaf count is bounded by
+//! L ≤ C + (N − C·min(l, h)) / h. Both bounds are theorems of the
+//! algorithm, so the kernels need no overflow checks.
+
+use super::{gpu_params::WG, MAX_ITERATIONS_DEFAULT};
+use crate::gpu::shader::Wgsl;
+use crate::gpu::Gpu;
+use crate::integrand::MAX_DIMS;
+use crate::scene::{Film, MdasParams};
+use anyhow::{bail, Result};
+
+/// Sample indices live in 27 bits of a leaf header (the rest: a 4-bit
+/// count and the collapsed flag), and 0x7ffffff marks the end of a list.
+pub const SAMPLE_LIMIT: u64 = (1 << 27) - 1;
+/// Widest Morton code: every cell is a leaf and holds at least one sample.
+pub const MORTON_BITS_MAX: u32 = 27;
+/// A leaf's count has 4 bits and may reach m + 1 after the trimmed last
+/// iteration.
+pub const MAX_SAMPLES_PER_LEAF: u32 = 14;
+pub const MAX_CANDIDATES: u32 = 64;
+pub const MAX_ALPHA: f32 = 64.0;
+/// Pixels one reconstruction invocation splats per dispatch.
+pub const PIXELS_PER_PASS: u32 = 16384;
+/// ε of the contrast error (eq. 4): a leaf of constant value keeps
+/// E = V·ε > 0, so every leaf can still be selected (the paper gives no
+/// value). Leaves whose samples all missed a small feature look constant;
+/// the smaller ε, the more rarely they are revisited and the more the
+/// estimate is biased low (tests/mdas_quality.rs: a 4%-thick slab read
+/// 0.36 of its true mean with ε = 1e-3 and 0.61 with 1e-2 at α = ¼), while a
+/// larger ε spends more samples on flat regions (1e-2 still halves Halton's
+/// RelMSE on a sharp edge).
+pub const EPSILON: f32 = 1e-2;
+
+/// Checks the parameters that do not depend on the integrand.
+pub fn validate(p: &MdasParams) -> Result<()> {
+    let m = p.max_samples_per_leaf;
+    if !(2..=MAX_SAMPLES_PER_LEAF).contains(&m) {
+        bail!("max_samples_per_leaf = {m}: must be in 2..={MAX_SAMPLES_PER_LEAF} (a full leaf of m samples plus one splits at its object median)");
+    }
+    let l = p.initial_samples_per_cell;
+    if l == 0 || l > m {
+        bail!("initial_samples_per_cell = {l}: must be in 1..=max_samples_per_leaf ({m})");
+    }
+    if p.candidates == 0 || p.candidates > MAX_CANDIDATES {
+        bail!(
+            "candidates = {}: must be in 1..={MAX_CANDIDATES}",
+            p.candidates
+        );
+    }
+    if !(p.alpha.is_finite() && (0.0..=MAX_ALPHA).contains(&p.alpha)) {
+        bail!("alpha = {}: must be a number in [0, {MAX_ALPHA}]", p.alpha);
+    }
+    if !(p.scale_factor.is_finite() && p.scale_factor > 0.0) {
+        bail!(
+            "scale_factor = {}: must be a positive number",
+            p.scale_factor
+        );
+    }
+    if !(p.spp.is_finite() && p.spp > 0.0) {
+        bail!("spp = {}: must be a positive number", p.spp);
+    }
+    if p.bits_per_dim > 16
+        || p.extra_image_bits > 16
+        || 2 * (p.bits_per_dim + p.extra_image_bits) > MORTON_BITS_MAX
+    {
+        bail!(
+            "bits_per_dim = {} and extra_image_bits = {}: the film axes alone need 2·(b + e) = {} Morton bits, at most {MORTON_BITS_MAX}",
+            p.bits_per_dim,
+            p.extra_image_bits,
+            2 * (p.bits_per_dim + p.extra_image_bits)
+        );
+    }
+    Ok(())
+}
+
+/// One render's derived sizes.
+#[derive(Clone, Debug)]
+pub struct Config {
+    pub params: MdasParams,
+    pub dims: u32,
+    pub film: Film,
+    /// C = 2^(d·b + 2e).
+    pub cells: u32,
+    /// C·l.
+    pub initial_samples: u32,
+    /// N = round(spp × pixels).
+    pub budget: u32,
+    /// Bound on the leaf count (module docs).
+    pub leaf_capacity: u32,
+    pub coord_words: u32,
+    pub sample_stride: u32,
+    pub leaf_stride: u32,
+    pub max_iterations: u32,
+    /// Reconstruction dispatches needed to cover the widest leaf.
+    pub reconstruct_passes: u32,
+}
+
+impl Config {
+    pub fn new(params: MdasParams, dims: u32, film: Film, max_iterations: u32) -> Result<Config> {
+        validate(&params)?;
+        if !(3..=MAX_DIMS).contains(&dims) {
+            bail!("MDAS supports integrands of 3..={MAX_DIMS} dimensions (film included); this one has {dims}");
+        }
+        let pixels = film.width as u64 * film.height as u64;
+        if pixels == 0 {
+            bail!("empty film {}×{}", film.width, film.height);
+        }
+        let (b, e) = (params.bits_per_dim, params.extra_image_bits);
+        let morton_bits = dims * b + 2 * e;
+        if morton_bits > MORTON_BITS_MAX {
+            bail!(
+                "the initial grid needs a Morton code of d·b + 2e = {dims}·{b} + 2·{e} = {morton_bits} bits; at most {MORTON_BITS_MAX} are supported: lower bits_per_dim or extra_image_bits"
+            );
+        }
+        let cells = 1u64 << morton_bits;
+        let l = params.initial_samples_per_cell as u64;
+        let initial = cells * l;
+        let budget = (params.spp as f64 * pixels as f64).round() as u64;
+        if budget < initial {
+            bail!(
+                "the budget spp × pixels = {} × {pixels} = {budget} samples is below the {initial} initial samples (2^{morton_bits} cells × {l}); raise spp or lower bits_per_dim, extra_image_bits or initial_samples_per_cell",
+                params.spp
+            );
+        }
+        if budget > SAMPLE_LIMIT {
+            bail!("the budget of {budget} samples exceeds the {SAMPLE_LIMIT} MDAS can index; lower spp or the resolution");
+        }
+        let m = params.max_samples_per_leaf as u64;
+        let h = (m + 1) / 2;
+        let leaf_capacity = cells + (budget - cells * l.min(h)) / h;
+        let coord_words = dims.div_ceil(2);
+        // Widest leaf: an initial cell, misaligned with the pixel grid.
+        let cover = |side: u32| (side as u64).div_ceil(1 << (b + e)).min(side as u64 - 1) + 1;
+        let widest = cover(film.width) * cover(film.height);
+        Ok(Config {
+            params,
+            dims,
+            film,
+            cells: cells as u32,
+            initial_samples: initial as u32,
+            budget: budget as u32,
+            leaf_capacity: leaf_capacity as u32,
+            coord_words,
+            sample_stride: coord_words,
+            leaf_stride: 3,
+            max_iterations: if max_iterations == 0 {
+                MAX_ITERATIONS_DEFAULT
+            } else {
+                max_iterations
+            },
+            reconstruct_passes: widest.div_ceil(PIXELS_PER_PASS as u64) as u32,
+        })
+    }
+
+    pub fn pixels(&self) -> u64 {
+        self.film.width as u64 * self.film.height as u64
+    }
+
+    /// Cell, header and error: 12 bytes per leaf.
+    pub fn leaves_bytes(&self) -> u64 {
+        self.leaf_capacity as u64 * self.leaf_stride as u64 * 4
+    }
+
+    /// Boxes, one word per axis: 4d bytes per leaf.
+    pub fn boxes_bytes(&self) -> u64 {
+        self.leaf_capacity as u64 * self.dims as u64 * 4
+    }
+
+    pub fn samples_bytes(&self) -> u64 {
+        self.budget as u64 * self.sample_stride as u64 * 4
+    }
+
+    /// RGB bits and the list link: 16 bytes per sample.
+    pub fn values_bytes(&self) -> u64 {
+        self.budget as u64 * 16
+    }
+
+    pub fn partials_bytes(&self) -> u64 {
+        (self.leaf_capacity as u64).div_ceil(WG as u64) * 8
+    }
+
+    /// Fixed-point accumulators: 3 colours + weight, 64 bits each.
+    pub fn accum_bytes(&self) -> u64 {
+        self.pixels() * 32
+    }
+
+    /// Whether the accumulators fit in the coordinate buffer, which no
+    /// kernel reads after the last placement (spp·⌈d/2⌉ ≥ 8).
+    pub fn accum_in_samples(&self) -> bool {
+        self.samples_bytes() >= self.accum_bytes()
+    }
+
+    pub const COUNTERS_BYTES: u64 = 64;
+
+    /// Every buffer the render allocates (the figure in `Render::gpu_bytes`).
+    pub fn gpu_bytes(&self) -> u64 {
+        let accum = if self.accum_in_samples() {
+            16
+        } else {
+            self.accum_bytes()
+        };
+        self.leaves_bytes()
+            + self.boxes_bytes()
+            + self.samples_bytes()
+            + self.values_bytes()
+            + self.partials_bytes()
+            + accum
+            + Self::COUNTERS_BYTES
+            + std::mem::size_of::<super::gpu_params::GpuParams>() as u64
+    }
+
+    /// Fails, before any GPU work, when a buffer exceeds the adapter's
+    /// per-binding or per-buffer limit.
+    pub fn check_device(&self, gpu: &Gpu) -> Result<()> {
+        let limit = |what: &str, bytes: u64| -> Result<()> {
+            gpu.check_binding_size(what, bytes).map_err(|e| {
+                e.context(format!(
+                    "MDAS capacity: {} samples ({} initial) and up to {} leaves of {}D do not fit this adapter",
+                    self.budget, self.initial_samples, self.leaf_capacity, self.dims
+                ))
+            })
+        };
+        limit("mdas.leaves", self.leaves_bytes())?;
+        limit("mdas.boxes", self.boxes_bytes())?;
+        limit("mdas.samples", self.samples_bytes())?;
+        limit("mdas.values", self.values_bytes())?;
+        limit("mdas.partials", self.partials_bytes())?;
+        limit("mdas.accum", self.accum_bytes())?;
+        let groups = (self.leaf_capacity as u64).div_ceil(WG as u64);
+        let max_groups = gpu.limits.max_compute_workgroups_per_dimension as u64;
+        if groups > max_groups * max_groups {
+            bail!(
+                "{} leaves need more workgroups than this adapter can dispatch",
+                self.leaf_capacity
+            );
+        }
+        Ok(())
+    }
+
+    /// The generated WGSL constants every MDAS kernel is compiled with.
+    pub fn constants(&self) -> Wgsl {
+        Wgsl::new()
+            .constant("DIMS", self.dims)
+            .constant("BITS_PER_DIM", self.params.bits_per_dim)
+            .constant("EXTRA_BITS", self.params.extra_image_bits)
+            .constant("SAMPLES_PER_CELL", self.params.initial_samples_per_cell)
+            .constant("MAX_PER_LEAF", self.params.max_samples_per_leaf)
+            .constant("CANDIDATES", self.params.candidates)
+            .constant("COORD_WORDS", self.coord_words)
+            .constant("SAMPLE_STRIDE", self.sample_stride)
+            .constant("LEAF_STRIDE", self.leaf_stride)
+            .constant("WG", WG)
+            .constant("PIXELS_PER_PASS", PIXELS_PER_PASS)
+    }
+}

@@ -1,0 +1,160 @@
+//! Read-back state of a render, for invariant and oracle tests
+//! ([`super::Mdas::render_observed`]). Decodes the storage layout of
+//! `wgsl/mdas/common.wgsl`.
+
+use crate::scene::{Film, MdasParams};
+
+pub const NIL: u32 = 0x7ff_ffff;
+pub const DIRTY: u32 = u32::MAX;
+
+/// The state after an error pass (errors current, `emax_bits` set), or
+/// after the last iteration (`is_final`: errors of changed leaves DIRTY).
+#[derive(Clone, Debug)]
+pub struct Snapshot {
+    pub iteration: u32,
+    pub is_final: bool,
+    pub params: MdasParams,
+    pub dims: u32,
+    pub film: Film,
+    pub budget: u32,
+    pub leaf_count: u32,
+    pub sample_count: u32,
+    pub emax_bits: u32,
+    pub inv_alpha: f32,
+    pub select_all: bool,
+    pub epsilon: f32,
+    /// Raw words: `leaf_count × (3 + dims)`.
+    pub leaves: Vec<u32>,
+    /// Raw coordinate words: `sample_count × ⌈dims/2⌉`.
+    pub samples: Vec<u32>,
+    /// Per sample: 3 f32 bits and the next sample of its leaf.
+    pub values: Vec<u32>,
+}
+
+/// One decoded leaf.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Leaf {
+    pub cell: u32,
+    pub head: u32,
+    pub count: u32,
+    pub collapsed: bool,
+    pub error_bits: u32,
+    /// Per axis: [lo, hi) in quanta of the cell (0..=65536).
+    pub bounds: Vec<(u32, u32)>,
+}
+
+impl Snapshot {
+    pub fn leaf_stride(&self) -> usize {
+        3 + self.dims as usize
+    }
+
+    pub fn sample_stride(&self) -> usize {
+        self.dims.div_ceil(2) as usize
+    }
+
+    pub fn leaf(&self, k: u32) -> Leaf {
+        let w = &self.leaves[k as usize * self.leaf_stride()..][..self.leaf_stride()];
+        Leaf {
+            cell: w[0],
+            head: w[1] & NIL,
+            count: (w[1] >> 27) & 15,
+            collapsed: w[1] >> 31 != 0,
+            error_bits: w[2],
+            bounds: (0..self.dims as usize)
+                .map(|a| (w[3 + a] & 0xffff, (w[3 + a] >> 16) + 1))
+                .collect(),
+        }
+    }
+
+    pub fn sample_q(&self, s: u32, axis: u32) -> u32 {
+        let w = self.samples[s as usize * self.sample_stride() + axis as usize / 2];
+        (w >> (16 * (axis % 2))) & 0xffff
+    }
+
+    pub fn sample_next(&self, s: u32) -> u32 {
+        self.values[4 * s as usize + 3]
+    }
+
+    pub fn value(&self, s: u32) -> [f32; 3] {
+        std::array::from_fn(|c| f32::from_bits(self.values[4 * s as usize + c]))
+    }
+
+    /// The samples of leaf k, following its list.
+    pub fn leaf_samples(&self, k: u32) -> Vec<u32> {
+        let leaf = self.leaf(k);
+        let mut out = Vec::new();
+        let mut s = leaf.head;
+        for _ in 0..leaf.count {
+            out.push(s);
+            s = self.sample_next(s);
+        }
+        out
+    }
+
+    /// Cell-coordinate bits along `axis`.
+    pub fn axis_bits(&self, axis: u32) -> u32 {
+        self.params.bits_per_dim
+            + if axis < 2 {
+                self.params.extra_image_bits
+            } else {
+                0
+            }
+    }
+
+    pub fn cell_coords(&self, cell: u32) -> Vec<u32> {
+        super::cpu_oracle::morton_decode(
+            cell,
+            self.dims,
+            self.params.bits_per_dim,
+            self.params.extra_image_bits,
+        )
+    }
+
+    /// Leaf k's box in the normalized domain [0, 1]^d (exact in f64).
+    pub fn leaf_box(&self, k: u32) -> Vec<(f64, f64)> {
+        let leaf = self.leaf(k);
+        let cell = self.cell_coords(leaf.cell);
+        (0..self.dims)
+            .map(|a| {
+                let scale = (-((16 + self.axis_bits(a)) as f64)).exp2();
+                let (lo, hi) = leaf.bounds[a as usize];
+                let origin = cell[a as usize] as f64 * 65536.0;
+                ((origin + lo as f64) * scale, (origin + hi as f64) * scale)
+            })
+            .collect()
+    }
+
+    /// Normalized volume of leaf k.
+    pub fn leaf_volume(&self, k: u32) -> f64 {
+        self.leaf_box(k).iter().map(|(lo, hi)| hi - lo).product()
+    }
+
+    /// Sample s's point in the normalized domain (its quantum's centre),
+    /// given its leaf's cell.
+    pub fn sample_point(&self, s: u32, cell: u32) -> Vec<f64> {
+        let c = self.cell_coords(cell);
+        (0..self.dims)
+            .map(|a| {
+                let scale = (-((16 + self.axis_bits(a)) as f64)).exp2();
+                (c[a as usize] as f64 * 65536.0 + self.sample_q(s, a) as f64 + 0.5) * scale
+            })
+            .collect()
+    }
+
+    /// Mean of the finite values of leaf k (None without any).
+    pub fn leaf_mean(&self, k: u32) -> Option<[f64; 3]> {
+        let finite: Vec<[f32; 3]> = self
+            .leaf_samples(k)
+            .iter()
+            .map(|&s| self.value(s))
+            .filter(|v| v.iter().all(|c| c.is_finite()))
+            .collect();
+        if finite.is_empty() {
+            return None;
+        }
+        let n = finite.len() as f64;
+        Some(std::array::from_fn(|c| {
+            finite.iter().map(|v| v[c] as f64).sum::<f64>() / n
+        }))
+    }
+}

@@ -1,0 +1,29 @@
+//! Integrand evaluation of the new samples only: `wgsl/mdas/evaluate.wgsl`.
+//!
+//! Samples are appended, so each iteration's new samples are one index
+//! range. Non-finite results are counted (`Render::nonfinite`) and
+//! excluded by every later kernel on their bits.
+
+use super::{gpu_params::Grid, Kernels};
+use crate::gpu::shader::Wgsl;
+use crate::integrand::Integrand;
+use crate::wgsl_file;
+
+pub fn source(base: &Wgsl, integrand: &dyn Integrand) -> Wgsl {
+    integrand
+        .wgsl()
+        .include(base)
+        .part(wgsl_file!("mdas/evaluate.wgsl"))
+}
+
+pub fn record(
+    pass: &mut wgpu::ComputePass<'_>,
+    k: &Kernels,
+    integrand: &dyn Integrand,
+    grid: Grid,
+) {
+    pass.set_pipeline(&k.evaluate);
+    pass.set_bind_group(0, &k.group0, &[]);
+    pass.set_bind_group(1, integrand.bind_group(), &[]);
+    pass.dispatch_workgroups(grid.x, grid.y, 1);
+}

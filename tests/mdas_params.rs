@@ -1,0 +1,132 @@
+//! MDAS parameter validation and capacity checks: every invalid
+//! combination is an error that names the parameter, raised before any GPU
+//! work.
+
+mod common;
+mod mdas_support;
+
+use common::{gpu, TestIntegrand};
+use mdas::integrator::{Integrator, Mdas};
+use mdas::scene::{Film, MdasParams};
+use mdas_support::params;
+
+fn new_err(p: MdasParams) -> String {
+    format!(
+        "{:#}",
+        Mdas::new(p).err().expect("parameters should be rejected")
+    )
+}
+
+#[test]
+fn invalid_parameters_are_rejected_by_new() {
+    let ok = params(1, 2, 1, 8.0, 0);
+    assert!(Mdas::new(ok).is_ok());
+    assert!(Mdas::new(MdasParams::default()).is_ok());
+    let cases: Vec<(&str, Box<dyn Fn(&mut MdasParams)>)> = vec![
+        (
+            "max_samples_per_leaf",
+            Box::new(|p| p.max_samples_per_leaf = 1),
+        ),
+        (
+            "max_samples_per_leaf",
+            Box::new(|p| p.max_samples_per_leaf = 15),
+        ),
+        (
+            "initial_samples_per_cell",
+            Box::new(|p| p.initial_samples_per_cell = 0),
+        ),
+        (
+            "initial_samples_per_cell",
+            Box::new(|p| p.initial_samples_per_cell = 5),
+        ),
+        ("candidates", Box::new(|p| p.candidates = 0)),
+        ("candidates", Box::new(|p| p.candidates = 65)),
+        ("alpha", Box::new(|p| p.alpha = -0.5)),
+        ("alpha", Box::new(|p| p.alpha = f32::NAN)),
+        ("scale_factor", Box::new(|p| p.scale_factor = 0.0)),
+        ("scale_factor", Box::new(|p| p.scale_factor = f32::INFINITY)),
+        ("spp", Box::new(|p| p.spp = 0.0)),
+        ("spp", Box::new(|p| p.spp = f32::NAN)),
+        ("extra_image_bits", Box::new(|p| p.extra_image_bits = 13)),
+    ];
+    for (key, change) in cases {
+        let mut p = ok;
+        change(&mut p);
+        let e = new_err(p);
+        assert!(
+            e.contains(key),
+            "error for a bad {key} does not name it: {e}"
+        );
+    }
+}
+
+fn render_err(p: MdasParams, dims: u32, film: Film) -> String {
+    let gpu = gpu();
+    let integrand = TestIntegrand::new(gpu, 0, dims, film);
+    let e = Mdas::new(p)
+        .unwrap()
+        .render(gpu, &integrand)
+        .err()
+        .expect("render should fail");
+    format!("{e:#}")
+}
+
+#[test]
+fn invalid_combinations_with_the_integrand_are_rejected_at_render() {
+    let film = Film {
+        width: 8,
+        height: 8,
+    };
+    // Budget below the initial samples: 2^(3·1 + 2·2) cells × 1 > 1 × 64.
+    let e = render_err(params(1, 2, 1, 1.0, 0), 3, film);
+    assert!(e.contains("initial samples") && e.contains("spp"), "{e}");
+    // Morton code too wide: 8·3 + 2·2 = 28 bits.
+    let e = render_err(params(3, 2, 1, 8.0, 0), 8, film);
+    assert!(e.contains("Morton") && e.contains("28"), "{e}");
+    // Too few or too many dimensions.
+    for dims in [2, 17] {
+        let e = render_err(params(0, 1, 1, 8.0, 0), dims, film);
+        assert!(e.contains("dimensions"), "{e}");
+    }
+    // Budget beyond the 27-bit sample index.
+    let e = render_err(
+        params(0, 1, 1, 3.0e6, 0),
+        3,
+        Film {
+            width: 8,
+            height: 8,
+        },
+    );
+    assert!(e.contains("exceeds"), "{e}");
+}
+
+#[test]
+fn capacity_is_checked_against_the_adapter_before_any_work() {
+    let gpu = gpu();
+    // 4096² × 7 spp ≈ 1.2e8 samples: samples alone need > 1 GiB, more than
+    // any one binding allows on lavapipe (128 MiB) and most GPUs.
+    let limit = gpu.max_binding_bytes();
+    let film = Film {
+        width: 4096,
+        height: 4096,
+    };
+    let mdas = Mdas::new(params(1, 4, 1, 7.0, 0)).unwrap();
+    let integrand = TestIntegrand::new(gpu, 0, 3, film);
+    let cfg = mdas.config(&integrand).unwrap();
+    if cfg.samples_bytes() > limit {
+        let start = std::time::Instant::now();
+        let e = format!(
+            "{:#}",
+            Mdas::new(params(1, 4, 1, 7.0, 0))
+                .unwrap()
+                .render(gpu, &integrand)
+                .err()
+                .unwrap()
+        );
+        assert!(e.contains("capacity") && e.contains("MiB"), "{e}");
+        assert!(
+            start.elapsed().as_secs_f64() < 5.0,
+            "the check must come before any work"
+        );
+    }
+}

@@ -1,0 +1,87 @@
+//! Helpers shared by the MDAS test binaries.
+#![allow(dead_code)]
+
+use crate::common::{gpu, TestIntegrand};
+use mdas::integrator::mdas::debug::Snapshot;
+use mdas::integrator::{Integrator, Mdas, Render};
+use mdas::scene::{Film, MdasParams};
+
+pub fn params(bits: u32, extra: u32, l: u32, spp: f32, seed: u32) -> MdasParams {
+    MdasParams {
+        bits_per_dim: bits,
+        extra_image_bits: extra,
+        initial_samples_per_cell: l,
+        scale_factor: 1.0,
+        alpha: 0.25,
+        candidates: 4,
+        max_samples_per_leaf: 4,
+        spp,
+        seed,
+    }
+}
+
+pub fn render(case: u32, dims: u32, film: Film, p: MdasParams) -> Render {
+    let gpu = gpu();
+    let integrand = TestIntegrand::new(gpu, case, dims, film);
+    Mdas::new(p).unwrap().render(gpu, &integrand).unwrap()
+}
+
+pub fn render_observed(case: u32, dims: u32, film: Film, p: MdasParams) -> (Render, Vec<Snapshot>) {
+    let gpu = gpu();
+    let integrand = TestIntegrand::new(gpu, case, dims, film);
+    let mut snaps = Vec::new();
+    let r = Mdas::new(p)
+        .unwrap()
+        .render_observed(gpu, &integrand, &mut |s| snaps.push(s.clone()))
+        .unwrap();
+    (r, snaps)
+}
+
+/// Exact area of the unit pixel (i, j) where 0.8·x + 0.6·y < 7.3 (test
+/// case 3), by clipping the square against the half-plane.
+pub fn edge_pixel_mean(i: u32, j: u32) -> f64 {
+    let f = |x: f64, y: f64| 7.3 - (0.8 * x + 0.6 * y);
+    let (x0, y0) = (i as f64, j as f64);
+    let square = [
+        (x0, y0),
+        (x0 + 1.0, y0),
+        (x0 + 1.0, y0 + 1.0),
+        (x0, y0 + 1.0),
+    ];
+    let mut poly = Vec::new();
+    for e in 0..4 {
+        let (a, b) = (square[e], square[(e + 1) % 4]);
+        let (fa, fb) = (f(a.0, a.1), f(b.0, b.1));
+        if fa >= 0.0 {
+            poly.push(a);
+        }
+        if (fa >= 0.0) != (fb >= 0.0) {
+            let t = fa / (fa - fb);
+            poly.push((a.0 + t * (b.0 - a.0), a.1 + t * (b.1 - a.1)));
+        }
+    }
+    let n = poly.len();
+    (0..n)
+        .map(|k| poly[k].0 * poly[(k + 1) % n].1 - poly[(k + 1) % n].0 * poly[k].1)
+        .sum::<f64>()
+        .abs()
+        / 2.0
+}
+
+pub fn edge_image(film: Film) -> Vec<[f32; 3]> {
+    (0..film.height)
+        .flat_map(|j| (0..film.width).map(move |i| [edge_pixel_mean(i, j) as f32; 3]))
+        .collect()
+}
+
+/// RelMSE of DESIGN.md: mean of (x − ref)² / (ref² + 0.01).
+pub fn relmse(x: &[[f32; 3]], reference: &[[f32; 3]]) -> f64 {
+    let mut sum = 0.0;
+    for (p, r) in x.iter().zip(reference) {
+        for c in 0..3 {
+            let (a, b) = (p[c] as f64, r[c] as f64);
+            sum += (a - b).powi(2) / (b * b + 0.01);
+        }
+    }
+    sum / (3 * x.len()) as f64
+}

@@ -1,0 +1,328 @@
+// Adaptive sampling (paper §4.2), two passes around scan.wgsl:
+//   count: every leaf decides (below) whether it is selected and whether
+//          it splits; per-workgroup totals go to `partials`. A selected
+//          leaf's error word (recomputed after this iteration anyway)
+//          holds the decision until `apply`: 1 | 0 | split | candidate
+//          index (6 bits) | axis (4) | plane (16), from bit 31 down: bit
+//          31 set and bit 30 clear never occur in an error (finite,
+//          non-negative) or in DIRTY. A leaf that cannot split is marked
+//          collapsed here.
+//   apply: reads the decisions, a workgroup scan plus the scanned
+//          workgroup prefixes give each new sample and each right child
+//          its slot (in leaf order: deterministic), regenerates the
+//          winning candidate from its index and updates the leaf.
+// Decision of leaf k in iteration t (random numbers: draw(leaf_key(k, t),
+// stream), see common.wgsl):
+//   * collapsed leaves are skipped;
+//   * selected iff E = E_max or E ≥ E_max·ξ^(1/α) (⇔ (E/E_max)^α ≥ ξ,
+//     ξ ∈ (0,1) stream 0; α = 0 selects all);
+//   * best candidate: CANDIDATES uniform quanta in the box (candidate c,
+//     axis a: 16 bits of stream 1 + c·COORD_WORDS + a/2, low half for even
+//     a, high for odd), the one farthest (scaled squared distance) from
+//     the leaf's own samples wins, first on ties;
+//   * a leaf holding MAX_PER_LEAF samples splits once the candidate is in:
+//     on the axis with the largest scaled extent among those where the
+//     object median separates (sorted quanta v[h−1] < v[h], h = ⌊(m+1)/2⌋)
+//     at plane ⌈(v[h−1] + v[h]) / 2⌉; left keeps h samples and the leaf
+//     slot, right (m + 1 − h) is appended. If no axis separates, the leaf
+//     is marked collapsed instead and takes no sample (it stops splitting).
+// Budget: with S selected leaves and R samples left, S ≤ R inserts all;
+// otherwise the selected leaf of rank r keeps its sample iff
+// ⌊(r+1)R/S⌋ > ⌊rR/S⌋ (exactly R, spread evenly over the leaf order), and
+// that last iteration does not split.
+
+struct Decision {
+    selected: bool,
+    split: bool,
+    collapse: bool,
+    axis: u32,
+    plane: u32,
+    cand_index: u32,
+    cand: array<u32, DIMS>,
+}
+
+const DECISION_MARK: u32 = 0x80000000u;
+const DECISION_MASK: u32 = 0xc0000000u;
+const DECISION_SPLIT: u32 = 0x04000000u;
+
+fn encode_decision(d: Decision) -> u32 {
+    return DECISION_MARK | select(0u, DECISION_SPLIT, d.split) | (d.cand_index << 20u) | (d.axis << 16u) | d.plane;
+}
+
+// Candidate c of the leaf with key `key`: uniform quanta of its box, two
+// axes per draw (16 bits each).
+fn candidate(key: u32, c: u32, lo: array<u32, DIMS>, hi: array<u32, DIMS>) -> array<u32, DIMS> {
+    var q: array<u32, DIMS>;
+    for (var axis = 0u; axis < DIMS; axis++) {
+        let r = draw(key, 1u + c * COORD_WORDS + axis / 2u);
+        let r16 = select(r & 0xffffu, r >> 16u, axis % 2u == 1u);
+        q[axis] = lo[axis] + uniform_below(r16, hi[axis] - lo[axis]);
+    }
+    return q;
+}
+
+fn decide(k: u32) -> Decision {
+    var d: Decision;
+    d.selected = false;
+    d.split = false;
+    d.collapse = false;
+    d.axis = 0u;
+    d.plane = 0u;
+    if (k >= params.leaf_count) {
+        return d;
+    }
+    let base = leaf_base(k);
+    let h = leaves[base + 1u];
+    if (header_collapsed(h)) {
+        return d;
+    }
+    let e_bits = leaves[base + 2u];
+    let emax_bits = atomicLoad(&counters[C_EMAX]);
+    var selected = e_bits == emax_bits || params.select_all != 0u;
+    if (!selected) {
+        let xi = draw_open(leaf_key(k, params.iteration), 0u);  // stream 0
+        selected = bitcast<f32>(e_bits) >= bitcast<f32>(emax_bits) * pow(xi, params.inv_alpha);
+    }
+    if (!selected) {
+        return d;
+    }
+
+    // Best candidate among CANDIDATES uniform points of the box.
+    let key = leaf_key(k, params.iteration);
+    let head = header_head(h);
+    let count = header_count(h);
+    var quantum: array<f32, DIMS>;
+    var lo: array<u32, DIMS>;
+    var hi: array<u32, DIMS>;
+    for (var axis = 0u; axis < DIMS; axis++) {
+        quantum[axis] = axis_quantum(axis);
+        let word = boxes[box_base(k) + axis];
+        lo[axis] = box_lo(word);
+        hi[axis] = box_hi(word);
+    }
+    var best = -1.0;
+    for (var c = 0u; c < CANDIDATES; c++) {
+        let q = candidate(key, c, lo, hi);
+        var nearest = 3.0e38;
+        var s = head;
+        for (var i = 0u; i < count; i++) {
+            var dist = 0.0;
+            for (var axis = 0u; axis < DIMS; axis++) {
+                let t = (f32(q[axis]) - f32(sample_q(s, axis))) * quantum[axis];
+                dist += t * t;
+            }
+            nearest = min(nearest, dist);
+            s = sample_next(s);
+        }
+        if (nearest > best) {
+            best = nearest;
+            d.cand = q;
+            d.cand_index = c;
+        }
+    }
+
+    // Split test on the m existing samples plus the candidate.
+    if (count >= MAX_PER_LEAF) {
+        var list: array<u32, 16>;
+        var s = head;
+        for (var i = 0u; i < count; i++) {
+            list[i] = s;
+            s = sample_next(s);
+        }
+        let n = count + 1u;
+        let half = n / 2u;
+        var best_extent = -1.0;
+        for (var axis = 0u; axis < DIMS; axis++) {
+            var v: array<u32, 16>;
+            for (var i = 0u; i < count; i++) {
+                v[i] = sample_q(list[i], axis);
+            }
+            v[count] = d.cand[axis];
+            // Insertion sort of n ≤ 15 values.
+            for (var i = 1u; i < n; i++) {
+                let x = v[i];
+                var j = i;
+                while (j > 0u && v[j - 1u] > x) {
+                    v[j] = v[j - 1u];
+                    j -= 1u;
+                }
+                v[j] = x;
+            }
+            if (v[half - 1u] < v[half]) {
+                let extent = f32(hi[axis] - lo[axis]) * quantum[axis];
+                if (extent > best_extent) {
+                    best_extent = extent;
+                    d.axis = axis;
+                    d.plane = (v[half - 1u] + v[half] + 1u) / 2u;
+                }
+            }
+        }
+        if (best_extent < 0.0) {
+            d.collapse = true;
+            return d;
+        }
+        d.split = true;
+    }
+    d.selected = true;
+    return d;
+}
+
+@compute @workgroup_size(WG)
+fn count(@builtin(global_invocation_id) gid: vec3<u32>,
+         @builtin(local_invocation_index) lid: u32,
+         @builtin(workgroup_id) wid: vec3<u32>) {
+    let k = thread_index(gid);
+    let d = decide(k);
+    if (d.collapse) {
+        leaves[leaf_base(k) + 1u] |= COLLAPSED_BIT;
+        atomicAdd(&counters[C_COLLAPSED], 1u);
+    }
+    if (d.selected) {
+        leaves[leaf_base(k) + 2u] = encode_decision(d);
+    }
+    let v = vec2<u32>(u32(d.selected), u32(d.split));
+    let prefix = workgroup_scan(lid, v);
+    let g = workgroup_index(wid);
+    if (lid == WG - 1u && g < params.partial_count) {
+        let total = prefix + v;
+        partials[2u * g] = total.x;
+        partials[2u * g + 1u] = total.y;
+    }
+}
+
+// ⌊a·b / c⌋ for a ≤ c (so the quotient fits in 32 bits), c ≤ 2^31:
+// 32×32 → 64-bit product from 16-bit halves, then binary long division.
+fn mul_div(a: u32, b: u32, c: u32) -> u32 {
+    let a0 = a & 0xffffu;
+    let a1 = a >> 16u;
+    let b0 = b & 0xffffu;
+    let b1 = b >> 16u;
+    let p00 = a0 * b0;
+    let p01 = a0 * b1;
+    let p10 = a1 * b0;
+    let mid = (p00 >> 16u) + (p01 & 0xffffu) + (p10 & 0xffffu);
+    let lo = (p00 & 0xffffu) | (mid << 16u);
+    let hi = a1 * b1 + (p01 >> 16u) + (p10 >> 16u) + (mid >> 16u);
+    var rem = 0u;
+    var q = 0u;
+    for (var i = 0u; i < 64u; i++) {
+        let bit_pos = 63u - i;
+        var bit: u32;
+        if (bit_pos >= 32u) {
+            bit = (hi >> (bit_pos - 32u)) & 1u;
+        } else {
+            bit = (lo >> bit_pos) & 1u;
+        }
+        rem = (rem << 1u) | bit;
+        q = q << 1u;
+        if (rem >= c) {
+            rem -= c;
+            q |= 1u;
+        }
+    }
+    return q;
+}
+
+@compute @workgroup_size(WG)
+fn apply(@builtin(global_invocation_id) gid: vec3<u32>,
+         @builtin(local_invocation_index) lid: u32,
+         @builtin(workgroup_id) wid: vec3<u32>) {
+    let k = thread_index(gid);
+    var word = 0u;
+    if (k < params.leaf_count) {
+        word = leaves[leaf_base(k) + 2u];
+    }
+    let selected = (word & DECISION_MASK) == DECISION_MARK;
+    let split = selected && (word & DECISION_SPLIT) != 0u;
+    let local = workgroup_scan(lid, vec2<u32>(u32(selected), u32(split)));
+    if (!selected) {
+        return;
+    }
+    let base = leaf_base(k);
+    let h = leaves[base + 1u];
+    // Recomputed next iteration, whether or not the sample is kept.
+    leaves[base + 2u] = DIRTY;
+    var d: Decision;
+    d.split = split;
+    d.axis = (word >> 16u) & 15u;
+    d.plane = word & 0xffffu;
+    var lo: array<u32, DIMS>;
+    var hi: array<u32, DIMS>;
+    for (var axis = 0u; axis < DIMS; axis++) {
+        let box = boxes[box_base(k) + axis];
+        lo[axis] = box_lo(box);
+        hi[axis] = box_hi(box);
+    }
+    d.cand = candidate(leaf_key(k, params.iteration), (word >> 20u) & 63u, lo, hi);
+    let g = workgroup_index(wid);
+    let n = params.sample_count;
+    let left_over = params.budget - n;
+    let selected_total = atomicLoad(&counters[C_SELECTED]);
+    let truncate = selected_total > left_over;
+    let rank = partials[2u * g] + local.x;
+    var slot = n + rank;
+    if (truncate) {
+        let before = mul_div(rank, left_over, selected_total);
+        let after = mul_div(rank + 1u, left_over, selected_total);
+        if (after == before) {
+            return;
+        }
+        slot = n + after - 1u;
+    }
+
+    // Write the new sample; the evaluate kernel finds its cell in values.
+    var words: array<u32, COORD_WORDS>;
+    for (var w = 0u; w < COORD_WORDS; w++) {
+        words[w] = 0u;
+    }
+    for (var axis = 0u; axis < DIMS; axis++) {
+        words[axis / 2u] |= d.cand[axis] << (16u * (axis % 2u));
+    }
+    for (var w = 0u; w < COORD_WORDS; w++) {
+        samples[slot * SAMPLE_STRIDE + w] = words[w];
+    }
+    values[4u * slot] = leaves[base];
+    let head = header_head(h);
+    let count = header_count(h);
+
+    if (!d.split || truncate) {
+        set_sample_next(slot, head);
+        leaves[base + 1u] = make_header(slot, count + 1u);
+        return;
+    }
+
+    // Object-median split: relink the m + 1 samples into two lists.
+    var left_head = NIL;
+    var left_count = 0u;
+    var right_head = NIL;
+    var right_count = 0u;
+    var s = slot;
+    var next = head;
+    for (var i = 0u; i <= count; i++) {
+        if (sample_q(s, d.axis) < d.plane) {
+            set_sample_next(s, left_head);
+            left_head = s;
+            left_count += 1u;
+        } else {
+            set_sample_next(s, right_head);
+            right_head = s;
+            right_count += 1u;
+        }
+        s = next;
+        if (s != NIL) {
+            next = sample_next(s);
+        }
+    }
+    let right = params.leaf_count + partials[2u * g + 1u] + local.y;
+    let rbase = leaf_base(right);
+    let axis_word = boxes[box_base(k) + d.axis];
+    for (var axis = 0u; axis < DIMS; axis++) {
+        boxes[box_base(right) + axis] = boxes[box_base(k) + axis];
+    }
+    boxes[box_base(k) + d.axis] = make_box(box_lo(axis_word), d.plane);
+    boxes[box_base(right) + d.axis] = make_box(d.plane, box_hi(axis_word));
+    leaves[base + 1u] = make_header(left_head, left_count);
+    leaves[rbase] = leaves[base];
+    leaves[rbase + 1u] = make_header(right_head, right_count);
+    leaves[rbase + 2u] = DIRTY;
+}

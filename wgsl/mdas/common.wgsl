@@ -1,0 +1,258 @@
+// Bindings, parameters and storage layout shared by the MDAS kernels.
+// src/integrator/mdas/mod.rs documents the layout and generates the
+// constants used here: DIMS, BITS_PER_DIM, EXTRA_BITS, SAMPLES_PER_CELL,
+// MAX_PER_LEAF, CANDIDATES, COORD_WORDS, SAMPLE_STRIDE, LEAF_STRIDE, WG,
+// PIXELS_PER_PASS. Needs shared/rng.wgsl and shared/morton.wgsl.
+//
+// leaves[k·LEAF_STRIDE + …] (LEAF_STRIDE = 3): 0 Morton cell, 1 header
+// (head sample | count << 27 | collapsed << 31), 2 error bits (DIRTY =
+// recompute). boxes[k·DIMS + a]: the box along axis a (lo | hi << 16,
+// inclusive quanta of the cell, 2^16 each). Two buffers so that neither
+// binding outgrows 128 MiB as soon as the samples' values do.
+// samples[s·SAMPLE_STRIDE + …]: SAMPLE_STRIDE = ⌈DIMS/2⌉ words of two
+// 16-bit quanta (cell-relative). Only placement reads them, so the
+// reconstruction reuses this buffer for its accumulators.
+// values[4s + c]: f32 bits of channel c (an unevaluated sample holds its
+// Morton cell in values[4s]); values[4s + 3]: the next sample of the
+// leaf's list (NIL ends it).
+
+struct Params {
+    seed: u32,
+    iteration: u32,
+    leaf_count: u32,
+    sample_count: u32,
+    budget: u32,
+    row_threads: u32,
+    partial_count: u32,
+    pass_offset: u32,
+    width: u32,
+    height: u32,
+    fixed_exp: i32,
+    select_all: u32,
+    scale_factor: f32,
+    inv_alpha: f32,
+    epsilon: f32,
+    eval_count: u32,
+}
+
+@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(1) var<storage, read_write> leaves: array<u32>;
+@group(0) @binding(2) var<storage, read_write> samples: array<u32>;
+@group(0) @binding(3) var<storage, read_write> values: array<u32>;
+@group(0) @binding(4) var<storage, read_write> partials: array<u32>;
+@group(0) @binding(5) var<storage, read_write> counters: array<atomic<u32>>;
+@group(0) @binding(6) var<storage, read_write> accum: array<atomic<u32>>;
+@group(0) @binding(7) var<storage, read_write> boxes: array<u32>;
+
+const NIL: u32 = 0x7ffffffu;
+const DIRTY: u32 = 0xffffffffu;
+const COUNT_SHIFT: u32 = 27u;
+const COLLAPSED_BIT: u32 = 0x80000000u;
+const QUANTUM_BITS: u32 = 16u;
+
+// counters[]
+const C_EMAX: u32 = 0u;
+const C_SELECTED: u32 = 1u;
+const C_SPLITS: u32 = 2u;
+const C_NONFINITE: u32 = 3u;
+const C_MAXABS: u32 = 4u;   // 3 words, f32 bits of max |f| per channel
+const C_COLLAPSED: u32 = 7u;
+
+// Linear thread index of a 2D dispatch.
+fn thread_index(gid: vec3<u32>) -> u32 {
+    return gid.x + gid.y * params.row_threads;
+}
+
+fn workgroup_index(wid: vec3<u32>) -> u32 {
+    return wid.x + wid.y * (params.row_threads / WG);
+}
+
+// ---- random numbers keyed by (leaf, iteration, stream) and the seed ----
+
+// The key of (leaf, iteration) under the seed: three hash rounds, once
+// per leaf and kernel.
+fn leaf_key(leaf: u32, iteration: u32) -> u32 {
+    return hash3(leaf, iteration, params.seed);
+}
+
+// Draw number `stream` of a key: one more hash round.
+fn draw(key: u32, stream: u32) -> u32 {
+    return hash_u32(key + stream * 0x9e3779b9u);
+}
+
+// Uniform in the open interval (0, 1).
+fn draw_open(key: u32, stream: u32) -> f32 {
+    return (f32(draw(key, stream) >> 8u) + 0.5) * (1.0 / 16777216.0);
+}
+
+// Uniform integer in [0, n), n ≤ 2^16, from 16 random bits r16.
+fn uniform_below(r16: u32, n: u32) -> u32 {
+    return (r16 * n) >> 16u;
+}
+
+// ---- leaves ----
+
+fn leaf_base(k: u32) -> u32 {
+    return k * LEAF_STRIDE;
+}
+
+fn box_base(k: u32) -> u32 {
+    return k * DIMS;
+}
+
+fn header_head(h: u32) -> u32 {
+    return h & NIL;
+}
+
+fn header_count(h: u32) -> u32 {
+    return (h >> COUNT_SHIFT) & 15u;
+}
+
+fn header_collapsed(h: u32) -> bool {
+    return (h & COLLAPSED_BIT) != 0u;
+}
+
+fn make_header(head: u32, count: u32) -> u32 {
+    return head | (count << COUNT_SHIFT);
+}
+
+fn box_lo(word: u32) -> u32 {
+    return word & 0xffffu;
+}
+
+// Exclusive upper bound in quanta (1 ..= 2^16).
+fn box_hi(word: u32) -> u32 {
+    return (word >> 16u) + 1u;
+}
+
+fn make_box(lo: u32, hi_exclusive: u32) -> u32 {
+    return lo | ((hi_exclusive - 1u) << 16u);
+}
+
+// ---- samples ----
+
+fn sample_q(s: u32, axis: u32) -> u32 {
+    return (samples[s * SAMPLE_STRIDE + axis / 2u] >> (16u * (axis % 2u))) & 0xffffu;
+}
+
+fn sample_next(s: u32) -> u32 {
+    return values[4u * s + 3u];
+}
+
+fn set_sample_next(s: u32, next: u32) {
+    values[4u * s + 3u] = next;
+}
+
+fn sample_value_bits(s: u32) -> vec3<u32> {
+    return vec3<u32>(values[4u * s], values[4u * s + 1u], values[4u * s + 2u]);
+}
+
+fn finite_bits(v: vec3<u32>) -> bool {
+    let e = v & vec3<u32>(0x7f800000u);
+    return all(e != vec3<u32>(0x7f800000u));
+}
+
+// ---- cell geometry ----
+
+// Bits of cell coordinate along `axis` (b, plus e for film axes).
+fn axis_bits(axis: u32) -> u32 {
+    return BITS_PER_DIM + select(0u, EXTRA_BITS, axis < 2u);
+}
+
+// Extent of the scaled domain along `axis`: sf·W, sf·H, else 1 (§5.1).
+fn axis_side(axis: u32) -> f32 {
+    if (axis == 0u) {
+        return params.scale_factor * f32(params.width);
+    }
+    if (axis == 1u) {
+        return params.scale_factor * f32(params.height);
+    }
+    return 1.0;
+}
+
+// Normalized [0, 1] coordinate of quantum boundary q of cell coordinate c.
+fn axis_coord(axis: u32, c: u32, q: f32) -> f32 {
+    return ldexp(f32(c) * 65536.0 + q, -i32(QUANTUM_BITS + axis_bits(axis)));
+}
+
+// Size of one quantum along `axis` in the scaled domain.
+fn axis_quantum(axis: u32) -> f32 {
+    return ldexp(axis_side(axis), -i32(QUANTUM_BITS + axis_bits(axis)));
+}
+
+fn leaf_cell_coords(k: u32) -> array<u32, MAX_DIMS> {
+    return morton_decode(leaves[leaf_base(k)], DIMS, BITS_PER_DIM, EXTRA_BITS);
+}
+
+// Mean of the finite samples of a leaf's list (w = number of them).
+struct LeafMean {
+    mean: vec3<f32>,
+    finite: u32,
+}
+
+fn leaf_mean(head: u32, count: u32) -> LeafMean {
+    var n = 0u;
+    var s = head;
+    for (var i = 0u; i < count; i++) {
+        if (finite_bits(sample_value_bits(s))) {
+            n += 1u;
+        }
+        s = sample_next(s);
+    }
+    var mean = vec3<f32>(0.0);
+    if (n > 0u) {
+        // Each term is scaled before summing so that the sum cannot overflow.
+        let inv_n = 1.0 / f32(n);
+        s = head;
+        for (var i = 0u; i < count; i++) {
+            let bits = sample_value_bits(s);
+            if (finite_bits(bits)) {
+                mean += bitcast<vec3<f32>>(bits) * inv_n;
+            }
+            s = sample_next(s);
+        }
+    }
+    return LeafMean(mean, n);
+}
+
+// ---- workgroup scan (two-level, deterministic) ----
+//
+// WG/SEGMENT segments of SEGMENT values: the first WG/SEGMENT invocations
+// scan one segment each, invocation 0 scans the segment totals. Three
+// barriers instead of the 2·log2(WG) of a Hillis–Steele scan: barriers are
+// what costs on CPU drivers (lavapipe runs a workgroup as coroutines), and
+// the serial runs of 16 are short on GPUs too.
+
+const SEGMENT: u32 = 16u;
+
+var<workgroup> wg_scan: array<vec2<u32>, WG>;
+var<workgroup> wg_segment: array<vec2<u32>, 16>;
+var<workgroup> wg_total: vec2<u32>;
+
+// Exclusive prefix sum of `v` over the workgroup; afterwards wg_total
+// holds the workgroup total. Call in uniform control flow.
+fn workgroup_scan(lid: u32, v: vec2<u32>) -> vec2<u32> {
+    wg_scan[lid] = v;
+    workgroupBarrier();
+    if (lid < WG / SEGMENT) {
+        var run = vec2<u32>(0u);
+        for (var i = 0u; i < SEGMENT; i++) {
+            let x = wg_scan[lid * SEGMENT + i];
+            wg_scan[lid * SEGMENT + i] = run;
+            run += x;
+        }
+        wg_segment[lid] = run;
+    }
+    workgroupBarrier();
+    if (lid == 0u) {
+        var run = vec2<u32>(0u);
+        for (var i = 0u; i < WG / SEGMENT; i++) {
+            let x = wg_segment[i];
+            wg_segment[i] = run;
+            run += x;
+        }
+        wg_total = run;
+    }
+    workgroupBarrier();
+    return wg_scan[lid] + wg_segment[lid / SEGMENT];
+}

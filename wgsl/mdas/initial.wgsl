@@ -1,0 +1,48 @@
+// Initial sampling (paper §4.1): one invocation per Morton cell. The cell
+// becomes leaf `cell` (full box, error DIRTY) holding SAMPLES_PER_CELL
+// samples at indices cell·l .. cell·l + l − 1, Latin-hypercube stratified
+// inside the cell: along every axis sample j takes stratum rank_a(j) of l
+// equal strata, rank_a a random permutation (ranks of hashed keys), and a
+// uniform quantum inside it. Random numbers: draw(leaf_key(cell, 0), …).
+
+@compute @workgroup_size(WG)
+fn initial(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let cell = thread_index(gid);
+    if (cell >= params.leaf_count) {
+        return;
+    }
+    let first = cell * SAMPLES_PER_CELL;
+    let cell_key = leaf_key(cell, 0u);
+    for (var j = 0u; j < SAMPLES_PER_CELL; j++) {
+        let s = first + j;
+        var words: array<u32, COORD_WORDS>;
+        for (var w = 0u; w < COORD_WORDS; w++) {
+            words[w] = 0u;
+        }
+        for (var axis = 0u; axis < DIMS; axis++) {
+            let key = draw(cell_key, 2u * (axis * 16u + j));
+            var rank = 0u;
+            for (var i = 0u; i < SAMPLES_PER_CELL; i++) {
+                let other = draw(cell_key, 2u * (axis * 16u + i));
+                if (other < key || (other == key && i < j)) {
+                    rank += 1u;
+                }
+            }
+            let jitter = draw(cell_key, 2u * (axis * 16u + j) + 1u) >> 16u;
+            let q = (rank * 65536u + jitter) / SAMPLES_PER_CELL;
+            words[axis / 2u] |= q << (16u * (axis % 2u));
+        }
+        for (var w = 0u; w < COORD_WORDS; w++) {
+            samples[s * SAMPLE_STRIDE + w] = words[w];
+        }
+        set_sample_next(s, select(s - 1u, NIL, j == 0u));
+        values[4u * s] = cell;
+    }
+    let base = leaf_base(cell);
+    leaves[base] = cell;
+    leaves[base + 1u] = make_header(first + SAMPLES_PER_CELL - 1u, SAMPLES_PER_CELL);
+    leaves[base + 2u] = DIRTY;
+    for (var axis = 0u; axis < DIMS; axis++) {
+        boxes[box_base(cell) + axis] = make_box(0u, 65536u);
+    }
+}

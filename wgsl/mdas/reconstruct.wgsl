@@ -1,0 +1,93 @@
+// Reconstruction (paper eq. 7, §4.3): every leaf with a finite mean f̄
+// splats w·f̄ onto each pixel its film projection overlaps, w = (exact
+// overlap area of the projection with the pixel, raster units) × (volume
+// of the leaf's non-film extent), and w itself into a fourth channel. The
+// host divides the sums by the weight sum (= the pixel area 1 when every
+// leaf has a finite mean; less where a region produced only NaN/Inf).
+//
+// Sums are 64-bit two's-complement fixed point, added with a 32-bit
+// atomicAdd on the low word and the carry folded into the high word:
+// integer addition is associative, so the result does not depend on the
+// order of the atomics. Colour terms are scaled by 2^fixed_exp with
+// fixed_exp = 60 − ⌈log2 max|f|⌉ (so |Σ| < 2^61 for every pixel), weights by
+// 2^60. Each leaf covers at most PIXELS_PER_PASS pixels per dispatch;
+// the host dispatches pass_offset = 0, PIXELS_PER_PASS, … as needed, which
+// bounds every invocation's loop (lavapipe ends loops at 65,535).
+
+// Round a finite |x| < 2^63 to the nearest-below integer (toward zero),
+// as two's-complement 64 bits (lo, hi). floor(|x|/2^32) and the remainder
+// are exact in f32 (the remainder is a multiple of ulp(x) below 2^32).
+fn to_fixed(x: f32) -> vec2<u32> {
+    let a = abs(x);
+    let hi_f = floor(a * (1.0 / 4294967296.0));
+    let lo_f = a - hi_f * 4294967296.0;
+    var lo = u32(lo_f);
+    var hi = u32(hi_f);
+    if (x < 0.0) {
+        lo = ~lo + 1u;
+        hi = ~hi + select(0u, 1u, lo == 0u);
+    }
+    return vec2<u32>(lo, hi);
+}
+
+fn add_fixed(word: u32, v: vec2<u32>) {
+    if (v.x == 0u && v.y == 0u) {
+        return;
+    }
+    let old = atomicAdd(&accum[word], v.x);
+    let carry = select(0u, 1u, old + v.x < old);
+    let high = v.y + carry;
+    if (high != 0u) {
+        atomicAdd(&accum[word + 1u], high);
+    }
+}
+
+@compute @workgroup_size(WG)
+fn reconstruct(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let k = thread_index(gid);
+    if (k >= params.leaf_count) {
+        return;
+    }
+    let base = leaf_base(k);
+    let h = leaves[base + 1u];
+    let m = leaf_mean(header_head(h), header_count(h));
+    if (m.finite == 0u) {
+        return;
+    }
+    let cell = leaf_cell_coords(k);
+    var nonfilm = 1.0;
+    for (var axis = 2u; axis < DIMS; axis++) {
+        let word = boxes[box_base(k) + axis];
+        nonfilm *= ldexp(f32(box_hi(word) - box_lo(word)), -i32(QUANTUM_BITS + axis_bits(axis)));
+    }
+    let wx = f32(params.width);
+    let hy = f32(params.height);
+    let bx = boxes[box_base(k)];
+    let by = boxes[box_base(k) + 1u];
+    let x0 = axis_coord(0u, cell[0], f32(box_lo(bx))) * wx;
+    let x1 = axis_coord(0u, cell[0], f32(box_hi(bx))) * wx;
+    let y0 = axis_coord(1u, cell[1], f32(box_lo(by))) * hy;
+    let y1 = axis_coord(1u, cell[1], f32(box_hi(by))) * hy;
+    let i0 = u32(floor(x0));
+    let i1 = min(u32(ceil(x1)), params.width);
+    let j0 = u32(floor(y0));
+    let j1 = min(u32(ceil(y1)), params.height);
+    let nx = i1 - i0;
+    let total = nx * (j1 - j0);
+    let end = min(total, params.pass_offset + PIXELS_PER_PASS);
+    for (var t = params.pass_offset; t < end; t++) {
+        let i = i0 + t % nx;
+        let j = j0 + t / nx;
+        let ox = min(x1, f32(i + 1u)) - max(x0, f32(i));
+        let oy = min(y1, f32(j + 1u)) - max(y0, f32(j));
+        if (ox <= 0.0 || oy <= 0.0) {
+            continue;
+        }
+        let w = ox * oy * nonfilm;
+        let word = 8u * (j * params.width + i);
+        for (var c = 0u; c < 3u; c++) {
+            add_fixed(word + 2u * c, to_fixed(ldexp(m.mean[c] * w, params.fixed_exp)));
+        }
+        add_fixed(word + 6u, to_fixed(ldexp(w, 60)));
+    }
+}
