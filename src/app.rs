@@ -5,9 +5,11 @@
 use crate::accel::GpuScene;
 use crate::gpu::Gpu;
 use crate::image_io;
-use crate::integrand::{AreaLight, Integrand};
+use crate::integrand::{
+    AmbientOcclusion, AreaLight, DepthOfField, Integrand, MotionBlur, PathTracing,
+};
 use crate::integrator::{Halton, Integrator, Render};
-use crate::scene::{Film, IntegrandSpec, Scene};
+use crate::scene::{Film, IntegrandSpec, MdasParams, Scene};
 use anyhow::{bail, Context, Result};
 use sha2::{Digest, Sha256};
 use std::path::{Path, PathBuf};
@@ -27,11 +29,28 @@ pub fn scaled_film(film: Film, scale: f32) -> Result<Film> {
     })
 }
 
+/// The scene's MDAS parameters for a `--scale F` render. The initial grid
+/// has 2^e cells per film axis (e = `extra_image_bits`) whatever the film
+/// size, so at a reduced scale e is lowered by round(log2(1/F)) (at least
+/// 0) to keep the same number of initial cells per pixel.
+pub fn mdas_params_at_scale(params: MdasParams, scale: f32) -> MdasParams {
+    let reduce = (1.0 / scale as f64).log2().round().max(0.0) as u32;
+    MdasParams { extra_image_bits: params.extra_image_bits.saturating_sub(reduce), ..params }
+}
+
 /// Builds the scene's GPU representation and its integrand over `film`.
 pub fn integrand_for(gpu: &Gpu, scene: &Scene, film: Film) -> Result<Box<dyn Integrand>> {
     let gpu_scene = Arc::new(GpuScene::new(gpu, scene, film)?);
     Ok(match scene.integrand {
         IntegrandSpec::AreaLight => Box::new(AreaLight::new(gpu_scene, film)),
+        IntegrandSpec::DepthOfField => Box::new(DepthOfField::new(gpu_scene, film)),
+        IntegrandSpec::MotionBlur => Box::new(MotionBlur::new(gpu_scene, film)),
+        IntegrandSpec::PathTracing { max_bounces } => {
+            Box::new(PathTracing::new(gpu_scene, film, max_bounces)?)
+        }
+        IntegrandSpec::AmbientOcclusion { radius } => {
+            Box::new(AmbientOcclusion::new(gpu_scene, film, radius)?)
+        }
     })
 }
 
@@ -141,4 +160,27 @@ fn check_finite(render: &Render) -> Result<()> {
         );
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn scaled_mdas_grid_keeps_cells_per_pixel() {
+        let p = MdasParams { extra_image_bits: 8, ..Default::default() };
+        assert_eq!(mdas_params_at_scale(p, 1.0).extra_image_bits, 8);
+        assert_eq!(mdas_params_at_scale(p, 0.5).extra_image_bits, 7);
+        assert_eq!(mdas_params_at_scale(p, 1.0 / 16.0).extra_image_bits, 4);
+        assert_eq!(mdas_params_at_scale(p, 1.0 / 1024.0).extra_image_bits, 0);
+        assert_eq!(mdas_params_at_scale(p, 2.0).extra_image_bits, 8);
+    }
+
+    #[test]
+    fn scaled_films_round_and_stay_non_empty() {
+        let f = Film { width: 128, height: 96 };
+        assert_eq!(scaled_film(f, 0.25).unwrap(), Film { width: 32, height: 24 });
+        assert_eq!(scaled_film(f, 0.001).unwrap(), Film { width: 1, height: 1 });
+        assert!(scaled_film(f, 0.0).is_err() && scaled_film(f, f32::NAN).is_err());
+    }
 }

@@ -352,12 +352,12 @@ fn unknown_keys_are_named_with_their_line() {
     );
     let m = error_at(
         "unknown-integrand",
-        &format!("{BASE}[integrand]\ntype = \"path\"\n"),
+        &format!("{BASE}[integrand]\ntype = \"pathtracer\"\n"),
         13,
         8,
     );
     assert!(
-        m.contains("unknown integrand type 'path', expected one of 'area_light'"),
+        m.contains("unknown integrand type 'pathtracer', expected one of 'area_light'"),
         "{m}"
     );
     let m = error_at("unknown-mdas", &format!("{BASE}[mdas]\nsp = 4\n"), 13, 1);

@@ -11,9 +11,12 @@
 //! Emission is one-sided (the side the geometric normal faces); reflection
 //! is two-sided. Camera rays use the lens centre and shutter-open time.
 //!
+//! The estimator lives in `wgsl/shared/shading.wgsl` (`direct_area_light`),
+//! shared with the path tracer's NEE.
+//!
 //! Scene file: `[integrand] type = "area_light"` (no parameters).
 
-use super::{point_wgsl, Integrand};
+use super::{scene_wgsl, Integrand};
 use crate::accel::GpuScene;
 use crate::gpu::shader::Wgsl;
 use crate::scene::Film;
@@ -47,11 +50,7 @@ impl Integrand for AreaLight {
     }
 
     fn wgsl(&self) -> Wgsl {
-        point_wgsl()
-            .include(&GpuScene::wgsl())
-            .part(wgsl_file!("shared/sampling.wgsl"))
-            .part(wgsl_file!("shared/camera.wgsl"))
-            .part(wgsl_file!("area_light.wgsl"))
+        scene_wgsl().part(wgsl_file!("area_light.wgsl"))
     }
 
     fn layout(&self) -> &wgpu::BindGroupLayout {

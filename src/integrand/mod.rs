@@ -18,14 +18,34 @@
 //! dimension k + 2. Its resources live in bind group 1; group 0 belongs to
 //! the integrator. An integrand knows nothing of how its points were chosen,
 //! and every integrator can drive every integrand.
+//!
+//! | module                  | scene-file `type`    | d            | dimensions 2.. |
+//! |-------------------------|----------------------|--------------|----------------|
+//! | [`area_light`]          | `area_light`         | 4            | emitter point (2) |
+//! | [`depth_of_field`]      | `depth_of_field`     | 4            | lens (2) |
+//! | [`motion_blur`]         | `motion_blur`        | 3            | shutter time (1) |
+//! | [`path`]                | `path`               | 2+2m / 4+4m  | per vertex: [area NEE (2)], bounce (2) |
+//! | [`ambient_occlusion`]   | `ambient_occlusion`  | 4            | hemisphere direction (2) |
+//!
+//! The scene integrands share `wgsl/shared/shading.wgsl` (surface records,
+//! ray offsets, delta-light and area-light direct lighting).
 
+pub mod ambient_occlusion;
 pub mod area_light;
+pub mod depth_of_field;
+pub mod motion_blur;
+pub mod path;
 
+use crate::accel::GpuScene;
 use crate::gpu::shader::Wgsl;
 use crate::scene::Film;
 use crate::wgsl_file;
 
+pub use ambient_occlusion::AmbientOcclusion;
 pub use area_light::AreaLight;
+pub use depth_of_field::DepthOfField;
+pub use motion_blur::MotionBlur;
+pub use path::PathTracing;
 
 /// Most dimensions (film included) any integrand may use.
 pub const MAX_DIMS: u32 = 16;
@@ -36,6 +56,16 @@ pub fn point_wgsl() -> Wgsl {
         .constant("MAX_DIMS", MAX_DIMS)
         .constant("MAX_U_DIMS", MAX_DIMS - 2)
         .part(wgsl_file!("shared/integrand_point.wgsl"))
+}
+
+/// What every scene integrand's WGSL starts from: the point, the scene
+/// bindings and traversal, the warps, the camera and the shared shading.
+pub fn scene_wgsl() -> Wgsl {
+    point_wgsl()
+        .include(&GpuScene::wgsl())
+        .part(wgsl_file!("shared/sampling.wgsl"))
+        .part(wgsl_file!("shared/camera.wgsl"))
+        .part(wgsl_file!("shared/shading.wgsl"))
 }
 
 pub trait Integrand {

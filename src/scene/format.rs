@@ -16,7 +16,8 @@
 //!             motion = [{ time, translate, rotate = [ax, ay, az, deg] }, …]
 //! [[light]]   type = point (position, intensity) | directional (direction,
 //!             irradiance) | quad (corners, radiance → emissive mesh "light{n}")
-//! [integrand] type = "area_light"
+//! [integrand] type = area_light | depth_of_field | motion_blur
+//!             | path (max_bounces = 1) | ambient_occlusion (radius)
 //! [mdas]      bits_per_dim, extra_image_bits, initial_samples_per_cell,
 //!             scale_factor, alpha, candidates, max_samples_per_leaf, spp, seed
 //! ```
@@ -408,9 +409,23 @@ const LIGHT_TYPES: [(&str, &[&str]); 3] = [
 struct RawIntegrand {
     #[serde(rename = "type")]
     kind: S<String>,
+    max_bounces: Option<S<i64>>,
+    radius: Option<S<Num>>,
 }
 
-const INTEGRAND_TYPES: [&str; 1] = ["area_light"];
+impl RawIntegrand {
+    fn type_keys(&self) -> Vec<(&'static str, Range<usize>)> {
+        present_keys!(self; max_bounces, radius)
+    }
+}
+
+const INTEGRAND_TYPES: [(&str, &[&str]); 5] = [
+    ("area_light", &[]),
+    ("depth_of_field", &[]),
+    ("motion_blur", &[]),
+    ("path", &["max_bounces"]),
+    ("ambient_occlusion", &["radius"]),
+];
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -651,19 +666,10 @@ impl Ctx<'_> {
         let integrand = match &raw.integrand {
             None => IntegrandSpec::AreaLight,
             Some(i) => {
-                let kind = &i.get_ref().kind;
-                match kind.get_ref().as_str() {
-                    "area_light" => IntegrandSpec::AreaLight,
-                    other => {
-                        return Err(self.error(
-                            kind.span(),
-                            format!(
-                                "unknown integrand type '{other}', expected one of {}",
-                                quoted_list(&INTEGRAND_TYPES)
-                            ),
-                        ))
-                    }
-                }
+                let emissive = meshes
+                    .iter()
+                    .any(|m| materials[m.material as usize].emission.max_element() > 0.0);
+                self.integrand(i.get_ref(), emissive)?
             }
         };
         let mdas = match &raw.mdas {
@@ -808,12 +814,14 @@ impl Ctx<'_> {
         };
         let allowed = types[t].1;
         if let Some((key, span)) = keys.iter().find(|(k, _)| !allowed.contains(k)) {
+            let keys = if allowed.is_empty() {
+                "it takes no other keys".to_string()
+            } else {
+                format!("its keys: {}", quoted_list(allowed))
+            };
             return Err(self.error(
                 span.clone(),
-                format!(
-                    "key '{key}' does not apply to a {name} {what} (its keys: {})",
-                    quoted_list(allowed)
-                ),
+                format!("key '{key}' does not apply to a {name} {what} ({keys})"),
             ));
         }
         Ok(t)
@@ -1232,6 +1240,46 @@ impl Ctx<'_> {
                 LightOut::Area { corners, radiance }
             }
             _ => unreachable!("LIGHT_TYPES and this match list the same types"),
+        })
+    }
+
+    /// `emissive`: whether any mesh emits (then the path tracer spends two
+    /// more dimensions per vertex on area-light NEE).
+    fn integrand(&self, r: &RawIntegrand, emissive: bool) -> Result<IntegrandSpec> {
+        let t = self.check_type("integrand", &r.kind, &r.type_keys(), &INTEGRAND_TYPES)?;
+        Ok(match INTEGRAND_TYPES[t].0 {
+            "area_light" => IntegrandSpec::AreaLight,
+            "depth_of_field" => IntegrandSpec::DepthOfField,
+            "motion_blur" => IntegrandSpec::MotionBlur,
+            "path" => {
+                let limit = crate::integrand::path::max_bounces_limit(emissive);
+                let why = if emissive {
+                    "with emissive surfaces a path has 4 + 4·max_bounces dimensions, at most 16"
+                } else {
+                    "a path has 2 + 2·max_bounces dimensions, at most 16"
+                };
+                let max_bounces = match &r.max_bounces {
+                    None => 1,
+                    Some(v) => {
+                        let x = *v.get_ref();
+                        if x < 1 || x > limit as i64 {
+                            return Err(self.error(
+                                v.span(),
+                                format!("max_bounces must be in 1..={limit} ({why}), found {x}"),
+                            ));
+                        }
+                        x as u32
+                    }
+                };
+                IntegrandSpec::PathTracing { max_bounces }
+            }
+            "ambient_occlusion" => IntegrandSpec::AmbientOcclusion {
+                radius: self.positive(
+                    self.need(&r.radius, "radius", &r.kind, "integrand")?,
+                    "radius",
+                )?,
+            },
+            _ => unreachable!("INTEGRAND_TYPES and this match list the same types"),
         })
     }
 

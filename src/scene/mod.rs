@@ -99,11 +99,24 @@ pub enum Light {
     Directional { direction: Vec3, irradiance: Vec3 },
 }
 
-/// Which integrand renders the scene, with its parameters.
+/// Which integrand renders the scene, with its parameters (scene file
+/// `[integrand] type = …`; dimension orders in `crate::integrand`).
 #[derive(Clone, Debug, PartialEq)]
 pub enum IntegrandSpec {
-    /// Area-light direct lighting (4D: film x, y + 2 light dims).
+    /// `area_light`: area-light direct lighting (4D: film + 2 light dims).
     AreaLight,
+    /// `depth_of_field`: thin lens (4D: film + 2 lens dims), point and
+    /// directional lights with shadow rays.
+    DepthOfField,
+    /// `motion_blur`: (3D: film + shutter time), point and directional
+    /// lights with shadow rays, rays traced at their time.
+    MotionBlur,
+    /// `path`: path tracing with next-event estimation and `max_bounces`
+    /// indirect bounces (2 + 2m dims, or 4 + 4m with area lights).
+    PathTracing { max_bounces: u32 },
+    /// `ambient_occlusion`: cosine-weighted unoccluded fraction within
+    /// `radius` world units (4D: film + 2 hemisphere dims).
+    AmbientOcclusion { radius: f32 },
 }
 
 /// Parameters of the MDAS integrator (paper §5.1); defaults per the paper.

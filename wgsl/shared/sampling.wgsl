@@ -38,3 +38,29 @@ fn is_finite3(v: vec3<f32>) -> bool {
     let e = bitcast<vec3<u32>>(v) & vec3<u32>(0x7f800000u);
     return all(e != vec3<u32>(0x7f800000u));
 }
+
+// Cosine-weighted direction on the hemisphere around +z (Malley's method:
+// a uniform disk point lifted to the hemisphere); density cosθ/π with
+// respect to solid angle.
+fn sample_cosine_hemisphere(u: vec2<f32>) -> vec3<f32> {
+    let d = sample_concentric_disk(u);
+    let z = sqrt(max(0.0, 1.0 - dot(d, d)));
+    return vec3<f32>(d, z);
+}
+
+// Density of sample_cosine_hemisphere for cosθ = `cos_theta`.
+fn cosine_hemisphere_pdf(cos_theta: f32) -> f32 {
+    return max(cos_theta, 0.0) * INV_PI;
+}
+
+// Orthonormal frame (t, b, n) around the unit vector n: columns 0, 1, 2 of
+// the result (Duff et al. 2017, "Building an Orthonormal Basis, Revisited").
+// The local vector (x, y, z) maps to x·t + y·b + z·n.
+fn frame_from_normal(n: vec3<f32>) -> mat3x3<f32> {
+    let s = select(-1.0, 1.0, n.z >= 0.0);
+    let a = -1.0 / (s + n.z);
+    let b = n.x * n.y * a;
+    let t = vec3<f32>(1.0 + s * n.x * n.x * a, s * b, -s * n.x);
+    let bt = vec3<f32>(b, s + n.y * n.y * a, -n.y);
+    return mat3x3<f32>(t, bt, n);
+}

@@ -1,0 +1,678 @@
+//! Known answers for the depth-of-field, motion-blur, ambient-occlusion and
+//! path-tracing integrands, rendered with Halton on the GPU (lavapipe is
+//! enough; without an adapter these tests fail, never skip).
+//!
+//! Statistics. Halton with a random per-pixel Cranley–Patterson shift makes
+//! every sample uniform over the pixel × [0,1)^(d−2), so a pixel value is
+//! an unbiased mean of N samples. Where a sample takes two values a, b
+//! (an indicator), its variance is (b − a)²·c(1 − c) for the covered
+//! fraction c; we allow 5 standard deviations of independent sampling plus
+//! one sample's worth (|b − a|/N) per pixel — randomized Halton points are
+//! better stratified than independent ones, so this is conservative. Image
+//! means are checked within 5 standard errors estimated from the pixels.
+
+mod common;
+
+use common::gpu;
+use mdas::app;
+use mdas::integrator::{Halton, Integrator, Render};
+use mdas::scene::{self, IntegrandSpec, Scene};
+use std::path::Path;
+
+fn parse(text: &str) -> Scene {
+    scene::parse(text, Path::new("inline.toml")).unwrap()
+}
+
+fn render(scene: &Scene, spp: u32, seed: u32) -> Render {
+    let gpu = gpu();
+    let integrand = app::integrand_for(gpu, scene, scene.film).unwrap();
+    let r = Halton::new(spp, seed)
+        .render(gpu, integrand.as_ref())
+        .unwrap();
+    assert_eq!(r.nonfinite, 0, "non-finite samples");
+    r
+}
+
+// ------------------------------------------------------------ depth of field
+
+/// A checkered plane facing the camera at z = 0.05 (checker cells of 0.1,
+/// about 2 pixels), lit head-on by a directional light.
+fn focus_plane(aperture: f32, focus: f32) -> Scene {
+    parse(&format!(
+        r#"
+[film]
+width = 64
+height = 48
+[camera]
+position = [0, 0, 5.05]
+look_at = [0, 0, 0.05]
+up = [0, 1, 0]
+fov_y = 30
+aperture_radius = {aperture}
+focus_distance = {focus}
+[[material]]
+name = "board"
+albedo = [0.8, 0.8, 0.8]
+checker = {{ albedo2 = [0.2, 0.2, 0.2], scale = 0.1 }}
+[[shape]]
+type = "quad"
+material = "board"
+corners = [[-10, -10, 0.05], [10, -10, 0.05], [10, 10, 0.05], [-10, 10, 0.05]]
+[[light]]
+type = "directional"
+direction = [0, 0, -1]
+irradiance = [1, 1, 1]
+[integrand]
+type = "depth_of_field"
+"#
+    ))
+}
+
+/// Every lens ray through a film point meets the plane of focus where the
+/// pinhole ray does, and the shading there does not depend on the lens
+/// point (Lambertian, head-on directional light, nothing occludes): the
+/// thin-lens image of a plane at the focus distance equals the pinhole
+/// image sample for sample, up to rounding of the hit point. Rounding can
+/// move a hit across a checker edge (a sample changes by (0.8 − 0.2)/π);
+/// we allow such flips in at most 1 % of the samples. The same plane out
+/// of focus must differ visibly, so the test cannot pass with the lens
+/// ignored.
+#[test]
+fn plane_at_the_focus_distance_is_as_sharp_as_the_pinhole_image() {
+    let spp = 64;
+    let pinhole = render(&focus_plane(0.0, 5.0), spp, 1);
+    let lens = render(&focus_plane(0.3, 5.0), spp, 1);
+    let blurred = render(&focus_plane(0.3, 2.5), spp, 1);
+    let flip = 0.6 / std::f32::consts::PI / spp as f32;
+    let diff = |a: &Render, b: &Render| -> Vec<f32> {
+        a.image
+            .iter()
+            .zip(&b.image)
+            .map(|(x, y)| (x[0] - y[0]).abs())
+            .collect()
+    };
+    let d = diff(&pinhole, &lens);
+    let flips: f32 = d.iter().map(|e| (e / flip).round()).sum();
+    let total_samples = (d.len() as u32 * spp) as f32;
+    let mean_blur = diff(&pinhole, &blurred).iter().sum::<f32>() / d.len() as f32;
+    println!(
+        "in focus: max |Δ| {:.2e}, ≈{flips} flipped samples of {total_samples}; out of focus: mean |Δ| {mean_blur:.3}",
+        d.iter().cloned().fold(0.0, f32::max)
+    );
+    for (p, e) in d.iter().enumerate() {
+        // Whole flips only (plus f32 summation noise).
+        assert!(
+            (e / flip - (e / flip).round()).abs() < 0.05 || *e < 1e-5,
+            "pixel {p}: |Δ| = {e} is not a whole number of checker flips"
+        );
+    }
+    assert!(flips <= 0.01 * total_samples, "{flips} flipped samples");
+    assert!(
+        mean_blur > 0.02,
+        "the out-of-focus plane should be blurred (mean |Δ| {mean_blur})"
+    );
+}
+
+// --------------------------------------------------------------- motion blur
+
+const MB_W: u32 = 64;
+const MB_H: u32 = 4;
+const MB_BACKGROUND: f64 = 0.25;
+const MB_HALF_WIDTH: f64 = 0.3;
+/// Unevenly spaced keyframes of the bar's x translation: (time, x).
+const MB_KEYS: [(f64, f64); 3] = [(0.0, -1.5), (0.25, 0.0), (1.0, 1.0)];
+
+/// An emissive (L_e = 1, albedo 0) vertical bar 0.6 wide at z = 0 moving
+/// along x with piecewise-linear motion over the shutter, in front of a
+/// constant background of 0.25; the camera looks down −z from z = 5.
+fn moving_bar() -> Scene {
+    parse(&format!(
+        r#"
+background = [{b}, {b}, {b}]
+[film]
+width = {MB_W}
+height = {MB_H}
+[camera]
+position = [0, 0, 5]
+look_at = [0, 0, 0]
+up = [0, 1, 0]
+fov_y = 10
+[[material]]
+name = "glow"
+albedo = [0, 0, 0]
+emission = [1, 1, 1]
+[[shape]]
+type = "quad"
+material = "glow"
+corners = [[-{h}, -5, 0], [{h}, -5, 0], [{h}, 5, 0], [-{h}, 5, 0]]
+motion = [
+  {{ time = {t0}, translate = [{x0}, 0, 0] }},
+  {{ time = {t1}, translate = [{x1}, 0, 0] }},
+  {{ time = {t2}, translate = [{x2}, 0, 0] }},
+]
+[integrand]
+type = "motion_blur"
+"#,
+        b = MB_BACKGROUND,
+        h = MB_HALF_WIDTH,
+        t0 = MB_KEYS[0].0,
+        x0 = MB_KEYS[0].1,
+        t1 = MB_KEYS[1].0,
+        x1 = MB_KEYS[1].1,
+        t2 = MB_KEYS[2].0,
+        x2 = MB_KEYS[2].1,
+    ))
+}
+
+/// The fraction of (pixel column i's footprint × shutter) the bar covers,
+/// exactly: on the plane z = 0 film x maps linearly to world
+/// X = 5·tan(fov/2)·aspect·(2x/W − 1), so column i covers [X0, X1].
+fn covered_fraction(i: u32) -> f64 {
+    let k = 5.0 * (5f64.to_radians()).tan() * (MB_W as f64 / MB_H as f64);
+    let x0 = k * (2.0 * i as f64 / MB_W as f64 - 1.0);
+    let x1 = k * (2.0 * (i + 1) as f64 / MB_W as f64 - 1.0);
+    swept_overlap(x0, x1, 0.0, MB_HALF_WIDTH, &MB_KEYS)
+}
+
+/// ∫₀¹ |[x0, x1] ∩ [c(t) + offset − half, c(t) + offset + half]| dt / (x1 − x0)
+/// for the piecewise-linear path c through `keys` (time, x). The overlap
+/// length is piecewise linear in t, with kinks at the keyframes and where
+/// an edge crosses x0 or x1, so the trapezoid rule between those
+/// breakpoints is exact.
+fn swept_overlap(x0: f64, x1: f64, offset: f64, half: f64, keys: &[(f64, f64)]) -> f64 {
+    let overlap = |c: f64| ((c + offset + half).min(x1) - (c + offset - half).max(x0)).max(0.0);
+    let mut total = 0.0;
+    for w in keys.windows(2) {
+        let ((ta, ca), (tb, cb)) = (w[0], w[1]);
+        let v = (cb - ca) / (tb - ta);
+        let mut ts = vec![ta, tb];
+        for edge in [x0, x1] {
+            for off in [-half, half] {
+                let t = ta + (edge - offset - off - ca) / v;
+                if t > ta && t < tb {
+                    ts.push(t);
+                }
+            }
+        }
+        ts.sort_by(f64::total_cmp);
+        for s in ts.windows(2) {
+            let c = |t: f64| ca + v * (t - ta);
+            total += 0.5 * (s[1] - s[0]) * (overlap(c(s[0])) + overlap(c(s[1])));
+        }
+    }
+    total / (x1 - x0)
+}
+
+#[test]
+fn moving_bar_covers_each_pixel_for_the_exact_fraction_of_the_shutter() {
+    let spp = 256;
+    let r = render(&moving_bar(), spp, 7);
+    let n = spp as f64;
+    let (mut worst, mut err_sum, mut var_sum) = (0.0f64, 0.0, 0.0);
+    for j in 0..MB_H {
+        for i in 0..MB_W {
+            let c = covered_fraction(i);
+            let exact = MB_BACKGROUND + (1.0 - MB_BACKGROUND) * c;
+            let got = r.image[(j * MB_W + i) as usize][0] as f64;
+            let sigma = (1.0 - MB_BACKGROUND) * (c * (1.0 - c) / n).sqrt();
+            let tol = 5.0 * sigma + (1.0 - MB_BACKGROUND) / n + 1e-5;
+            let e = got - exact;
+            worst = worst.max(e.abs() / tol);
+            err_sum += e;
+            var_sum += sigma * sigma;
+            assert!(
+                e.abs() <= tol,
+                "pixel ({i}, {j}): {got} vs exact {exact} (covered {c:.4}), tolerance {tol:.4}"
+            );
+        }
+    }
+    let npix = (MB_W * MB_H) as f64;
+    let mean_err = err_sum / npix;
+    let se = var_sum.sqrt() / npix;
+    println!("worst |err|/tol {worst:.3}; mean error {mean_err:.2e} (σ {se:.2e})");
+    assert!(
+        mean_err.abs() <= 5.0 * se + 1e-5,
+        "biased: mean error {mean_err}"
+    );
+    // The bar sweeps from X = −1.8 to 1.3: the image must contain both
+    // untouched and partially covered columns.
+    assert!((0..MB_W).any(|i| covered_fraction(i) == 0.0));
+    assert!((0..MB_W).any(|i| covered_fraction(i) > 0.1));
+}
+
+/// Unevenly spaced keyframes of the wall's x translation: (time, x).
+const WALL_KEYS: [(f64, f64); 3] = [(0.0, -2.2), (0.7, -1.5), (1.0, -0.5)];
+
+/// A floor (ρ = 0.5) seen straight down from height 2 (48×4 pixels,
+/// fov_y 2.25°: it sees |x| < 0.48), lit by a directional light travelling along (1, −1, 0)
+/// (E = 1, cosθ = 1/√2). A wall x = x_w(t), y ∈ [0.5, 1.5], out of the
+/// camera's view, moves with the shutter; its shadow on the floor is
+/// [x_w + 0.5, x_w + 1.5] at time t.
+fn moving_shadow() -> Scene {
+    parse(&format!(
+        r#"
+[film]
+width = 48
+height = 4
+[camera]
+position = [0, 2, 0]
+look_at = [0, 0, 0]
+up = [0, 0, -1]
+fov_y = 2.25
+[[material]]
+name = "grey"
+albedo = [0.5, 0.5, 0.5]
+[[shape]]
+type = "quad"
+material = "grey"
+corners = [[-10, 0, -10], [-10, 0, 10], [10, 0, 10], [10, 0, -10]]
+[[shape]]
+type = "quad"
+material = "grey"
+corners = [[0, 0.5, -10], [0, 1.5, -10], [0, 1.5, 10], [0, 0.5, 10]]
+motion = [
+  {{ time = {t0}, translate = [{x0}, 0, 0] }},
+  {{ time = {t1}, translate = [{x1}, 0, 0] }},
+  {{ time = {t2}, translate = [{x2}, 0, 0] }},
+]
+[[light]]
+type = "directional"
+direction = [1, -1, 0]
+irradiance = [1, 1, 1]
+[integrand]
+type = "motion_blur"
+"#,
+        t0 = WALL_KEYS[0].0,
+        x0 = WALL_KEYS[0].1,
+        t1 = WALL_KEYS[1].0,
+        x1 = WALL_KEYS[1].1,
+        t2 = WALL_KEYS[2].0,
+        x2 = WALL_KEYS[2].1,
+    ))
+}
+
+/// Shadow rays are traced at the sample's time: each pixel's value is
+/// ρ/π·E·cosθ times the fraction of (footprint × shutter) the moving
+/// shadow leaves lit, computed exactly as for the moving bar.
+#[test]
+fn moving_shadow_darkens_each_pixel_for_the_exact_fraction_of_the_shutter() {
+    let spp = 256;
+    let r = render(&moving_shadow(), spp, 9);
+    let lit = 0.5 / std::f64::consts::PI * std::f64::consts::FRAC_1_SQRT_2;
+    let n = spp as f64;
+    let k = 2.0 * (1.125f64.to_radians()).tan() * (48.0 / 4.0);
+    let mut shadowed_somewhere = false;
+    for i in 0..48u32 {
+        let x0 = k * (2.0 * i as f64 / 48.0 - 1.0);
+        let x1 = k * (2.0 * (i + 1) as f64 / 48.0 - 1.0);
+        let c = swept_overlap(x0, x1, 1.0, 0.5, &WALL_KEYS);
+        shadowed_somewhere |= c > 0.05;
+        let exact = lit * (1.0 - c);
+        let tol = lit * (5.0 * (c * (1.0 - c) / n).sqrt() + 1.0 / n) + 1e-5;
+        for j in 0..4u32 {
+            let got = r.image[(j * 48 + i) as usize][0] as f64;
+            assert!(
+                (got - exact).abs() <= tol,
+                "pixel ({i}, {j}): {got} vs exact {exact} (shadowed {c:.4}), tolerance {tol:.2e}"
+            );
+        }
+    }
+    assert!(shadowed_somewhere);
+}
+
+// -------------------------------------------------------- ambient occlusion
+
+/// A floor (y = 0, facing +y) seen straight down from y = 0.5; with
+/// `ceiling`, a downward-facing quad at y = 1 covers it.
+fn ao_scene(radius: f32, ceiling: bool) -> Scene {
+    let ceiling = if ceiling {
+        r#"
+[[shape]]
+type = "quad"
+material = "grey"
+corners = [[-100, 1, -100], [100, 1, -100], [100, 1, 100], [-100, 1, 100]]
+"#
+    } else {
+        ""
+    };
+    parse(&format!(
+        r#"
+[film]
+width = 32
+height = 24
+[camera]
+position = [0, 0.5, 0]
+look_at = [0, 0, 0]
+up = [0, 0, -1]
+fov_y = 60
+[[material]]
+name = "grey"
+albedo = [0.5, 0.5, 0.5]
+[[shape]]
+type = "quad"
+material = "grey"
+corners = [[-100, 0, -100], [-100, 0, 100], [100, 0, 100], [100, 0, -100]]
+{ceiling}
+[integrand]
+type = "ambient_occlusion"
+radius = {radius}
+"#
+    ))
+}
+
+/// Every sample is exactly 1, so the Halton mean is exactly 1, and MDAS's
+/// reconstruction (a normalized weighting of samples) is 1 up to float
+/// rounding of its weights.
+#[test]
+fn ambient_occlusion_of_an_unoccluded_plane_is_exactly_one() {
+    let scene = ao_scene(1000.0, false);
+    let r = render(&scene, 16, 3);
+    for (p, v) in r.image.iter().enumerate() {
+        assert_eq!(*v, [1.0; 3], "pixel {p}");
+    }
+    let integrand = app::integrand_for(gpu(), &scene, scene.film).unwrap();
+    let params = mdas::scene::MdasParams {
+        extra_image_bits: 2,
+        spp: 8.0,
+        ..Default::default()
+    };
+    let r = mdas::integrator::Mdas::new(params)
+        .and_then(|mut m| m.render(gpu(), integrand.as_ref()))
+        .unwrap();
+    assert_eq!(r.nonfinite, 0);
+    for (p, v) in r.image.iter().enumerate() {
+        assert!(
+            v.iter().all(|c| (c - 1.0).abs() <= 1e-5),
+            "MDAS pixel {p}: {v:?}"
+        );
+    }
+}
+
+/// Under a parallel ceiling at height 1, a cosine-weighted ray at angle θ
+/// from the floor's normal hits it at distance 1/cosθ, so within radius
+/// r ≥ 1 the unoccluded fraction is P(cosθ < 1/r) = 1/r² (for the
+/// cosine-weighted density P(cosθ ≥ c) = 1 − c²); for r < 1 it is exactly
+/// 1. The ceiling's finite size (±100) changes this by < 1e-4.
+#[test]
+fn ambient_occlusion_under_a_ceiling_is_one_over_radius_squared() {
+    let r = render(&ao_scene(0.5, true), 16, 3);
+    assert!(r.image.iter().all(|v| *v == [1.0; 3]), "radius 0.5 < 1: 1");
+
+    let spp = 256;
+    let r = render(&ao_scene(2.0, true), spp, 3);
+    let exact = 0.25f64;
+    let sigma = (exact * (1.0 - exact) / spp as f64).sqrt();
+    let mut sum = 0.0;
+    for (p, v) in r.image.iter().enumerate() {
+        let e = v[0] as f64 - exact;
+        sum += v[0] as f64;
+        assert!(
+            e.abs() <= 5.0 * sigma + 1.0 / spp as f64,
+            "pixel {p}: {} vs {exact}",
+            v[0]
+        );
+    }
+    let mean = sum / r.image.len() as f64;
+    let se = sigma / (r.image.len() as f64).sqrt();
+    println!("AO mean {mean:.5} vs {exact} (σ of the mean {se:.1e})");
+    assert!((mean - exact).abs() <= 5.0 * se);
+}
+
+// ----------------------------------------------------------- path tracing
+
+/// The inside of a closed sphere of radius 1 (a lathe profile listed top
+/// to bottom: normals inward), albedo ρ and emission L_e everywhere,
+/// camera at the centre.
+fn furnace(rho: f32, le: f32, max_bounces: u32) -> Scene {
+    parse(&furnace_text(rho, le, max_bounces))
+}
+
+fn furnace_text(rho: f32, le: f32, max_bounces: u32) -> String {
+    let profile: Vec<String> = (0..=32)
+        .map(|k| {
+            let phi = std::f64::consts::PI * k as f64 / 32.0;
+            let r = if k == 0 || k == 32 { 0.0 } else { phi.sin() };
+            format!("[{r}, {}]", phi.cos())
+        })
+        .collect();
+    format!(
+        r#"
+[film]
+width = 32
+height = 32
+[camera]
+position = [0, 0, 0]
+look_at = [0, 0, -1]
+up = [0, 1, 0]
+fov_y = 60
+[[material]]
+name = "furnace"
+albedo = [{rho}, {rho}, {rho}]
+emission = [{le}, {le}, {le}]
+[[shape]]
+type = "lathe"
+material = "furnace"
+segments = 48
+profile = [{}]
+[integrand]
+type = "path"
+max_bounces = {max_bounces}
+"#,
+        profile.join(", ")
+    )
+}
+
+/// In a closed surface emitting L_e with albedo ρ everywhere, the
+/// radiance after n scattering events is L_e·ρⁿ. Our path counts L_e seen
+/// directly, then area-light NEE at x_0 … x_m (one more scattering each:
+/// ρ¹ … ρ^{m+1}) and never emission reached by a bounce, so its
+/// expectation is L_e·Σ_{k=0..m+1} ρ^k — exactly, for any closed
+/// tessellated surface (the irradiance inside a closed uniform emitter is
+/// π·L_e everywhere). The pixels are independent estimates of that same
+/// value; their mean must be within 5 standard errors (estimated from the
+/// pixels' spread) plus 1e-4 for f32 accumulation.
+#[test]
+fn path_tracer_furnace_converges_to_the_truncated_geometric_series() {
+    let (rho, le) = (0.5f64, 1.0f64);
+    for m in 1..=3u32 {
+        let scene = furnace(rho as f32, le as f32, m);
+        assert_eq!(
+            scene.integrand,
+            IntegrandSpec::PathTracing { max_bounces: m }
+        );
+        let integrand = app::integrand_for(gpu(), &scene, scene.film).unwrap();
+        assert_eq!(integrand.dims(), 4 + 4 * m);
+        let r = Halton::new(64, 11)
+            .render(gpu(), integrand.as_ref())
+            .unwrap();
+        assert_eq!(r.nonfinite, 0);
+        let exact: f64 = (0..=m + 1).map(|k| le * rho.powi(k as i32)).sum();
+        let v: Vec<f64> = r.image.iter().map(|p| p[1] as f64).collect();
+        let n = v.len() as f64;
+        let mean = v.iter().sum::<f64>() / n;
+        let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0);
+        let se = (var / n).sqrt();
+        println!("m = {m}: mean {mean:.5} vs {exact:.5} (standard error {se:.1e})");
+        assert!(
+            (mean - exact).abs() <= 5.0 * se + 1e-4,
+            "m = {m}: furnace mean {mean} vs L_e·Σρ^k = {exact} (se {se})"
+        );
+        // One bounce fewer or more would be off by ρ^{m+1}/ρ^{m+2} ≥ 1/32:
+        // the test must be able to tell.
+        assert!(5.0 * se + 1e-4 < le * rho.powi(m as i32 + 2) / 2.0);
+    }
+}
+
+#[test]
+fn path_dimensions_follow_the_documented_layout() {
+    use mdas::integrand::path::{max_bounces_limit, path_dims};
+    assert_eq!(path_dims(2, false), 6); // the paper's Cornell box: 6D
+    assert_eq!(path_dims(1, false), 4); // Breakfast: 4D
+    assert_eq!(path_dims(3, true), 16);
+    assert_eq!(max_bounces_limit(false), 7);
+    assert_eq!(max_bounces_limit(true), 3);
+    // Too many bounces for the dimension budget is a scene-file error
+    // pointing at the value.
+    let e = scene::parse(&furnace_text(0.5, 1.0, 4), Path::new("f.toml"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("max_bounces must be in 1..=3") && e.starts_with("f.toml:"),
+        "{e}"
+    );
+}
+
+// ------------------------------------------------------------ scene files
+
+fn integrand_error(table: &str) -> String {
+    let text = format!(
+        "[film]\nwidth = 4\nheight = 4\n[camera]\nposition = [0, 0, 1]\nlook_at = [0, 0, 0]\nup = [0, 1, 0]\nfov_y = 40\n[integrand]\n{table}\n"
+    );
+    scene::parse(&text, Path::new("s.toml"))
+        .unwrap_err()
+        .to_string()
+}
+
+#[test]
+fn integrand_tables_parse_with_their_parameters_and_reject_mistakes() {
+    let ok = |table: &str| {
+        let text = format!(
+            "[film]\nwidth = 4\nheight = 4\n[camera]\nposition = [0, 0, 1]\nlook_at = [0, 0, 0]\nup = [0, 1, 0]\nfov_y = 40\n[integrand]\n{table}\n"
+        );
+        scene::parse(&text, Path::new("s.toml")).unwrap().integrand
+    };
+    assert_eq!(ok("type = \"depth_of_field\""), IntegrandSpec::DepthOfField);
+    assert_eq!(ok("type = \"motion_blur\""), IntegrandSpec::MotionBlur);
+    assert_eq!(
+        ok("type = \"path\""),
+        IntegrandSpec::PathTracing { max_bounces: 1 }
+    );
+    assert_eq!(
+        ok("type = \"path\"\nmax_bounces = 7"),
+        IntegrandSpec::PathTracing { max_bounces: 7 }
+    );
+    assert_eq!(
+        ok("type = \"ambient_occlusion\"\nradius = 0.5"),
+        IntegrandSpec::AmbientOcclusion { radius: 0.5 }
+    );
+
+    let e = integrand_error("type = \"pathtracer\"");
+    assert!(
+        e.starts_with("s.toml:10:8: unknown integrand type 'pathtracer'"),
+        "{e}"
+    );
+    assert!(
+        e.contains("'path'") && e.contains("'ambient_occlusion'"),
+        "{e}"
+    );
+    let e = integrand_error("type = \"path\"\nmax_bounces = 8");
+    assert!(
+        e.starts_with("s.toml:11:15: max_bounces must be in 1..=7"),
+        "{e}"
+    );
+    let e = integrand_error("type = \"path\"\nmax_bounces = 0");
+    assert!(e.contains("max_bounces must be in 1..=7"), "{e}");
+    let e = integrand_error("type = \"ambient_occlusion\"");
+    assert!(
+        e.contains("a ambient_occlusion integrand needs 'radius'"),
+        "{e}"
+    );
+    let e = integrand_error("type = \"ambient_occlusion\"\nradius = -1");
+    assert!(e.contains("radius must be > 0"), "{e}");
+    let e = integrand_error("type = \"depth_of_field\"\nradius = 1");
+    assert!(
+        e.starts_with("s.toml:11:10: key 'radius' does not apply to a depth_of_field integrand (it takes no other keys)"),
+        "{e}"
+    );
+    let e = integrand_error("type = \"path\"\nmax_bounces = 1.5");
+    assert!(e.starts_with("s.toml:11:"), "{e}");
+}
+
+// ------------------------------------------------------------- delta lights
+
+/// A grey plane (ρ = 0.5) seen straight down from height 2, lit by a
+/// directional light at cosθ = 0.8 (E = 1) and a point light (I = 1) at
+/// height 1; nothing occludes either light.
+fn lit_plane(integrand: &str) -> Scene {
+    parse(&format!(
+        r#"
+[film]
+width = 16
+height = 12
+[camera]
+position = [0, 2, 0]
+look_at = [0, 0, 0]
+up = [0, 0, -1]
+fov_y = 60
+[[material]]
+name = "grey"
+albedo = [0.5, 0.5, 0.5]
+[[shape]]
+type = "quad"
+material = "grey"
+corners = [[-10, 0, -10], [-10, 0, 10], [10, 0, 10], [10, 0, -10]]
+[[light]]
+type = "directional"
+direction = [0.6, -0.8, 0]
+irradiance = [1, 1, 1]
+[[light]]
+type = "point"
+position = [0.3, 1, 0.2]
+intensity = [1, 1, 1]
+[integrand]
+{integrand}
+"#
+    ))
+}
+
+/// ρ/π·(E·cosθ_d + I·cosθ_p/d²) at the plane point under film point (x, y).
+fn lit_plane_radiance(x: f64, y: f64) -> f64 {
+    // Camera at (0, 2, 0) looking down −y with up hint −z: f = −y,
+    // r = f × up = (−y) × (−z) = +x, u = r × f = −z.
+    let t = (30f64).to_radians().tan();
+    let (nx, ny) = (2.0 * x / 16.0 - 1.0, 1.0 - 2.0 * y / 12.0);
+    let (px, pz) = (2.0 * nx * t * (16.0 / 12.0), -2.0 * ny * t);
+    let (dx, dy, dz) = (0.3 - px, 1.0, 0.2 - pz);
+    let d2 = dx * dx + dy * dy + dz * dz;
+    0.5 / std::f64::consts::PI * (0.8 + dy / d2.sqrt() / d2)
+}
+
+/// Depth of field (pinhole here), motion blur and the path tracer (one
+/// bounce: bounce rays leave the open plane and see a black background)
+/// all reduce to the same direct lighting, whose pixel means we integrate
+/// on a 32×32 midpoint grid per pixel (error < 1e-5 for this smooth
+/// integrand). The Halton estimates of a smooth integrand at 64 spp are
+/// far closer than the 0.5 % allowed.
+#[test]
+fn point_and_directional_lights_shade_a_plane_exactly() {
+    let exact: Vec<f64> = (0..12)
+        .flat_map(|j| {
+            (0..16).map(move |i| {
+                let n = 32;
+                (0..n * n)
+                    .map(|k| {
+                        let x = i as f64 + ((k % n) as f64 + 0.5) / n as f64;
+                        let y = j as f64 + ((k / n) as f64 + 0.5) / n as f64;
+                        lit_plane_radiance(x, y)
+                    })
+                    .sum::<f64>()
+                    / (n * n) as f64
+            })
+        })
+        .collect();
+    for integrand in [
+        "type = \"depth_of_field\"",
+        "type = \"motion_blur\"",
+        "type = \"path\"\nmax_bounces = 1",
+    ] {
+        let r = render(&lit_plane(integrand), 64, 5);
+        let worst = r
+            .image
+            .iter()
+            .zip(&exact)
+            .map(|(v, e)| ((v[0] as f64 - e) / e).abs())
+            .fold(0.0, f64::max);
+        println!("{integrand}: worst relative error {worst:.2e}");
+        assert!(worst < 5e-3, "{integrand}: relative error {worst}");
+    }
+}
