@@ -5,7 +5,8 @@ use clap::{Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 use mdas::app::{self, ReferenceSpec};
 use mdas::gpu::Gpu;
-use mdas::integrator::{Halton, Integrator, Render};
+use mdas::integrator::{Halton, Integrator, Mdas, Render};
+use mdas::scene::MdasParams;
 use mdas::{image_io, metrics};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -28,10 +29,74 @@ struct Cli {
     command: Command,
 }
 
-#[derive(Clone, Copy, Debug, ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, ValueEnum)]
 enum IntegratorKind {
     /// Halton quasi-Monte Carlo with per-pixel Cranley–Patterson shifts.
     Halton,
+    /// Multidimensional adaptive sampling (parameters from the scene's [mdas] table).
+    Mdas,
+}
+
+impl IntegratorKind {
+    fn name(self) -> &'static str {
+        match self {
+            IntegratorKind::Halton => "halton",
+            IntegratorKind::Mdas => "mdas",
+        }
+    }
+}
+
+/// Overrides of the scene's `[mdas]` table (MDAS paper §5.1).
+#[derive(clap::Args, Debug, Default)]
+struct MdasArgs {
+    /// MDAS: Morton bits per dimension of the initial grid (b).
+    #[arg(long)]
+    bits_per_dim: Option<u32>,
+    /// MDAS: extra Morton bits of the two film axes (e). Without it, the
+    /// scene's e is lowered by round(log2(1/F)) at --scale F.
+    #[arg(long)]
+    extra_image_bits: Option<u32>,
+    /// MDAS: samples per initial grid cell (l).
+    #[arg(long)]
+    initial_samples_per_cell: Option<u32>,
+    /// MDAS: scale sf of the film axes in the sampling domain (not the film --scale).
+    #[arg(long)]
+    scale_factor: Option<f32>,
+    /// MDAS: exponent α of the stochastic leaf selection (E/E_max)^α ≥ ξ.
+    #[arg(long)]
+    alpha: Option<f32>,
+    /// MDAS: best-candidate tries per inserted sample.
+    #[arg(long)]
+    candidates: Option<u32>,
+    /// MDAS: samples a leaf holds before it splits.
+    #[arg(long)]
+    max_samples_per_leaf: Option<u32>,
+}
+
+impl MdasArgs {
+    /// The scene's parameters (adjusted for `scale`) with the flags applied.
+    fn params(
+        &self,
+        scene: MdasParams,
+        scale: f32,
+        spp: Option<f32>,
+        seed: Option<u32>,
+    ) -> MdasParams {
+        let p = app::mdas_params_at_scale(scene, scale);
+        MdasParams {
+            bits_per_dim: self.bits_per_dim.unwrap_or(p.bits_per_dim),
+            extra_image_bits: self.extra_image_bits.unwrap_or(p.extra_image_bits),
+            initial_samples_per_cell: self
+                .initial_samples_per_cell
+                .unwrap_or(p.initial_samples_per_cell),
+            scale_factor: self.scale_factor.unwrap_or(p.scale_factor),
+            alpha: self.alpha.unwrap_or(p.alpha),
+            candidates: self.candidates.unwrap_or(p.candidates),
+            max_samples_per_leaf: self.max_samples_per_leaf.unwrap_or(p.max_samples_per_leaf),
+            spp: spp.unwrap_or(p.spp),
+            seed: seed.unwrap_or(p.seed),
+        }
+    }
 }
 
 #[derive(Subcommand)]
@@ -43,12 +108,14 @@ enum Command {
         /// Sampling method.
         #[arg(long, value_enum, default_value = "halton")]
         integrator: IntegratorKind,
-        /// Samples per pixel (at least 1).
-        #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u32).range(1..))]
-        spp: u32,
-        /// Seed of the per-pixel random shifts; same seed, same image (on one adapter).
-        #[arg(long, default_value_t = 0)]
-        seed: u32,
+        /// Samples per pixel. Halton: a whole number ≥ 1 (default 16); MDAS: the
+        /// average budget, may be fractional (default: the scene's [mdas] spp).
+        #[arg(long)]
+        spp: Option<f32>,
+        /// Random seed; same seed, same image on one adapter (default: 0 for
+        /// Halton, the scene's [mdas] seed for MDAS).
+        #[arg(long)]
+        seed: Option<u32>,
         /// Output EXR path (the PNG goes beside it). Default: out/<scene>-<integrator>.exr.
         #[arg(short, long)]
         output: Option<PathBuf>,
@@ -58,6 +125,8 @@ enum Command {
         /// Reference EXR to measure RelMSE and MSE against (same size as the render).
         #[arg(long)]
         reference: Option<PathBuf>,
+        #[command(flatten)]
+        mdas: MdasArgs,
     },
     /// Render (or fetch from the cache) a high-spp Halton reference image.
     Reference {
@@ -108,27 +177,47 @@ fn run(cli: Cli) -> Result<()> {
             output,
             scale,
             reference,
+            mdas,
         } => {
-            let IntegratorKind::Halton = integrator;
-            let output = output.unwrap_or_else(|| default_output(&scene, "halton"));
+            let output = output.unwrap_or_else(|| default_output(&scene, integrator.name()));
             // Fail on bad input before any GPU work.
             check_output(&output)?;
+            if let Some(s) = spp {
+                if !(s.is_finite() && s > 0.0) {
+                    bail!("--spp must be positive, got {s}");
+                }
+                if integrator == IntegratorKind::Halton && (s.fract() != 0.0 || s > u32::MAX as f32)
+                {
+                    bail!("--spp must be a whole number of samples per pixel for Halton, got {s}");
+                }
+            }
             let reference = reference.map(|r| image_io::read_exr(&r)).transpose()?;
             let gpu = Gpu::shared()?;
             let prepared = app::prepare(gpu, &scene, scale)?;
             let film = prepared.film;
+            let mut sampler: Box<dyn Integrator> = match integrator {
+                IntegratorKind::Halton => {
+                    Box::new(Halton::new(spp.map_or(16, |s| s as u32), seed.unwrap_or(0)))
+                }
+                IntegratorKind::Mdas => Box::new(Mdas::new(mdas.params(
+                    prepared.scene.mdas,
+                    scale,
+                    spp,
+                    seed,
+                ))?),
+            };
             println!(
-                "{}: {}×{} px, {} triangles, integrand {} ({}D), halton {spp} spp, adapter {}",
+                "{}: {}×{} px, {} triangles, integrand {} ({}D), {}, adapter {}",
                 scene.display(),
                 film.width,
                 film.height,
                 prepared.scene.triangle_count(),
                 prepared.integrand.name(),
                 prepared.integrand.dims(),
+                integrator.name(),
                 gpu.info.name
             );
-            let mut halton = Halton::new(spp, seed);
-            let render = halton.render(gpu, prepared.integrand.as_ref())?;
+            let render = sampler.render(gpu, prepared.integrand.as_ref())?;
             print_render(&render);
             if let Some((w, h, ref_image)) = reference {
                 if (w, h) != (film.width, film.height) {
@@ -231,12 +320,14 @@ fn print_render(render: &Render) {
         .map(|(n, t)| format!("{n} {t:.2} ms"))
         .collect();
     println!(
-        "{} samples in {:.2} ms ({}; {:?}), {:.3} Msamples/s, {} non-finite samples",
+        "{} samples ({:.2} spp) in {:.2} ms ({}; {:?}), {:.3} Msamples/s, {} non-finite samples, {:.1} MiB GPU",
         render.samples,
+        render.samples as f64 / (render.film.width as f64 * render.film.height as f64),
         render.times.total(),
         phases.join(", "),
         render.clock,
         render.samples as f64 / render.times.total().max(1e-9) / 1e3,
-        render.nonfinite
+        render.nonfinite,
+        render.gpu_bytes as f64 / 1048576.0
     );
 }

@@ -74,6 +74,35 @@ fn render_writes_exr_and_png() {
 }
 
 #[test]
+fn render_with_mdas_and_its_overrides() {
+    let dir = temp_dir("mdas");
+    let out = dir.join("plane.exr");
+    let o = mdas(&[
+        "render",
+        "scenes/area_light_plane.toml",
+        "--integrator",
+        "mdas",
+        "--spp",
+        "6.5",
+        "--alpha",
+        "0.5",
+        "--scale",
+        "0.25",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "stderr: {}", stderr(&o));
+    assert!(
+        stdout.contains("mdas") && stdout.contains("(6.50 spp)"),
+        "{stdout}"
+    );
+    let (w, h, image) = mdas::image_io::read_exr(&out).unwrap();
+    assert_eq!((w, h), (32, 24));
+    assert!(image.iter().all(|p| p.iter().all(|c| c.is_finite())));
+}
+
+#[test]
 fn reference_is_cached() {
     let dir = temp_dir("ref");
     let cache = dir.join("cache");
@@ -182,6 +211,28 @@ fn bad_arguments_fail_cleanly() {
         &["scale"],
     );
     assert_fails_cleanly(&["render", scene, "--spp", "0", "-o", o], &out, &["spp"]);
+    assert_fails_cleanly(
+        &["render", scene, "--spp", "1.5", "-o", o],
+        &out,
+        &["whole number"],
+    );
+    // An MDAS budget below its initial grid is refused before any work.
+    assert_fails_cleanly(
+        &[
+            "render",
+            scene,
+            "--integrator",
+            "mdas",
+            "--spp",
+            "1",
+            "--extra-image-bits",
+            "9",
+            "-o",
+            o,
+        ],
+        &out,
+        &["budget", "initial samples"],
+    );
     assert_fails_cleanly(&["render", scene, "--spp", "-3", "-o", o], &out, &["-3"]);
     assert_fails_cleanly(
         &[
