@@ -35,7 +35,10 @@ pub fn scaled_film(film: Film, scale: f32) -> Result<Film> {
 /// 0) to keep the same number of initial cells per pixel.
 pub fn mdas_params_at_scale(params: MdasParams, scale: f32) -> MdasParams {
     let reduce = (1.0 / scale as f64).log2().round().max(0.0) as u32;
-    MdasParams { extra_image_bits: params.extra_image_bits.saturating_sub(reduce), ..params }
+    MdasParams {
+        extra_image_bits: params.extra_image_bits.saturating_sub(reduce),
+        ..params
+    }
 }
 
 /// Builds the scene's GPU representation and its integrand over `film`.
@@ -168,7 +171,10 @@ mod tests {
 
     #[test]
     fn scaled_mdas_grid_keeps_cells_per_pixel() {
-        let p = MdasParams { extra_image_bits: 8, ..Default::default() };
+        let p = MdasParams {
+            extra_image_bits: 8,
+            ..Default::default()
+        };
         assert_eq!(mdas_params_at_scale(p, 1.0).extra_image_bits, 8);
         assert_eq!(mdas_params_at_scale(p, 0.5).extra_image_bits, 7);
         assert_eq!(mdas_params_at_scale(p, 1.0 / 16.0).extra_image_bits, 4);
@@ -178,9 +184,24 @@ mod tests {
 
     #[test]
     fn scaled_films_round_and_stay_non_empty() {
-        let f = Film { width: 128, height: 96 };
-        assert_eq!(scaled_film(f, 0.25).unwrap(), Film { width: 32, height: 24 });
-        assert_eq!(scaled_film(f, 0.001).unwrap(), Film { width: 1, height: 1 });
+        let f = Film {
+            width: 128,
+            height: 96,
+        };
+        assert_eq!(
+            scaled_film(f, 0.25).unwrap(),
+            Film {
+                width: 32,
+                height: 24
+            }
+        );
+        assert_eq!(
+            scaled_film(f, 0.001).unwrap(),
+            Film {
+                width: 1,
+                height: 1
+            }
+        );
         assert!(scaled_film(f, 0.0).is_err() && scaled_film(f, f32::NAN).is_err());
     }
 }
