@@ -97,7 +97,7 @@ fn area_light_plane_is_exactly_the_known_answer_scene() {
             m.alpha,
             m.spp
         ),
-        (1.0, 1, 7, 0.25, 16.0)
+        (1.0, 1, 5, 0.25, 16.0)
     );
 
     assert_eq!(s.meshes.len(), 2);
@@ -155,7 +155,7 @@ fn cornell_box_loads_with_closed_outward_blocks_and_the_ceiling_light() {
             m.alpha,
             m.spp
         ),
-        (1.0, 1, 8, 0.25, 8.0)
+        (1.0, 1, 7, 0.25, 8.0)
     );
     // 5 walls + 2 blocks + the light.
     assert_eq!(s.meshes.len(), 8);
