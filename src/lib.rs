@@ -11,10 +11,10 @@
 pub mod accel;
 pub mod analytic;
 pub mod app;
+pub mod compare;
 pub mod gpu;
 pub mod image_io;
 pub mod integrand;
 pub mod integrator;
 pub mod metrics;
 pub mod scene;
-pub mod compare;

@@ -7,7 +7,7 @@ use mdas::app::{self, ReferenceSpec};
 use mdas::gpu::Gpu;
 use mdas::integrator::{Halton, Integrator, Mdas, Render};
 use mdas::scene::MdasParams;
-use mdas::{image_io, metrics};
+use mdas::{compare, image_io, metrics};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -148,8 +148,73 @@ enum Command {
         #[arg(short, long)]
         output: Option<PathBuf>,
     },
+    /// MDAS against Halton at equal time: images, RelMSE heat maps, MDAS
+    /// sample density and report.json in --out (DESIGN.md "Equal time").
+    Compare {
+        /// Scene file (TOML).
+        scene: PathBuf,
+        /// MDAS samples per pixel (average, may be fractional; default: the
+        /// scene's [mdas] spp). Its measured time is the equal-time target.
+        #[arg(long, conflicts_with = "time_ms")]
+        spp: Option<f32>,
+        /// Instead of MDAS's time at --spp, give both methods this budget
+        /// (milliseconds; both spp are searched).
+        #[arg(long)]
+        time_ms: Option<f64>,
+        #[command(flatten)]
+        common: CompareArgs,
+        /// Also print report.json to stdout (the table goes to stderr).
+        #[arg(long)]
+        json: bool,
+    },
+    /// RelMSE against time for MDAS and Halton over a range of budgets:
+    /// sweep.csv and a log-log sweep.svg in --out.
+    Sweep {
+        /// Scene file (TOML).
+        scene: PathBuf,
+        /// Budgets, samples per pixel, for both methods (MDAS budgets below
+        /// its initial sample count are skipped).
+        #[arg(long, value_delimiter = ',', default_value = "1,2,4,8,16,32")]
+        spps: Vec<u32>,
+        #[command(flatten)]
+        common: CompareArgs,
+    },
     /// Print the GPU adapter, backend, features in use and key limits.
     Info,
+}
+
+/// Options shared by `compare` and `sweep`.
+#[derive(clap::Args, Debug)]
+struct CompareArgs {
+    /// Render at this fraction of the scene's film size (same camera);
+    /// the reference uses the same scale.
+    #[arg(long, default_value_t = 1.0)]
+    scale: f32,
+    /// Samples per pixel of the Halton reference.
+    #[arg(long, default_value_t = 65536, value_parser = clap::value_parser!(u32).range(1..))]
+    ref_spp: u32,
+    /// Seed of the reference (differs from the compared Halton's by default,
+    /// so their errors are independent).
+    #[arg(long, default_value_t = 1)]
+    ref_seed: u32,
+    /// Reference cache directory (as `mdas reference --cache`).
+    #[arg(long, default_value = ".cache/references")]
+    cache: PathBuf,
+    /// Seed of the compared renders (default: 0 for Halton, the scene's
+    /// [mdas] seed for MDAS).
+    #[arg(long)]
+    seed: Option<u32>,
+    /// Timed runs per measurement, after one warm-up; times are medians.
+    #[arg(long, default_value_t = 3)]
+    repeats: u32,
+    /// Largest spp a budget search may try.
+    #[arg(long, default_value_t = 65536)]
+    max_spp: u32,
+    /// Output directory. Default: out/compare-<scene> (sweep: out/sweep-<scene>).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    #[command(flatten)]
+    mdas: MdasArgs,
 }
 
 fn main() -> ExitCode {
@@ -164,6 +229,82 @@ fn main() -> ExitCode {
 
 fn run(cli: Cli) -> Result<()> {
     match cli.command {
+        Command::Compare {
+            scene,
+            spp,
+            time_ms,
+            common,
+            json,
+        } => {
+            let out = common
+                .out
+                .clone()
+                .unwrap_or_else(|| default_dir(&scene, "compare"));
+            let mdas_params = |p: MdasParams| common.mdas.params(p, common.scale, spp, common.seed);
+            let spec = compare::CompareSpec {
+                scene,
+                scale: common.scale,
+                ref_spp: common.ref_spp,
+                ref_seed: common.ref_seed,
+                cache_dir: common.cache.clone(),
+                halton_seed: common.seed.unwrap_or(0),
+                repeats: common.repeats,
+                budget: time_ms.map_or(compare::Budget::MdasSpp, compare::Budget::TimeMs),
+                max_spp: common.max_spp,
+                out: out.clone(),
+                progress: true,
+                mdas_params: &mdas_params,
+            };
+            let report = compare::compare(Gpu::shared()?, &spec)?;
+            let table = compare::report::table(&report);
+            if json {
+                eprint!("{table}");
+                println!("{}", serde_json::to_string_pretty(&report)?);
+            } else {
+                print!("{table}");
+                println!("wrote {} files to {}", report.files.len(), out.display());
+            }
+            Ok(())
+        }
+        Command::Sweep {
+            scene,
+            spps,
+            common,
+        } => {
+            let out = common
+                .out
+                .clone()
+                .unwrap_or_else(|| default_dir(&scene, "sweep"));
+            let mdas_params =
+                |p: MdasParams| common.mdas.params(p, common.scale, None, common.seed);
+            let spec = compare::sweep::SweepSpec {
+                scene,
+                scale: common.scale,
+                ref_spp: common.ref_spp,
+                ref_seed: common.ref_seed,
+                cache_dir: common.cache.clone(),
+                halton_seed: common.seed.unwrap_or(0),
+                repeats: common.repeats,
+                spps,
+                out: out.clone(),
+                progress: true,
+                mdas_params: &mdas_params,
+            };
+            let result = compare::sweep::sweep(Gpu::shared()?, &spec)?;
+            print!("{}", compare::sweep::csv(&result.rows));
+            if !result.mdas_skipped.is_empty() {
+                println!(
+                    "MDAS skipped at spp {:?} (below its initial sample count)",
+                    result.mdas_skipped
+                );
+            }
+            println!(
+                "wrote {} and {}",
+                out.join("sweep.csv").display(),
+                out.join("sweep.svg").display()
+            );
+            Ok(())
+        }
         Command::Info => {
             println!("mdas {}", env!("CARGO_PKG_VERSION"));
             println!("{}", Gpu::shared()?.describe());
@@ -280,6 +421,14 @@ fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
     }
+}
+
+fn default_dir(scene: &Path, what: &str) -> PathBuf {
+    let stem = scene
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or("scene");
+    PathBuf::from("out").join(format!("{what}-{stem}"))
 }
 
 fn default_output(scene: &Path, integrator: &str) -> PathBuf {

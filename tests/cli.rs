@@ -262,3 +262,83 @@ fn bad_arguments_fail_cleanly() {
         &["mdas-cannot-write-here"],
     );
 }
+
+#[test]
+fn compare_json_goes_to_stdout_and_matches_the_report() {
+    let dir = temp_dir("compare");
+    let out = dir.join("cmp");
+    let cache = dir.join("cache");
+    let o = mdas(&[
+        "compare",
+        "scenes/area_light_plane.toml",
+        "--scale",
+        "0.125",
+        "--spp",
+        "4",
+        "--ref-spp",
+        "16",
+        "--repeats",
+        "1",
+        "--json",
+        "--out",
+        out.to_str().unwrap(),
+        "--cache",
+        cache.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "stderr: {}", stderr(&o));
+    let printed = String::from_utf8_lossy(&o.stdout);
+    let written = std::fs::read_to_string(out.join("report.json")).unwrap();
+    assert_eq!(printed.trim(), written.trim());
+    // The table goes to stderr with --json.
+    assert!(stderr(&o).contains("equal-time RelMSE ratio MDAS/Halton"));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn compare_bad_input_fails_without_a_report() {
+    let dir = temp_dir("compare-bad");
+    let out = dir.join("cmp");
+    let o = out.to_str().unwrap();
+    let run = |args: &[&str], expect: &str| {
+        let r = mdas(args);
+        let err = stderr(&r);
+        assert!(!r.status.success(), "{args:?} should fail");
+        assert!(!err.contains("panicked"), "{args:?} panicked: {err}");
+        assert!(
+            err.contains(expect),
+            "{args:?}: expected '{expect}' in: {err}"
+        );
+        assert!(!out.exists(), "{args:?} left {} behind", out.display());
+    };
+    run(
+        &["compare", "scenes/no_such_scene.toml", "--out", o],
+        "no_such_scene",
+    );
+    run(
+        &[
+            "compare",
+            "scenes/area_light_plane.toml",
+            "--scale",
+            "0.125",
+            "--spp",
+            "0.01",
+            "--out",
+            o,
+        ],
+        "initial samples",
+    );
+    run(
+        &[
+            "compare",
+            "scenes/area_light_plane.toml",
+            "--spp",
+            "4",
+            "--time-ms",
+            "10",
+            "--out",
+            o,
+        ],
+        "cannot be used with",
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -7,7 +7,8 @@
 //! renders are deterministic, so every run's image is the same.
 //!
 //! [`halton_at_equal_time`] finds Halton sample counts whose measured total
-//! time brackets a target time T: a first probe at `spp = 1` gives a linear
+//! time brackets a target time T: a first probe at `spp = 1` (or a method's
+//! smallest budget, [`search_equal_time`]) gives a linear
 //! time model t(spp) ≈ a + b·spp, which seeds a bisection over integer spp
 //! until the bracket [lo, hi] is tight (hi − lo ≤ max(1, lo/32)) or the
 //! target lies outside what spp can reach. The RelMSE at exactly T is
@@ -73,7 +74,8 @@ pub fn measure(
     Ok(Measured { render, times })
 }
 
-/// One Halton run of the equal-time search.
+/// One run of an equal-time search (Halton's, or any method's through
+/// [`search_equal_time`]).
 #[derive(Clone, Debug)]
 pub struct HaltonRun {
     pub spp: u32,
@@ -81,11 +83,12 @@ pub struct HaltonRun {
     pub error: ErrorStats,
 }
 
-/// Halton runs bracketing a target time, and the RelMSE interpolated at it.
+/// Runs bracketing a target time, and the RelMSE interpolated at it.
 #[derive(Clone, Debug)]
 pub struct EqualTime {
     pub target_ms: f64,
-    /// The run with the largest spp whose time is ≤ target (or spp = 1).
+    /// The run with the largest spp whose time is ≤ target (or the smallest
+    /// spp tried, when even that is slower).
     pub lo: HaltonRun,
     /// The run with the smallest spp whose time is ≥ target (or = lo when
     /// the target is below the time of one sample per pixel, or above
@@ -119,10 +122,7 @@ pub fn halton_at_equal_time(
     repeats: u32,
     max_spp: u32,
 ) -> Result<EqualTime> {
-    if !(target_ms.is_finite() && target_ms > 0.0) {
-        bail!("equal-time target must be a positive time, got {target_ms} ms");
-    }
-    let run = |spp: u32| -> Result<HaltonRun> {
+    search_equal_time(target_ms, 1, max_spp, &mut |spp| {
         let measured = measure(gpu, &mut Halton::new(spp, seed), integrand, repeats)?;
         let error = metrics::compare(&measured.render.image, reference)?;
         Ok(HaltonRun {
@@ -130,9 +130,26 @@ pub fn halton_at_equal_time(
             measured,
             error,
         })
-    };
-    let mut lo = run(1)?;
-    if lo.measured.total_ms() >= target_ms || max_spp <= 1 {
+    })
+}
+
+/// The budget search of [`halton_at_equal_time`] over any method whose
+/// cost grows with a whole spp: `run(spp)` measures one budget, the search
+/// starts at `min_spp` (the smallest budget the method accepts) and never
+/// exceeds `max_spp`.
+pub fn search_equal_time(
+    target_ms: f64,
+    min_spp: u32,
+    max_spp: u32,
+    run: &mut dyn FnMut(u32) -> Result<HaltonRun>,
+) -> Result<EqualTime> {
+    if !(target_ms.is_finite() && target_ms > 0.0) {
+        bail!("equal-time target must be a positive time, got {target_ms} ms");
+    }
+    let min_spp = min_spp.max(1);
+    let max_spp = max_spp.max(min_spp);
+    let mut lo = run(min_spp)?;
+    if lo.measured.total_ms() >= target_ms || max_spp <= min_spp {
         let relmse = lo.error.relmse;
         return Ok(EqualTime {
             target_ms,
@@ -143,11 +160,11 @@ pub fn halton_at_equal_time(
     }
     // Linear model through (0, 0) and the probe: overestimate slightly so the
     // first guess tends to land above the target and close the bracket.
-    let per_spp = lo.measured.total_ms().max(1e-6);
+    let per_spp = (lo.measured.total_ms() / min_spp as f64).max(1e-9);
     let mut hi: Option<HaltonRun> = None;
     let mut guess = ((1.1 * target_ms / per_spp).ceil() as u64)
-        .max(2)
-        .min(max_spp.max(1) as u64) as u32;
+        .max(min_spp as u64 + 1)
+        .min(max_spp as u64) as u32;
     loop {
         let r = run(guess)?;
         if r.measured.total_ms() <= target_ms {

@@ -1,6 +1,17 @@
 //! Equal-time comparison of integrators (the experiment of the MDAS paper,
-//! §5): timing with warm-up and medians, and Halton budget matching.
+//! §5): timing with warm-up and medians, budget matching, `mdas compare`
+//! ([`experiment`]) with its report, heat maps and density map, and
+//! `mdas sweep` ([`sweep`]) with its CSV and log–log plot.
 
 pub mod equal_time;
+pub mod experiment;
+pub mod heatmap;
+pub mod plot;
+pub mod report;
+pub mod sweep;
 
-pub use equal_time::{halton_at_equal_time, measure, EqualTime, HaltonRun, Measured};
+pub use equal_time::{
+    halton_at_equal_time, measure, search_equal_time, EqualTime, HaltonRun, Measured,
+};
+pub use experiment::{check_out_dir, compare, Budget, CompareSpec};
+pub use report::Report;

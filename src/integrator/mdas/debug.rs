@@ -141,6 +141,34 @@ impl Snapshot {
             .collect()
     }
 
+    /// Samples per pixel (row-major, `film.width × film.height`): each
+    /// leaf's samples spread over the pixels its film projection overlaps,
+    /// in proportion to the overlap area — the density the reconstruction
+    /// (eq. 7) sees, as in the paper's sample-density figures. Sums to the
+    /// samples held by the leaves.
+    pub fn sample_density(&self) -> Vec<f32> {
+        let (w, h) = (self.film.width as usize, self.film.height as usize);
+        let mut density = vec![0.0f64; w * h];
+        for k in 0..self.leaf_count {
+            let count = self.leaf(k).count;
+            if count == 0 {
+                continue;
+            }
+            let b = self.leaf_box(k);
+            let (x0, x1) = (b[0].0 * w as f64, b[0].1 * w as f64);
+            let (y0, y1) = (b[1].0 * h as f64, b[1].1 * h as f64);
+            let per_area = count as f64 / ((x1 - x0) * (y1 - y0));
+            for j in (y0.floor() as usize)..(y1.ceil() as usize).min(h) {
+                let oy = (y1.min(j as f64 + 1.0) - y0.max(j as f64)).max(0.0);
+                for i in (x0.floor() as usize)..(x1.ceil() as usize).min(w) {
+                    let ox = (x1.min(i as f64 + 1.0) - x0.max(i as f64)).max(0.0);
+                    density[j * w + i] += per_area * ox * oy;
+                }
+            }
+        }
+        density.into_iter().map(|d| d as f32).collect()
+    }
+
     /// Mean of the finite values of leaf k (None without any).
     pub fn leaf_mean(&self, k: u32) -> Option<[f64; 3]> {
         let finite: Vec<[f32; 3]> = self

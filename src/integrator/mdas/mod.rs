@@ -20,6 +20,10 @@
 //! reached (the last iteration is trimmed to exactly N), no leaf can be
 //! selected (all collapsed), or [`Mdas::max_iterations`] have run; then
 //! reconstruction. `Render::samples` is the achieved count.
+//! [`Mdas::render_with_density`] also returns the samples per pixel of the
+//! final leaves (each leaf's samples spread over the pixels its film box
+//! overlaps, by overlap area; [`debug::Snapshot::sample_density`]), for the
+//! density maps of `mdas compare`.
 //!
 //! ## Parameters (`[mdas]` table, [`MdasParams`])
 //!
@@ -288,7 +292,24 @@ impl Mdas {
         integrand: &dyn Integrand,
         observe: &mut dyn FnMut(&Snapshot),
     ) -> Result<Render> {
-        self.run(gpu, integrand, Some(observe))
+        self.run(gpu, integrand, Some(observe), false)
+    }
+
+    /// Renders like [`Integrator::render`] and also returns the per-pixel
+    /// sample density of the final leaves ([`Snapshot::sample_density`],
+    /// row-major, samples per pixel). Reads the final state back once, so
+    /// use it for figures, not for timing.
+    pub fn render_with_density(
+        &mut self,
+        gpu: &Gpu,
+        integrand: &dyn Integrand,
+    ) -> Result<(Render, Vec<f32>)> {
+        let mut density = Vec::new();
+        let render = {
+            let mut observe = |s: &Snapshot| density = s.sample_density();
+            self.run(gpu, integrand, Some(&mut observe), true)?
+        };
+        Ok((render, density))
     }
 
     fn run(
@@ -296,6 +317,7 @@ impl Mdas {
         gpu: &Gpu,
         integrand: &dyn Integrand,
         mut observe: Option<&mut dyn FnMut(&Snapshot)>,
+        final_only: bool,
     ) -> Result<Render> {
         let cfg = self.config(integrand)?;
         cfg.check_device(gpu)?;
@@ -477,7 +499,7 @@ impl Mdas {
                 profiler.phase("error", |e, ts| {
                     error::record(&mut e.begin_compute_pass(&pass("mdas.error", ts)), &k, grid)
                 })?;
-                if let Some(observe) = observe.as_mut() {
+                if let Some(observe) = observe.as_mut().filter(|_| !final_only) {
                     observe(&snapshot(iteration, false, n, leaves, &gp)?);
                 }
                 profiler.phase("adaptive", |e, ts| {
@@ -571,6 +593,6 @@ impl Integrator for Mdas {
     }
 
     fn render(&mut self, gpu: &Gpu, integrand: &dyn Integrand) -> Result<Render> {
-        self.run(gpu, integrand, None)
+        self.run(gpu, integrand, None, false)
     }
 }

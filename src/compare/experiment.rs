@@ -1,0 +1,395 @@
+//! `mdas compare`: MDAS against Halton at equal time on one scene (MDAS
+//! paper §5), with every image, heat map and `report.json` written to one
+//! directory.
+//!
+//! 1. Validate everything that needs no render: repeats, the time budget,
+//!    the scene, MDAS's parameters against the integrand (a budget below
+//!    its initial sample count fails here), then the output directory
+//!    (created and probed for writing).
+//! 2. The reference: Halton at `ref_spp` (`app::reference`, cached).
+//! 3. Timing ([`measure`]): MDAS at its spp — its median total is the
+//!    target time — then Halton's budget search at that time
+//!    ([`super::halton_at_equal_time`]). With [`Budget::TimeMs`] both
+//!    methods get the same target and both are searched
+//!    ([`search_equal_time`]; MDAS from the smallest spp its initial grid
+//!    allows, and it is an error if even that is slower than the budget).
+//! 4. An untimed MDAS render with the sample-density read-back.
+//! 5. Only then files are written, each atomically, `report.json` last: a
+//!    failure anywhere before leaves no report.
+//!
+//! The images written for a searched method are those of the bracketing
+//! run nearer to the target time (`equal_time.*.image_run`); the methods'
+//! `relmse` are those runs' own, the ratio uses the values interpolated at
+//! exactly the target time.
+
+use super::equal_time::{measure, search_equal_time, EqualTime, HaltonRun};
+use super::heatmap;
+use super::report::*;
+use crate::app::{self, ReferenceSpec};
+use crate::gpu::profiler::Clock;
+use crate::gpu::Gpu;
+use crate::image_io;
+use crate::integrand::Integrand;
+use crate::integrator::{Halton, Mdas};
+use crate::metrics;
+use crate::scene::MdasParams;
+use anyhow::{bail, Context, Result};
+use indicatif::{ProgressBar, ProgressStyle};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// What fixes the time both methods get.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Budget {
+    /// MDAS at its `[mdas]` spp (after overrides); the target is its time.
+    MdasSpp,
+    /// Both methods at this many milliseconds.
+    TimeMs(f64),
+}
+
+/// Inputs of [`compare`].
+pub struct CompareSpec<'a> {
+    pub scene: PathBuf,
+    pub scale: f32,
+    pub ref_spp: u32,
+    pub ref_seed: u32,
+    pub cache_dir: PathBuf,
+    pub halton_seed: u32,
+    pub repeats: u32,
+    pub budget: Budget,
+    /// Upper end of the spp searches.
+    pub max_spp: u32,
+    pub out: PathBuf,
+    /// Show progress bars on stderr.
+    pub progress: bool,
+    /// The scene's `[mdas]` table → the parameters to run (scaling to
+    /// `--scale`, CLI overrides).
+    pub mdas_params: &'a dyn Fn(MdasParams) -> MdasParams,
+}
+
+/// The compared Halton render must not reuse the reference's random
+/// shifts: its samples would be the reference's first ones, and its error
+/// would look far smaller than it is.
+pub fn check_seeds(halton_seed: u32, ref_seed: u32) -> Result<()> {
+    if halton_seed == ref_seed {
+        bail!("the Halton seed ({halton_seed}) equals the reference seed: the compared render would reuse the reference's samples; pick a different --seed or --ref-seed");
+    }
+    Ok(())
+}
+
+/// Creates `out` if needed and checks that files can be written in it.
+pub fn check_out_dir(out: &Path) -> Result<()> {
+    std::fs::create_dir_all(out)
+        .with_context(|| format!("cannot create output directory {}", out.display()))?;
+    let probe = out.join(format!(".mdas-write-probe-{}", std::process::id()));
+    std::fs::write(&probe, b"")
+        .with_context(|| format!("output directory {} is not writable", out.display()))?;
+    std::fs::remove_file(&probe).ok();
+    Ok(())
+}
+
+pub(crate) fn bar(progress: bool, len: u64, template: &str) -> ProgressBar {
+    if !progress {
+        return ProgressBar::hidden();
+    }
+    let b = ProgressBar::new(len);
+    b.set_style(ProgressStyle::with_template(template).expect("valid template"));
+    b
+}
+
+pub(crate) fn spinner(progress: bool) -> ProgressBar {
+    if !progress {
+        return ProgressBar::hidden();
+    }
+    let b = ProgressBar::new_spinner();
+    b.set_style(
+        ProgressStyle::with_template("{spinner} {msg} [{elapsed_precise}]")
+            .expect("valid template"),
+    );
+    b.enable_steady_tick(std::time::Duration::from_millis(200));
+    b
+}
+
+/// The reference image, with a progress bar while it renders.
+pub(crate) fn load_reference(
+    gpu: &Gpu,
+    scene: &Path,
+    spec: ReferenceSpec,
+    cache_dir: &Path,
+    progress: bool,
+) -> Result<(Vec<[f32; 3]>, PathBuf, bool)> {
+    let b = bar(
+        progress,
+        spec.spp as u64,
+        "reference {bar:40} {pos}/{len} spp [{elapsed_precise} < {eta}]",
+    );
+    let b2 = b.clone();
+    let (_, image, path, cached) = app::reference(
+        gpu,
+        scene,
+        spec,
+        cache_dir,
+        Some(Box::new(move |done, _| b2.set_position(done as u64))),
+    )?;
+    b.finish_and_clear();
+    Ok((image, path, cached))
+}
+
+/// The smallest whole spp MDAS accepts with `params` (its budget must hold
+/// the initial samples, 2^(d·b+2e)·l).
+pub fn mdas_min_spp(params: MdasParams, integrand: &dyn Integrand) -> Result<u32> {
+    let film = integrand.film();
+    let pixels = film.width as u64 * film.height as u64;
+    let bits = integrand.dims() * params.bits_per_dim + 2 * params.extra_image_bits;
+    let initial = (1u64 << bits.min(40)) * params.initial_samples_per_cell as u64;
+    let spp = initial.div_ceil(pixels).max(1);
+    if spp > u32::MAX as u64 {
+        bail!("MDAS's initial grid ({initial} samples) is far beyond any budget");
+    }
+    Ok(spp as u32)
+}
+
+/// Measures MDAS at `spp` (an average, may be fractional).
+fn run_mdas(
+    gpu: &Gpu,
+    params: MdasParams,
+    spp: f32,
+    integrand: &dyn Integrand,
+    reference: &[[f32; 3]],
+    repeats: u32,
+) -> Result<HaltonRun> {
+    let mut mdas = Mdas::new(MdasParams { spp, ..params })?;
+    let measured = measure(gpu, &mut mdas, integrand, repeats)?;
+    let error = metrics::compare(&measured.render.image, reference)?;
+    Ok(HaltonRun {
+        spp: spp.round() as u32,
+        measured,
+        error,
+    })
+}
+
+/// Runs the comparison and writes everything (see the module docs). On
+/// failure an output directory this call created is removed again if it is
+/// still empty.
+pub fn compare(gpu: &Gpu, spec: &CompareSpec) -> Result<Report> {
+    cleaning_up(&spec.out, || run_compare(gpu, spec))
+}
+
+/// Runs `f`; if it fails and `out` did not exist before, removes `out`
+/// when empty (`remove_dir` refuses non-empty directories).
+pub(crate) fn cleaning_up<T>(out: &Path, f: impl FnOnce() -> Result<T>) -> Result<T> {
+    let existed = out.exists();
+    let result = f();
+    if result.is_err() && !existed {
+        std::fs::remove_dir(out).ok();
+    }
+    result
+}
+
+fn run_compare(gpu: &Gpu, spec: &CompareSpec) -> Result<Report> {
+    // 1. Validation, before any render or file.
+    if spec.repeats == 0 {
+        bail!("--repeats must be at least 1");
+    }
+    check_seeds(spec.halton_seed, spec.ref_seed)?;
+    if let Budget::TimeMs(t) = spec.budget {
+        if !(t.is_finite() && t > 0.0) {
+            bail!("--time-ms must be a positive number of milliseconds, got {t}");
+        }
+    }
+    let prepared = app::prepare(gpu, &spec.scene, spec.scale)?;
+    let integrand = prepared.integrand.as_ref();
+    let film = prepared.film;
+    let params = (spec.mdas_params)(prepared.scene.mdas);
+    let min_spp = mdas_min_spp(params, integrand)?;
+    let check_spp = match spec.budget {
+        Budget::MdasSpp => params.spp,
+        Budget::TimeMs(_) => min_spp as f32,
+    };
+    Mdas::new(MdasParams {
+        spp: check_spp,
+        ..params
+    })?
+    .config(integrand)
+    .with_context(|| {
+        format!(
+            "MDAS cannot render {} at spp {check_spp}",
+            spec.scene.display()
+        )
+    })?;
+    check_out_dir(&spec.out)?;
+
+    // 2. Reference.
+    let ref_spec = ReferenceSpec {
+        spp: spec.ref_spp,
+        scale: spec.scale,
+        seed: spec.ref_seed,
+    };
+    let (reference, ref_path, cached) =
+        load_reference(gpu, &spec.scene, ref_spec, &spec.cache_dir, spec.progress)?;
+
+    // 3. Timing and the equal-time searches.
+    let status = spinner(spec.progress);
+    let mut mdas_run = |spp: u32| {
+        status.set_message(format!("mdas {spp} spp ({} repeats)", spec.repeats));
+        run_mdas(gpu, params, spp as f32, integrand, &reference, spec.repeats)
+    };
+    let (mdas_main, mdas_spp, mdas_search, target_ms) = match spec.budget {
+        Budget::MdasSpp => {
+            status.set_message(format!(
+                "mdas {} spp ({} repeats)",
+                params.spp, spec.repeats
+            ));
+            let run = run_mdas(gpu, params, params.spp, integrand, &reference, spec.repeats)?;
+            let t = run.measured.total_ms();
+            (run, params.spp as f64, None, t)
+        }
+        Budget::TimeMs(t) => {
+            let eq = search_equal_time(t, min_spp, spec.max_spp, &mut mdas_run)?;
+            if eq.lo.measured.total_ms() > t {
+                bail!(
+                    "--time-ms {t} is below the time MDAS needs for its initial samples ({:.3} ms at {} spp, the least its initial grid allows)",
+                    eq.lo.measured.total_ms(),
+                    eq.lo.spp
+                );
+            }
+            let run = nearer(&eq).clone();
+            let spp = run.spp as f64;
+            (run, spp, Some(eq), t)
+        }
+    };
+    let mut halton_run = |spp: u32| -> Result<HaltonRun> {
+        status.set_message(format!("halton {spp} spp ({} repeats)", spec.repeats));
+        let measured = measure(
+            gpu,
+            &mut Halton::new(spp, spec.halton_seed),
+            integrand,
+            spec.repeats,
+        )?;
+        let error = metrics::compare(&measured.render.image, &reference)?;
+        Ok(HaltonRun {
+            spp,
+            measured,
+            error,
+        })
+    };
+    let halton_eq = search_equal_time(target_ms, 1, spec.max_spp, &mut halton_run)?;
+    let halton_main = nearer(&halton_eq).clone();
+
+    // 4. Sample density of the MDAS run (untimed; same seed, same image).
+    status.set_message("mdas sample density");
+    let (_, density) = Mdas::new(MdasParams {
+        spp: mdas_spp as f32,
+        ..params
+    })?
+    .render_with_density(gpu, integrand)?;
+    status.finish_and_clear();
+
+    // 5. Files, report last.
+    let (w, h) = (film.width, film.height);
+    let mut files = BTreeMap::new();
+    let mut image = |key: &str, name: &str, pixels: &[[f32; 3]]| -> Result<()> {
+        app::write_outputs(&spec.out.join(format!("{name}.exr")), film, pixels)?;
+        files.insert(key.to_string(), format!("{name}.exr"));
+        files.insert(format!("{key}_png"), format!("{name}.png"));
+        Ok(())
+    };
+    image("reference", "reference", &reference)?;
+    image("mdas", "mdas", &mdas_main.measured.render.image)?;
+    image("halton", "halton", &halton_main.measured.render.image)?;
+    for (key, run) in [("mdas", &mdas_main), ("halton", &halton_main)] {
+        let per_pixel = metrics::relmse_per_pixel(&run.measured.render.image, &reference)?;
+        let name = format!("relmse-{key}");
+        heatmap::write_map(
+            &spec.out.join(&name),
+            w,
+            h,
+            &per_pixel,
+            heatmap::RELMSE_RANGE,
+        )?;
+        files.insert(format!("relmse_{key}"), format!("{name}.exr"));
+        files.insert(format!("relmse_{key}_png"), format!("{name}.png"));
+    }
+    let density_range = heatmap::density_range(&density);
+    heatmap::write_map(
+        &spec.out.join("density-mdas"),
+        w,
+        h,
+        &density,
+        density_range,
+    )?;
+    files.insert("density_mdas".into(), "density-mdas.exr".into());
+    files.insert("density_mdas_png".into(), "density-mdas.png".into());
+    files.insert("report".into(), "report.json".into());
+
+    let halton_report = SearchReport::new(&halton_eq);
+    let mdas_report = mdas_search.as_ref().map(SearchReport::new);
+    let mdas_relmse = mdas_report
+        .as_ref()
+        .map_or(mdas_main.error.relmse, |m| m.relmse);
+    let report = Report {
+        scene: spec.scene.display().to_string(),
+        scale: spec.scale,
+        film: FilmReport {
+            width: w,
+            height: h,
+        },
+        seed: Seeds {
+            halton: spec.halton_seed,
+            mdas: params.seed,
+            reference: spec.ref_seed,
+        },
+        adapter: gpu.info.name.clone(),
+        backend: format!("{:?}", gpu.info.backend),
+        clock: match mdas_main.measured.render.clock {
+            Clock::GpuTimestamps => "gpu timestamps",
+            Clock::WallClock => "wall clock",
+        }
+        .into(),
+        version: env!("CARGO_PKG_VERSION").into(),
+        repeats: spec.repeats,
+        reference: ReferenceReport {
+            spp: spec.ref_spp,
+            path: ref_path.display().to_string(),
+            cached,
+        },
+        methods: vec![
+            MethodReport::new("mdas", mdas_spp, &mdas_main, "mdas.exr"),
+            MethodReport::new("halton", halton_main.spp as f64, &halton_main, "halton.exr"),
+        ],
+        equal_time: EqualTimeReport {
+            mode: match spec.budget {
+                Budget::MdasSpp => "mdas",
+                Budget::TimeMs(_) => "budget",
+            }
+            .into(),
+            target_ms,
+            mdas_relmse,
+            halton_relmse: halton_eq.relmse,
+            relmse_ratio: mdas_relmse / halton_eq.relmse,
+            halton: halton_report,
+            mdas: mdas_report,
+        },
+        maps: MapsReport {
+            colormap: "viridis, log scale",
+            relmse_range: heatmap::RELMSE_RANGE,
+            density_range,
+        },
+        files,
+    };
+    let json = serde_json::to_string_pretty(&report)?;
+    image_io::write_atomic(&spec.out.join("report.json"), |temp| {
+        std::fs::write(temp, json.as_bytes()).map_err(Into::into)
+    })?;
+    Ok(report)
+}
+
+/// The bracketing run nearer to the target time.
+fn nearer(eq: &EqualTime) -> &HaltonRun {
+    let t = eq.target_ms;
+    if (t - eq.lo.measured.total_ms()).abs() <= (eq.hi.measured.total_ms() - t).abs() {
+        &eq.lo
+    } else {
+        &eq.hi
+    }
+}

@@ -1,0 +1,175 @@
+//! A hand-written SVG log–log line plot (no fonts or rasterizer needed):
+//! decade grid lines with labels, one polyline with markers per series,
+//! a legend.
+
+use std::fmt::Write;
+
+/// One line of the plot: a name, an SVG colour and (x, y) points (x, y > 0;
+/// others are dropped).
+pub struct Series<'a> {
+    pub name: &'a str,
+    pub colour: &'a str,
+    pub points: Vec<(f64, f64)>,
+}
+
+const W: f64 = 720.0;
+const H: f64 = 480.0;
+const LEFT: f64 = 80.0;
+const RIGHT: f64 = 20.0;
+const TOP: f64 = 40.0;
+const BOTTOM: f64 = 60.0;
+
+/// Decades spanning [lo, hi] (at least one).
+fn decades(lo: f64, hi: f64) -> (i32, i32) {
+    let a = lo.log10().floor() as i32;
+    let b = (hi.log10().ceil() as i32).max(a + 1);
+    (a, b)
+}
+
+fn label(e: i32) -> String {
+    if (-3..=4).contains(&e) {
+        format!("{}", 10f64.powi(e))
+    } else {
+        format!("1e{e}")
+    }
+}
+
+/// The SVG document.
+pub fn loglog_svg(title: &str, x_label: &str, y_label: &str, series: &[Series]) -> String {
+    let pts: Vec<(f64, f64)> = series
+        .iter()
+        .flat_map(|s| s.points.iter().copied())
+        .filter(|&(x, y)| x > 0.0 && y > 0.0 && x.is_finite() && y.is_finite())
+        .collect();
+    let (xmin, xmax) = pts
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.0), b.max(p.0)));
+    let (ymin, ymax) = pts
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.1), b.max(p.1)));
+    let ((x0, x1), (y0, y1)) = if pts.is_empty() {
+        ((0, 1), (0, 1))
+    } else {
+        (decades(xmin, xmax), decades(ymin, ymax))
+    };
+    let (pw, ph) = (W - LEFT - RIGHT, H - TOP - BOTTOM);
+    let sx = |x: f64| LEFT + (x.log10() - x0 as f64) / (x1 - x0) as f64 * pw;
+    let sy = |y: f64| TOP + ph - (y.log10() - y0 as f64) / (y1 - y0) as f64 * ph;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{W}" height="{H}" viewBox="0 0 {W} {H}" font-family="sans-serif" font-size="12">"#
+    );
+    let _ = writeln!(s, r#"<rect width="{W}" height="{H}" fill="white"/>"#);
+    let _ = writeln!(
+        s,
+        r#"<text x="{}" y="24" text-anchor="middle" font-size="15">{}</text>"#,
+        W / 2.0,
+        escape(title)
+    );
+    for e in x0..=x1 {
+        let x = sx(10f64.powi(e));
+        let _ = writeln!(
+            s,
+            r##"<line x1="{x:.1}" y1="{TOP}" x2="{x:.1}" y2="{:.1}" stroke="#ddd"/><text x="{x:.1}" y="{:.1}" text-anchor="middle">{}</text>"##,
+            TOP + ph,
+            TOP + ph + 18.0,
+            label(e)
+        );
+    }
+    for e in y0..=y1 {
+        let y = sy(10f64.powi(e));
+        let _ = writeln!(
+            s,
+            r##"<line x1="{LEFT}" y1="{y:.1}" x2="{:.1}" y2="{y:.1}" stroke="#ddd"/><text x="{:.1}" y="{:.1}" text-anchor="end">{}</text>"##,
+            LEFT + pw,
+            LEFT - 6.0,
+            y + 4.0,
+            label(e)
+        );
+    }
+    let _ = writeln!(
+        s,
+        r#"<rect x="{LEFT}" y="{TOP}" width="{pw}" height="{ph}" fill="none" stroke="black"/>"#
+    );
+    let _ = writeln!(
+        s,
+        r#"<text x="{:.1}" y="{:.1}" text-anchor="middle">{}</text>"#,
+        LEFT + pw / 2.0,
+        H - 16.0,
+        escape(x_label)
+    );
+    let _ = writeln!(
+        s,
+        r#"<text x="18" y="{:.1}" text-anchor="middle" transform="rotate(-90 18 {:.1})">{}</text>"#,
+        TOP + ph / 2.0,
+        TOP + ph / 2.0,
+        escape(y_label)
+    );
+    for (i, ser) in series.iter().enumerate() {
+        let p: Vec<(f64, f64)> = ser
+            .points
+            .iter()
+            .copied()
+            .filter(|&(x, y)| x > 0.0 && y > 0.0 && x.is_finite() && y.is_finite())
+            .map(|(x, y)| (sx(x), sy(y)))
+            .collect();
+        let path: Vec<String> = p.iter().map(|(x, y)| format!("{x:.1},{y:.1}")).collect();
+        let _ = writeln!(
+            s,
+            r#"<polyline points="{}" fill="none" stroke="{}" stroke-width="2"/>"#,
+            path.join(" "),
+            ser.colour
+        );
+        for (x, y) in &p {
+            let _ = writeln!(
+                s,
+                r#"<circle cx="{x:.1}" cy="{y:.1}" r="3.5" fill="{}"/>"#,
+                ser.colour
+            );
+        }
+        let ly = TOP + 18.0 + 18.0 * i as f64;
+        let lx = LEFT + pw - 130.0;
+        let _ = writeln!(
+            s,
+            r#"<line x1="{lx:.1}" y1="{ly:.1}" x2="{:.1}" y2="{ly:.1}" stroke="{}" stroke-width="2"/><text x="{:.1}" y="{:.1}">{}</text>"#,
+            lx + 24.0,
+            ser.colour,
+            lx + 30.0,
+            ly + 4.0,
+            escape(ser.name)
+        );
+    }
+    s.push_str("</svg>\n");
+    s
+}
+
+fn escape(t: &str) -> String {
+    t.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn svg_has_series_and_decades() {
+        let svg = loglog_svg(
+            "t",
+            "time (ms)",
+            "RelMSE",
+            &[Series {
+                name: "a<b",
+                colour: "red",
+                points: vec![(1.0, 0.1), (10.0, 0.01), (0.0, 1.0)],
+            }],
+        );
+        assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
+        assert_eq!(svg.matches("<circle").count(), 2);
+        assert!(svg.contains("a&lt;b"));
+        assert_eq!(decades(1.0, 10.0), (0, 1));
+        assert_eq!(decades(0.02, 3.0), (-2, 1));
+    }
+}

@@ -1,0 +1,267 @@
+//! `report.json` of `mdas compare`: what was compared, how long each
+//! method took per phase, its error against the reference, and the
+//! equal-time RelMSE ratio MDAS/Halton (DESIGN.md "Equal time", "RelMSE").
+//!
+//! Times are milliseconds, medians over the timed repeats after a warm-up
+//! (`compare::equal_time::measure`); `time_ms.total` is the sum of the
+//! phases. `relmse`/`mse` follow `metrics::compare`; `nonfinite` counts
+//! non-finite samples and `nonfinite_pixels` non-finite pixels.
+
+use super::equal_time::{EqualTime, HaltonRun};
+use crate::gpu::profiler::PhaseTimes;
+use serde::Serialize;
+use std::collections::BTreeMap;
+
+/// The whole report.
+#[derive(Clone, Debug, Serialize)]
+pub struct Report {
+    pub scene: String,
+    pub scale: f32,
+    pub film: FilmReport,
+    pub seed: Seeds,
+    pub adapter: String,
+    pub backend: String,
+    /// `"gpu timestamps"` or `"wall clock"`.
+    pub clock: String,
+    /// Crate version.
+    pub version: String,
+    pub repeats: u32,
+    pub reference: ReferenceReport,
+    /// MDAS first, then Halton (the bracketing run nearer to equal time).
+    pub methods: Vec<MethodReport>,
+    pub equal_time: EqualTimeReport,
+    pub maps: MapsReport,
+    /// Every file written, relative to the output directory.
+    pub files: BTreeMap<String, String>,
+}
+
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct FilmReport {
+    pub width: u32,
+    pub height: u32,
+}
+
+/// Log ranges of the PNG colour maps (`compare::heatmap`).
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct MapsReport {
+    pub colormap: &'static str,
+    pub relmse_range: (f32, f32),
+    /// Samples per pixel at the two ends of the density map.
+    pub density_range: (f32, f32),
+}
+
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct Seeds {
+    pub halton: u32,
+    pub mdas: u32,
+    pub reference: u32,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct ReferenceReport {
+    pub spp: u32,
+    /// The cached reference EXR this comparison used.
+    pub path: String,
+    pub cached: bool,
+}
+
+/// One method's measured run.
+#[derive(Clone, Debug, Serialize)]
+pub struct MethodReport {
+    pub name: String,
+    /// Samples per pixel asked for (MDAS: an average, may be fractional).
+    pub spp: f64,
+    /// Integrand evaluations performed.
+    pub samples: u64,
+    /// Median milliseconds per phase, and `total`.
+    pub time_ms: BTreeMap<String, f64>,
+    pub samples_per_s: f64,
+    pub relmse: f64,
+    pub mse: f64,
+    /// Non-finite samples.
+    pub nonfinite: u64,
+    pub nonfinite_pixels: u64,
+    /// The image file (EXR) of this run, in the output directory.
+    pub image: String,
+}
+
+impl MethodReport {
+    pub fn new(name: &str, spp: f64, run: &HaltonRun, image: &str) -> MethodReport {
+        let r = &run.measured.render;
+        let total = run.measured.total_ms();
+        MethodReport {
+            name: name.to_string(),
+            spp,
+            samples: r.samples,
+            time_ms: time_map(&run.measured.times),
+            samples_per_s: r.samples as f64 / (total / 1e3).max(1e-12),
+            relmse: run.error.relmse,
+            mse: run.error.mse,
+            nonfinite: r.nonfinite,
+            nonfinite_pixels: run.error.nonfinite_pixels,
+            image: image.to_string(),
+        }
+    }
+
+    pub fn total_ms(&self) -> f64 {
+        self.time_ms["total"]
+    }
+}
+
+/// Phases by name plus `total` (their sum).
+pub fn time_map(times: &PhaseTimes) -> BTreeMap<String, f64> {
+    let mut m: BTreeMap<String, f64> = times.0.iter().cloned().collect();
+    m.insert("total".into(), times.total());
+    m
+}
+
+/// A run of a budget search, as reported.
+#[derive(Clone, Debug, Serialize)]
+pub struct BracketRun {
+    pub spp: u32,
+    pub samples: u64,
+    pub time_ms: f64,
+    pub relmse: f64,
+    pub mse: f64,
+}
+
+impl From<&HaltonRun> for BracketRun {
+    fn from(r: &HaltonRun) -> Self {
+        BracketRun {
+            spp: r.spp,
+            samples: r.measured.render.samples,
+            time_ms: r.measured.total_ms(),
+            relmse: r.error.relmse,
+            mse: r.error.mse,
+        }
+    }
+}
+
+/// A method's budget search at the target time.
+#[derive(Clone, Debug, Serialize)]
+pub struct SearchReport {
+    /// Largest spp measured at or below the target time.
+    pub lo: BracketRun,
+    /// Smallest spp measured above it (= `lo` when the target lies outside
+    /// what the search can reach).
+    pub hi: BracketRun,
+    /// Whether the target lies within [lo, hi] in time.
+    pub bracketed: bool,
+    /// RelMSE at exactly the target time, interpolated log–log between lo
+    /// and hi.
+    pub relmse: f64,
+    /// `"lo"` or `"hi"`: the run nearer in time, whose image is written.
+    pub image_run: String,
+}
+
+impl SearchReport {
+    pub fn new(eq: &EqualTime) -> SearchReport {
+        let t = eq.target_ms;
+        let (lo, hi) = (eq.lo.measured.total_ms(), eq.hi.measured.total_ms());
+        SearchReport {
+            lo: (&eq.lo).into(),
+            hi: (&eq.hi).into(),
+            bracketed: lo <= t && t <= hi,
+            relmse: eq.relmse,
+            image_run: if (t - lo).abs() <= (hi - t).abs() {
+                "lo"
+            } else {
+                "hi"
+            }
+            .into(),
+        }
+    }
+}
+
+/// The comparison at equal time.
+#[derive(Clone, Debug, Serialize)]
+pub struct EqualTimeReport {
+    /// `"mdas"`: the target is MDAS's measured total at its spp;
+    /// `"budget"`: `--time-ms` gave both methods the same target.
+    pub mode: String,
+    pub target_ms: f64,
+    /// MDAS's RelMSE at the target time (its own in `"mdas"` mode, else
+    /// interpolated like Halton's).
+    pub mdas_relmse: f64,
+    /// Halton's RelMSE interpolated at exactly the target time.
+    pub halton_relmse: f64,
+    /// `mdas_relmse / halton_relmse`: below 1 means MDAS wins.
+    pub relmse_ratio: f64,
+    pub halton: SearchReport,
+    /// MDAS's budget search (`"budget"` mode only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mdas: Option<SearchReport>,
+}
+
+/// The table `mdas compare` prints.
+pub fn table(report: &Report) -> String {
+    let mut phases: Vec<&str> = Vec::new();
+    for m in &report.methods {
+        for k in m.time_ms.keys() {
+            if k != "total" && !phases.contains(&k.as_str()) {
+                phases.push(k);
+            }
+        }
+    }
+    let mut out = format!(
+        "{} at {}×{} (scale {}), reference {} spp, {} on {} ({})\n",
+        report.scene,
+        report.film.width,
+        report.film.height,
+        report.scale,
+        report.reference.spp,
+        report.clock,
+        report.adapter,
+        report.backend
+    );
+    out += &format!("{:<8} {:>9} {:>11}", "method", "spp", "samples");
+    for p in &phases {
+        out += &format!(" {:>18}", format!("{p} ms"));
+    }
+    out += &format!(
+        " {:>10} {:>11} {:>11} {:>11}\n",
+        "total ms", "Msamples/s", "RelMSE", "MSE"
+    );
+    for m in &report.methods {
+        out += &format!("{:<8} {:>9.3} {:>11}", m.name, m.spp, m.samples);
+        for p in &phases {
+            match m.time_ms.get(*p) {
+                Some(t) => out += &format!(" {t:>18.3}"),
+                None => out += &format!(" {:>18}", "–"),
+            }
+        }
+        out += &format!(
+            " {:>10.3} {:>11.3} {:>11.4e} {:>11.4e}\n",
+            m.total_ms(),
+            m.samples_per_s / 1e6,
+            m.relmse,
+            m.mse
+        );
+    }
+    let e = &report.equal_time;
+    let h = &e.halton;
+    out += &format!(
+        "equal time {:.3} ms ({}): Halton brackets {} spp ({:.3} ms, RelMSE {:.4e}) and {} spp ({:.3} ms, RelMSE {:.4e}), interpolated RelMSE {:.4e}\n",
+        e.target_ms,
+        e.mode,
+        h.lo.spp,
+        h.lo.time_ms,
+        h.lo.relmse,
+        h.hi.spp,
+        h.hi.time_ms,
+        h.hi.relmse,
+        e.halton_relmse
+    );
+    if let Some(m) = &e.mdas {
+        out += &format!(
+            "MDAS brackets {} spp ({:.3} ms) and {} spp ({:.3} ms), interpolated RelMSE {:.4e}\n",
+            m.lo.spp, m.lo.time_ms, m.hi.spp, m.hi.time_ms, m.relmse
+        );
+    }
+    out += &format!(
+        "equal-time RelMSE ratio MDAS/Halton: {:.4} ({:+.1}%)\n",
+        e.relmse_ratio,
+        100.0 * (e.relmse_ratio - 1.0)
+    );
+    out
+}

@@ -1,0 +1,169 @@
+//! `mdas sweep`: RelMSE against time for MDAS and Halton over a list of
+//! budgets (samples per pixel), written as `sweep.csv` and a log–log
+//! `sweep.svg` (time on x, RelMSE on y) — speed against error in one
+//! picture. Each point is a [`measure`]d run (warm-up, median of the
+//! repeats). MDAS budgets below its initial sample count are skipped and
+//! listed in the result.
+
+use super::equal_time::measure;
+use super::experiment::{check_out_dir, load_reference, mdas_min_spp};
+use super::plot::{loglog_svg, Series};
+use crate::app::{self, ReferenceSpec};
+use crate::gpu::Gpu;
+use crate::image_io;
+use crate::integrator::{Halton, Integrator, Mdas};
+use crate::metrics;
+use crate::scene::MdasParams;
+use anyhow::{bail, Result};
+use std::path::PathBuf;
+
+/// Inputs of [`sweep`].
+pub struct SweepSpec<'a> {
+    pub scene: PathBuf,
+    pub scale: f32,
+    pub ref_spp: u32,
+    pub ref_seed: u32,
+    pub cache_dir: PathBuf,
+    pub halton_seed: u32,
+    pub repeats: u32,
+    /// Budgets, samples per pixel, for both methods.
+    pub spps: Vec<u32>,
+    pub out: PathBuf,
+    pub progress: bool,
+    pub mdas_params: &'a dyn Fn(MdasParams) -> MdasParams,
+}
+
+/// One measured point.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct SweepRow {
+    pub method: &'static str,
+    pub spp: u32,
+    pub samples: u64,
+    pub time_ms: f64,
+    pub relmse: f64,
+    pub mse: f64,
+}
+
+/// The points, and the MDAS budgets skipped (below its initial samples).
+pub struct SweepResult {
+    pub rows: Vec<SweepRow>,
+    pub mdas_skipped: Vec<u32>,
+}
+
+pub const CSV_HEADER: &str = "method,spp,samples,time_ms,relmse,mse";
+
+pub fn csv(rows: &[SweepRow]) -> String {
+    let mut s = format!("{CSV_HEADER}\n");
+    for r in rows {
+        s += &format!(
+            "{},{},{},{},{},{}\n",
+            r.method, r.spp, r.samples, r.time_ms, r.relmse, r.mse
+        );
+    }
+    s
+}
+
+/// Runs the sweep and writes `sweep.csv` and `sweep.svg` in `spec.out`.
+pub fn sweep(gpu: &Gpu, spec: &SweepSpec) -> Result<SweepResult> {
+    super::experiment::cleaning_up(&spec.out, || run_sweep(gpu, spec))
+}
+
+fn run_sweep(gpu: &Gpu, spec: &SweepSpec) -> Result<SweepResult> {
+    if spec.repeats == 0 {
+        bail!("--repeats must be at least 1");
+    }
+    super::experiment::check_seeds(spec.halton_seed, spec.ref_seed)?;
+    if spec.spps.is_empty() || spec.spps.contains(&0) {
+        bail!("--spps must list positive samples per pixel");
+    }
+    let prepared = app::prepare(gpu, &spec.scene, spec.scale)?;
+    let integrand = prepared.integrand.as_ref();
+    let params = (spec.mdas_params)(prepared.scene.mdas);
+    let min_spp = mdas_min_spp(params, integrand)?;
+    let (mdas_spps, mdas_skipped): (Vec<u32>, Vec<u32>) =
+        spec.spps.iter().partition(|&&s| s >= min_spp);
+    for &spp in &mdas_spps {
+        Mdas::new(MdasParams {
+            spp: spp as f32,
+            ..params
+        })?
+        .config(integrand)?;
+    }
+    check_out_dir(&spec.out)?;
+    let (reference, _, _) = load_reference(
+        gpu,
+        &spec.scene,
+        ReferenceSpec {
+            spp: spec.ref_spp,
+            scale: spec.scale,
+            seed: spec.ref_seed,
+        },
+        &spec.cache_dir,
+        spec.progress,
+    )?;
+    let bar = super::experiment::bar(
+        spec.progress,
+        (spec.spps.len() + mdas_spps.len()) as u64,
+        "sweep {bar:40} {pos}/{len} runs {msg} [{elapsed_precise} < {eta}]",
+    );
+    let mut rows = Vec::new();
+    let mut point = |method: &'static str, spp: u32, integrator: &mut dyn Integrator| {
+        bar.set_message(format!("{method} {spp} spp"));
+        let m = measure(gpu, integrator, integrand, spec.repeats)?;
+        let e = metrics::compare(&m.render.image, &reference)?;
+        rows.push(SweepRow {
+            method,
+            spp,
+            samples: m.render.samples,
+            time_ms: m.total_ms(),
+            relmse: e.relmse,
+            mse: e.mse,
+        });
+        bar.inc(1);
+        anyhow::Ok(())
+    };
+    for &spp in &mdas_spps {
+        let mut mdas = Mdas::new(MdasParams {
+            spp: spp as f32,
+            ..params
+        })?;
+        point("mdas", spp, &mut mdas)?;
+    }
+    for &spp in &spec.spps {
+        point("halton", spp, &mut Halton::new(spp, spec.halton_seed))?;
+    }
+    bar.finish_and_clear();
+
+    let series = |method: &str| -> Vec<(f64, f64)> {
+        rows.iter()
+            .filter(|r| r.method == method)
+            .map(|r| (r.time_ms, r.relmse))
+            .collect()
+    };
+    let title = format!("{} at scale {}", spec.scene.display(), spec.scale);
+    let svg = loglog_svg(
+        &title,
+        "time (ms, median)",
+        "RelMSE",
+        &[
+            Series {
+                name: "MDAS",
+                colour: "#d62728",
+                points: series("mdas"),
+            },
+            Series {
+                name: "Halton",
+                colour: "#1f77b4",
+                points: series("halton"),
+            },
+        ],
+    );
+    let text = csv(&rows);
+    image_io::write_atomic(&spec.out.join("sweep.csv"), |t| {
+        std::fs::write(t, text.as_bytes()).map_err(Into::into)
+    })?;
+    image_io::write_atomic(&spec.out.join("sweep.svg"), |t| {
+        std::fs::write(t, svg.as_bytes()).map_err(Into::into)
+    })?;
+    Ok(SweepResult { rows, mdas_skipped })
+}

@@ -1,0 +1,395 @@
+//! `mdas compare` and `mdas sweep` end to end on small films: every listed
+//! file is written, the report agrees with the files (RelMSE recomputed from
+//! the EXRs, phase times summing to the total, equal-time brackets within
+//! the search's stated tolerance, the density map summing to MDAS's
+//! samples), and bad input fails before anything is written.
+
+mod common;
+
+use common::gpu;
+use mdas::compare::sweep::{sweep, SweepSpec, CSV_HEADER};
+use mdas::compare::{compare, Budget, CompareSpec};
+use mdas::image_io::read_exr;
+use mdas::metrics;
+use mdas::scene::MdasParams;
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("mdas-compare-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    dir
+}
+
+/// The CLI's default MDAS parameters at `scale`, with `spp` if given.
+fn params_at(scale: f32, spp: Option<f32>) -> impl Fn(MdasParams) -> MdasParams {
+    move |p| {
+        let p = mdas::app::mdas_params_at_scale(p, scale);
+        MdasParams {
+            spp: spp.unwrap_or(p.spp),
+            ..p
+        }
+    }
+}
+
+fn spec<'a>(
+    scene: &str,
+    scale: f32,
+    out: &Path,
+    budget: Budget,
+    params: &'a dyn Fn(MdasParams) -> MdasParams,
+) -> CompareSpec<'a> {
+    CompareSpec {
+        scene: PathBuf::from(scene),
+        scale,
+        ref_spp: 64,
+        ref_seed: 1,
+        cache_dir: std::env::temp_dir().join(format!("mdas-compare-cache-{}", std::process::id())),
+        halton_seed: 0,
+        repeats: 1,
+        budget,
+        max_spp: 1 << 12,
+        out: out.to_path_buf(),
+        progress: false,
+        mdas_params: params,
+    }
+}
+
+fn close(a: f64, b: f64, rel: f64) -> bool {
+    (a - b).abs() <= rel * a.abs().max(b.abs()).max(1e-30)
+}
+
+/// Checks report.json in `out` against the files beside it.
+fn check_report(out: &Path) -> Value {
+    let json: Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    for key in ["scene", "scale", "seed", "adapter", "version", "reference"] {
+        assert!(json.get(key).is_some(), "report.json lacks {key}");
+    }
+    let files = json["files"].as_object().unwrap();
+    for stem in [
+        "reference",
+        "mdas",
+        "halton",
+        "relmse-mdas",
+        "relmse-halton",
+        "density-mdas",
+    ] {
+        for ext in ["exr", "png"] {
+            let name = format!("{stem}.{ext}");
+            assert!(out.join(&name).is_file(), "{name} missing");
+            assert!(files.values().any(|v| v == &name), "{name} not listed");
+        }
+    }
+    for name in files.values() {
+        assert!(
+            out.join(name.as_str().unwrap()).is_file(),
+            "{name} listed, not written"
+        );
+    }
+    let (w, h, reference) = read_exr(&out.join("reference.exr")).unwrap();
+    assert_eq!(
+        (w as u64, h as u64),
+        (
+            json["film"]["width"].as_u64().unwrap(),
+            json["film"]["height"].as_u64().unwrap()
+        )
+    );
+    let methods = json["methods"].as_array().unwrap();
+    assert_eq!(methods.len(), 2);
+    for m in methods {
+        let name = m["name"].as_str().unwrap();
+        // RelMSE and MSE recomputed from the written EXRs.
+        let (_, _, image) = read_exr(&out.join(m["image"].as_str().unwrap())).unwrap();
+        let e = metrics::compare(&image, &reference).unwrap();
+        let relmse = m["relmse"].as_f64().unwrap();
+        assert!(
+            close(e.relmse, relmse, 1e-9),
+            "{name}: {} vs {relmse}",
+            e.relmse
+        );
+        assert!(close(e.mse, m["mse"].as_f64().unwrap(), 1e-9), "{name} MSE");
+        // The heat map's raw values average to the same RelMSE.
+        let (_, _, map) = read_exr(&out.join(format!("relmse-{name}.exr"))).unwrap();
+        let mean = map.iter().map(|p| p[0] as f64).sum::<f64>() / map.len() as f64;
+        assert!(
+            close(mean, relmse, 1e-5),
+            "{name}: heat map mean {mean} vs {relmse}"
+        );
+        // Phase times add up to the total.
+        let t = m["time_ms"].as_object().unwrap();
+        let sum: f64 = t
+            .iter()
+            .filter(|(k, _)| k.as_str() != "total")
+            .map(|(_, v)| v.as_f64().unwrap())
+            .sum();
+        let total = t["total"].as_f64().unwrap();
+        assert!(
+            total > 0.0 && close(sum, total, 1e-9),
+            "{name}: Σ {sum} vs {total}"
+        );
+        let phases: Vec<&str> = t.keys().map(String::as_str).collect();
+        let expected: &[&str] = if name == "mdas" {
+            &[
+                "adaptive",
+                "error",
+                "evaluate",
+                "initial",
+                "reconstruction",
+                "total",
+            ]
+        } else {
+            &["accumulate", "evaluate", "total"]
+        };
+        assert_eq!(phases, expected, "{name} phases");
+        let samples = m["samples"].as_f64().unwrap();
+        assert!(close(
+            m["samples_per_s"].as_f64().unwrap(),
+            samples / (total / 1e3),
+            1e-9
+        ));
+    }
+    // Equal time: the Halton search brackets the target within the stated
+    // tolerance (hi − lo ≤ max(1, lo/32) spp) and interpolates between them.
+    let eq = &json["equal_time"];
+    let target = eq["target_ms"].as_f64().unwrap();
+    let check_search = |s: &Value| {
+        let (lo, hi) = (&s["lo"], &s["hi"]);
+        let (lo_spp, hi_spp) = (lo["spp"].as_u64().unwrap(), hi["spp"].as_u64().unwrap());
+        let (lo_t, hi_t) = (
+            lo["time_ms"].as_f64().unwrap(),
+            hi["time_ms"].as_f64().unwrap(),
+        );
+        let r = s["relmse"].as_f64().unwrap();
+        let (r_lo, r_hi) = (
+            lo["relmse"].as_f64().unwrap(),
+            hi["relmse"].as_f64().unwrap(),
+        );
+        if s["bracketed"].as_bool().unwrap() && lo_spp < hi_spp {
+            assert!(
+                lo_t <= target && target <= hi_t,
+                "{lo_t} ≤ {target} ≤ {hi_t}"
+            );
+            assert!(
+                hi_spp - lo_spp <= (lo_spp / 32).max(1),
+                "bracket {lo_spp}..{hi_spp}"
+            );
+            assert!(r_lo.min(r_hi) * (1.0 - 1e-12) <= r && r <= r_lo.max(r_hi) * (1.0 + 1e-12));
+        } else {
+            assert!(r == r_lo || r == r_hi);
+        }
+    };
+    check_search(&eq["halton"]);
+    let mdas_relmse = eq["mdas_relmse"].as_f64().unwrap();
+    match eq["mode"].as_str().unwrap() {
+        "mdas" => {
+            assert_eq!(target, methods[0]["time_ms"]["total"].as_f64().unwrap());
+            assert_eq!(mdas_relmse, methods[0]["relmse"].as_f64().unwrap());
+        }
+        _ => check_search(&eq["mdas"]),
+    }
+    let ratio = mdas_relmse / eq["halton_relmse"].as_f64().unwrap();
+    assert!(close(eq["relmse_ratio"].as_f64().unwrap(), ratio, 1e-12));
+    // The density map holds MDAS's samples.
+    let (_, _, density) = read_exr(&out.join("density-mdas.exr")).unwrap();
+    let total: f64 = density.iter().map(|p| p[0] as f64).sum();
+    let samples = methods[0]["samples"].as_f64().unwrap();
+    assert!(
+        close(total, samples, 1e-4),
+        "density sums to {total}, {samples} samples"
+    );
+    json
+}
+
+#[test]
+fn compare_area_light_plane_writes_a_consistent_report() {
+    let out = temp_dir("plane");
+    let params = params_at(0.25, Some(4.0));
+    let report = compare(
+        gpu(),
+        &spec(
+            "scenes/area_light_plane.toml",
+            0.25,
+            &out,
+            Budget::MdasSpp,
+            &params,
+        ),
+    )
+    .unwrap();
+    let json = check_report(&out);
+    assert_eq!(json["methods"][0]["samples"].as_u64(), Some(32 * 24 * 4));
+    assert_eq!(json["reference"]["spp"].as_u64(), Some(64));
+    assert_eq!(report.methods[1].name, "halton");
+    std::fs::remove_dir_all(&out).ok();
+}
+
+#[test]
+fn compare_cornell_writes_every_file() {
+    let out = temp_dir("cornell");
+    let params = params_at(0.125, None);
+    compare(
+        gpu(),
+        &spec("scenes/cornell.toml", 0.125, &out, Budget::MdasSpp, &params),
+    )
+    .unwrap();
+    check_report(&out);
+    std::fs::remove_dir_all(&out).ok();
+}
+
+#[test]
+fn compare_at_a_time_budget_searches_both_methods() {
+    let out = temp_dir("budget");
+    let params = params_at(0.25, None);
+    // A budget safely above MDAS's smallest render on this (shared, noisy)
+    // adapter: three times its measured time.
+    let prepared =
+        mdas::app::prepare(gpu(), Path::new("scenes/area_light_plane.toml"), 0.25).unwrap();
+    let integrand = prepared.integrand.as_ref();
+    let p = params(prepared.scene.mdas);
+    let min_spp = mdas::compare::experiment::mdas_min_spp(p, integrand).unwrap();
+    let mut smallest = mdas::integrator::Mdas::new(MdasParams {
+        spp: min_spp as f32,
+        ..p
+    })
+    .unwrap();
+    let t = mdas::compare::measure(gpu(), &mut smallest, integrand, 1)
+        .unwrap()
+        .total_ms();
+    compare(
+        gpu(),
+        &spec(
+            "scenes/area_light_plane.toml",
+            0.25,
+            &out,
+            Budget::TimeMs(3.0 * t),
+            &params,
+        ),
+    )
+    .unwrap();
+    let json = check_report(&out);
+    assert_eq!(json["equal_time"]["mode"], "budget");
+    assert!(json["equal_time"]["mdas"].is_object());
+    std::fs::remove_dir_all(&out).ok();
+}
+
+fn assert_fails_without_output(spec: &CompareSpec, expect: &str) {
+    let err = format!("{:#}", compare(gpu(), spec).unwrap_err());
+    assert!(err.contains(expect), "expected '{expect}' in: {err}");
+    assert!(!spec.out.join("report.json").exists(), "partial report");
+    assert!(!spec.out.exists(), "{} left behind", spec.out.display());
+}
+
+#[test]
+fn bad_input_fails_before_writing_anything() {
+    let params = params_at(0.25, None);
+    // Unknown scene.
+    let out = temp_dir("bad-scene");
+    assert_fails_without_output(
+        &spec(
+            "scenes/no_such_scene.toml",
+            0.25,
+            &out,
+            Budget::MdasSpp,
+            &params,
+        ),
+        "no_such_scene",
+    );
+    // MDAS budget below its initial sample count.
+    let tiny = params_at(0.25, Some(0.01));
+    let out = temp_dir("bad-spp");
+    assert_fails_without_output(
+        &spec(
+            "scenes/area_light_plane.toml",
+            0.25,
+            &out,
+            Budget::MdasSpp,
+            &tiny,
+        ),
+        "initial samples",
+    );
+    // A time budget below MDAS's initial samples' time (found by rendering,
+    // still before any file).
+    let out = temp_dir("bad-time");
+    assert_fails_without_output(
+        &spec(
+            "scenes/area_light_plane.toml",
+            0.25,
+            &out,
+            Budget::TimeMs(1e-6),
+            &params,
+        ),
+        "below the time MDAS needs",
+    );
+    // A Halton seed equal to the reference's.
+    let out = temp_dir("bad-seed");
+    let mut same_seed = spec(
+        "scenes/area_light_plane.toml",
+        0.25,
+        &out,
+        Budget::MdasSpp,
+        &params,
+    );
+    same_seed.halton_seed = same_seed.ref_seed;
+    assert_fails_without_output(&same_seed, "equals the reference seed");
+    // An output directory that cannot be created (its parent is a file).
+    let file = temp_dir("bad-out-file");
+    std::fs::write(&file, b"not a directory").unwrap();
+    let out = file.join("out");
+    assert_fails_without_output(
+        &spec(
+            "scenes/area_light_plane.toml",
+            0.25,
+            &out,
+            Budget::MdasSpp,
+            &params,
+        ),
+        "cannot create output directory",
+    );
+    std::fs::remove_file(&file).ok();
+}
+
+#[test]
+fn sweep_writes_csv_and_svg() {
+    let out = temp_dir("sweep");
+    let params = params_at(0.25, None);
+    let result = sweep(
+        gpu(),
+        &SweepSpec {
+            scene: PathBuf::from("scenes/area_light_plane.toml"),
+            scale: 0.25,
+            ref_spp: 64,
+            ref_seed: 1,
+            cache_dir: std::env::temp_dir()
+                .join(format!("mdas-compare-cache-{}", std::process::id())),
+            halton_seed: 0,
+            repeats: 1,
+            spps: vec![1, 2, 4],
+            out: out.clone(),
+            progress: false,
+            mdas_params: &params,
+        },
+    )
+    .unwrap();
+    let csv = std::fs::read_to_string(out.join("sweep.csv")).unwrap();
+    let lines: Vec<&str> = csv.lines().collect();
+    assert_eq!(lines[0], CSV_HEADER);
+    assert_eq!(lines.len(), 1 + result.rows.len());
+    let halton: Vec<_> = result
+        .rows
+        .iter()
+        .filter(|r| r.method == "halton")
+        .collect();
+    assert_eq!(halton.len(), 3);
+    assert_eq!(
+        result.rows.iter().filter(|r| r.method == "mdas").count() + result.mdas_skipped.len(),
+        3
+    );
+    assert!(result
+        .rows
+        .iter()
+        .all(|r| r.time_ms > 0.0 && r.relmse > 0.0));
+    let svg = std::fs::read_to_string(out.join("sweep.svg")).unwrap();
+    assert!(svg.starts_with("<svg") && svg.contains("Halton") && svg.contains("MDAS"));
+    assert_eq!(svg.matches("<circle").count(), result.rows.len());
+    std::fs::remove_dir_all(&out).ok();
+}
