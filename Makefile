@@ -1,5 +1,6 @@
 # Two commands set up and exercise a fresh machine:
-#   make run   — build, render the default scene (Cornell box) and write out/
+#   make run   — build, render the default scene (Cornell box) with Halton and
+#                MDAS, and compare them at equal time against a reference (out/)
 #   make test  — the whole test suite (CPU Vulkan driver if there is no GPU)
 # Both install a Vulkan driver first when none is present (.ci/ensure-vulkan.sh).
 
@@ -18,9 +19,14 @@ build: vulkan
 info: build
 	./target/release/mdas info
 
+# The comparison runs at a quarter of the film with a 4,096-spp reference so
+# that it takes minutes on a 2-core machine without a GPU; on a GPU use
+# `mdas compare scenes/cornell.toml` (full film, 65,536-spp reference).
 run: build
 	./target/release/mdas info
 	./target/release/mdas render $(SCENE) --integrator halton --spp $(SPP) -o out/cornell-halton.exr
+	./target/release/mdas render $(SCENE) --integrator mdas -o out/cornell-mdas.exr
+	./target/release/mdas compare $(SCENE) --scale 0.25 --ref-spp 4096 --out out/compare-cornell
 
 test: vulkan
 	$(CARGO) test --no-fail-fast
