@@ -21,11 +21,10 @@
 //! `MDAS_BENCH_SCALE=0.25` for larger films on a GPU).
 
 use mdas::app;
-use mdas::gpu::shader::{bind_buffers, storage_entry, uniform_entry, Wgsl};
+use mdas::gpu::shader::{bind_buffers, storage_entry, uniform_entry};
 use mdas::gpu::Gpu;
 use mdas::integrand::Integrand;
 use mdas::integrator::{Halton, Integrator};
-use mdas::wgsl_file;
 use std::path::Path;
 
 const SCENES: [&str; 7] = [
@@ -63,18 +62,13 @@ fn count_rays(gpu: &Gpu, integrand: &dyn Integrand) -> anyhow::Result<(u64, u32)
             label: Some("bench.count_rays.layout"),
             entries: &[uniform_entry(0), storage_entry(1, false)],
         });
-    let source = integrand
-        .wgsl()
-        .include(
-            &Wgsl::new()
-                .part(wgsl_file!("shared/rng.wgsl"))
-                .part(wgsl_file!("shared/sampling.wgsl")),
-        )
-        .part(wgsl_file!("shared/halton.wgsl"))
-        .part((
+    let source = mdas::integrator::halton::with_halton_points(
+        integrand,
+        (
             "tests/kernels/count_rays.wgsl",
             include_str!("../tests/kernels/count_rays.wgsl"),
-        ));
+        ),
+    );
     let pipeline = gpu.compute_pipeline(
         "bench.count_rays",
         &source,

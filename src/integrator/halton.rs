@@ -116,15 +116,7 @@ impl Halton {
         integrand: &dyn Integrand,
     ) -> Result<(wgpu::ComputePipeline, wgpu::ComputePipeline)> {
         let layout = self.layout(gpu);
-        let source = integrand
-            .wgsl()
-            .include(
-                &Wgsl::new()
-                    .part(wgsl_file!("shared/rng.wgsl"))
-                    .part(wgsl_file!("shared/sampling.wgsl")),
-            )
-            .part(wgsl_file!("shared/halton.wgsl"))
-            .part(wgsl_file!("halton.wgsl"));
+        let source = with_halton_points(integrand, wgsl_file!("halton.wgsl"));
         let key = (source.source(), integrand.layout().clone());
         if let Some(p) = self.pipelines.get(&key) {
             return Ok(p.clone());
@@ -138,6 +130,21 @@ impl Halton {
             .insert(key, (evaluate.clone(), accumulate.clone()));
         Ok((evaluate, accumulate))
     }
+}
+
+/// The integrand's WGSL, then the shared Halton point functions, then
+/// `kernel`: the Halton kernel, or a test or bench kernel that replays the
+/// same points.
+pub fn with_halton_points(integrand: &dyn Integrand, kernel: (&'static str, &'static str)) -> Wgsl {
+    integrand
+        .wgsl()
+        .include(
+            &Wgsl::new()
+                .part(wgsl_file!("shared/rng.wgsl"))
+                .part(wgsl_file!("shared/sampling.wgsl")),
+        )
+        .part(wgsl_file!("shared/halton.wgsl"))
+        .part(kernel)
 }
 
 impl Integrator for Halton {
