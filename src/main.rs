@@ -218,11 +218,32 @@ struct CompareArgs {
 }
 
 fn main() -> ExitCode {
+    quiet_headless_vulkan();
     match run(Cli::parse()) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e:#}");
             ExitCode::FAILURE
+        }
+    }
+}
+
+/// Mesa's Vulkan window-system code prints "error: XDG_RUNTIME_DIR is
+/// invalid or not set" on headless machines although mdas needs no window
+/// system. Give it a private, empty runtime directory when none is set.
+/// Runs first in `main`, before any thread exists, as `set_var` requires.
+fn quiet_headless_vulkan() {
+    if std::env::var_os("XDG_RUNTIME_DIR").is_some() {
+        return;
+    }
+    let user = std::env::var("USER").unwrap_or_default();
+    let dir = std::env::temp_dir().join(format!("mdas-xdg-runtime-{user}"));
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::DirBuilderExt;
+        let made = std::fs::DirBuilder::new().mode(0o700).create(&dir);
+        if made.is_ok() || dir.is_dir() {
+            std::env::set_var("XDG_RUNTIME_DIR", &dir);
         }
     }
 }
