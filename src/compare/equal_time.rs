@@ -122,8 +122,11 @@ pub fn halton_at_equal_time(
     repeats: u32,
     max_spp: u32,
 ) -> Result<EqualTime> {
+    // One integrator for the whole search, so its pipelines compile once.
+    let mut halton = Halton::new(1, seed);
     search_equal_time(target_ms, 1, max_spp, &mut |spp| {
-        let measured = measure(gpu, &mut Halton::new(spp, seed), integrand, repeats)?;
+        halton.spp = spp;
+        let measured = measure(gpu, &mut halton, integrand, repeats)?;
         let error = metrics::compare(&measured.render.image, reference)?;
         Ok(HaltonRun {
             spp,

@@ -258,14 +258,12 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec) -> Result<Report> {
             (run, spp, Some(eq), t)
         }
     };
+    // One integrator for every budget, so its pipelines compile once.
+    let mut halton = Halton::new(1, spec.halton_seed);
     let mut halton_run = |spp: u32| -> Result<HaltonRun> {
         status.set_message(format!("halton {spp} spp ({} repeats)", spec.repeats));
-        let measured = measure(
-            gpu,
-            &mut Halton::new(spp, spec.halton_seed),
-            integrand,
-            spec.repeats,
-        )?;
+        halton.spp = spp;
+        let measured = measure(gpu, &mut halton, integrand, spec.repeats)?;
         let error = metrics::compare(&measured.render.image, &reference)?;
         Ok(HaltonRun {
             spp,

@@ -129,8 +129,10 @@ fn run_sweep(gpu: &Gpu, spec: &SweepSpec) -> Result<SweepResult> {
         })?;
         point("mdas", spp, &mut mdas)?;
     }
+    let mut halton = Halton::new(1, spec.halton_seed);
     for &spp in &spec.spps {
-        point("halton", spp, &mut Halton::new(spp, spec.halton_seed))?;
+        halton.spp = spp;
+        point("halton", spp, &mut halton)?;
     }
     bar.finish_and_clear();
 
