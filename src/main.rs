@@ -217,6 +217,29 @@ struct CompareArgs {
     mdas: MdasArgs,
 }
 
+impl CompareArgs {
+    /// The shared inputs of `compare` and `sweep`.
+    fn setup<'a>(
+        &self,
+        scene: PathBuf,
+        out: PathBuf,
+        mdas_params: &'a dyn Fn(MdasParams) -> MdasParams,
+    ) -> compare::Setup<'a> {
+        compare::Setup {
+            scene,
+            scale: self.scale,
+            ref_spp: self.ref_spp,
+            ref_seed: self.ref_seed,
+            cache_dir: self.cache.clone(),
+            halton_seed: self.seed.unwrap_or(0),
+            repeats: self.repeats,
+            out,
+            progress: true,
+            mdas_params,
+        }
+    }
+}
+
 fn main() -> ExitCode {
     quiet_headless_vulkan();
     match run(Cli::parse()) {
@@ -263,18 +286,9 @@ fn run(cli: Cli) -> Result<()> {
                 .unwrap_or_else(|| default_dir(&scene, "compare"));
             let mdas_params = |p: MdasParams| common.mdas.params(p, common.scale, spp, common.seed);
             let spec = compare::CompareSpec {
-                scene,
-                scale: common.scale,
-                ref_spp: common.ref_spp,
-                ref_seed: common.ref_seed,
-                cache_dir: common.cache.clone(),
-                halton_seed: common.seed.unwrap_or(0),
-                repeats: common.repeats,
+                setup: common.setup(scene, out.clone(), &mdas_params),
                 budget: time_ms.map_or(compare::Budget::MdasSpp, compare::Budget::TimeMs),
                 max_spp: common.max_spp,
-                out: out.clone(),
-                progress: true,
-                mdas_params: &mdas_params,
             };
             let report = compare::compare(Gpu::shared()?, &spec)?;
             let table = compare::report::table(&report);
@@ -299,17 +313,8 @@ fn run(cli: Cli) -> Result<()> {
             let mdas_params =
                 |p: MdasParams| common.mdas.params(p, common.scale, None, common.seed);
             let spec = compare::sweep::SweepSpec {
-                scene,
-                scale: common.scale,
-                ref_spp: common.ref_spp,
-                ref_seed: common.ref_seed,
-                cache_dir: common.cache.clone(),
-                halton_seed: common.seed.unwrap_or(0),
-                repeats: common.repeats,
+                setup: common.setup(scene, out.clone(), &mdas_params),
                 spps,
-                out: out.clone(),
-                progress: true,
-                mdas_params: &mdas_params,
             };
             let result = compare::sweep::sweep(Gpu::shared()?, &spec)?;
             print!("{}", compare::sweep::csv(&result.rows));

@@ -8,7 +8,7 @@ mod common;
 
 use common::gpu;
 use mdas::compare::sweep::{sweep, SweepSpec, CSV_HEADER};
-use mdas::compare::{compare, Budget, CompareSpec};
+use mdas::compare::{compare, Budget, CompareSpec, Setup};
 use mdas::image_io::read_exr;
 use mdas::metrics;
 use mdas::scene::MdasParams;
@@ -40,6 +40,20 @@ fn spec<'a>(
     params: &'a dyn Fn(MdasParams) -> MdasParams,
 ) -> CompareSpec<'a> {
     CompareSpec {
+        setup: setup(scene, scale, out, params),
+        budget,
+        max_spp: 1 << 12,
+    }
+}
+
+/// Small, fast settings: a 64-spp reference, one timed repeat.
+fn setup<'a>(
+    scene: &str,
+    scale: f32,
+    out: &Path,
+    params: &'a dyn Fn(MdasParams) -> MdasParams,
+) -> Setup<'a> {
+    Setup {
         scene: PathBuf::from(scene),
         scale,
         ref_spp: 64,
@@ -47,8 +61,6 @@ fn spec<'a>(
         cache_dir: std::env::temp_dir().join(format!("mdas-compare-cache-{}", std::process::id())),
         halton_seed: 0,
         repeats: 1,
-        budget,
-        max_spp: 1 << 12,
         out: out.to_path_buf(),
         progress: false,
         mdas_params: params,
@@ -275,8 +287,15 @@ fn compare_at_a_time_budget_searches_both_methods() {
 fn assert_fails_without_output(spec: &CompareSpec, expect: &str) {
     let err = format!("{:#}", compare(gpu(), spec).unwrap_err());
     assert!(err.contains(expect), "expected '{expect}' in: {err}");
-    assert!(!spec.out.join("report.json").exists(), "partial report");
-    assert!(!spec.out.exists(), "{} left behind", spec.out.display());
+    assert!(
+        !spec.setup.out.join("report.json").exists(),
+        "partial report"
+    );
+    assert!(
+        !spec.setup.out.exists(),
+        "{} left behind",
+        spec.setup.out.display()
+    );
 }
 
 #[test]
@@ -329,7 +348,7 @@ fn bad_input_fails_before_writing_anything() {
         Budget::MdasSpp,
         &params,
     );
-    same_seed.halton_seed = same_seed.ref_seed;
+    same_seed.setup.halton_seed = same_seed.setup.ref_seed;
     assert_fails_without_output(&same_seed, "equals the reference seed");
     // An output directory that cannot be created (its parent is a file).
     let file = temp_dir("bad-out-file");
@@ -355,18 +374,8 @@ fn sweep_writes_csv_and_svg() {
     let result = sweep(
         gpu(),
         &SweepSpec {
-            scene: PathBuf::from("scenes/area_light_plane.toml"),
-            scale: 0.25,
-            ref_spp: 64,
-            ref_seed: 1,
-            cache_dir: std::env::temp_dir()
-                .join(format!("mdas-compare-cache-{}", std::process::id())),
-            halton_seed: 0,
-            repeats: 1,
+            setup: setup("scenes/area_light_plane.toml", 0.25, &out, &params),
             spps: vec![1, 2, 4],
-            out: out.clone(),
-            progress: false,
-            mdas_params: &params,
         },
     )
     .unwrap();

@@ -47,8 +47,10 @@ pub enum Budget {
     TimeMs(f64),
 }
 
-/// Inputs of [`compare`].
-pub struct CompareSpec<'a> {
+/// What `compare` and `sweep` share: the scene, its reference, how runs
+/// are timed, where outputs go and how the `[mdas]` table becomes
+/// parameters.
+pub struct Setup<'a> {
     pub scene: PathBuf,
     pub scale: f32,
     pub ref_spp: u32,
@@ -56,15 +58,40 @@ pub struct CompareSpec<'a> {
     pub cache_dir: PathBuf,
     pub halton_seed: u32,
     pub repeats: u32,
-    pub budget: Budget,
-    /// Upper end of the spp searches.
-    pub max_spp: u32,
     pub out: PathBuf,
     /// Show progress bars on stderr.
     pub progress: bool,
     /// The scene's `[mdas]` table → the parameters to run (scaling to
     /// `--scale`, CLI overrides).
     pub mdas_params: &'a dyn Fn(MdasParams) -> MdasParams,
+}
+
+impl Setup<'_> {
+    /// Checks that need no GPU work.
+    pub fn check(&self) -> Result<()> {
+        if self.repeats == 0 {
+            bail!("--repeats must be at least 1");
+        }
+        check_seeds(self.halton_seed, self.ref_seed)
+    }
+
+    /// The reference image (cached), its path and whether it was cached.
+    pub fn reference(&self, gpu: &Gpu) -> Result<(Vec<[f32; 3]>, PathBuf, bool)> {
+        let spec = ReferenceSpec {
+            spp: self.ref_spp,
+            scale: self.scale,
+            seed: self.ref_seed,
+        };
+        load_reference(gpu, &self.scene, spec, &self.cache_dir, self.progress)
+    }
+}
+
+/// Inputs of [`compare`].
+pub struct CompareSpec<'a> {
+    pub setup: Setup<'a>,
+    pub budget: Budget,
+    /// Upper end of the spp searches.
+    pub max_spp: u32,
 }
 
 /// The compared Halton render must not reuse the reference's random
@@ -172,7 +199,7 @@ fn run_mdas(
 /// failure an output directory this call created is removed again if it is
 /// still empty.
 pub fn compare(gpu: &Gpu, spec: &CompareSpec) -> Result<Report> {
-    cleaning_up(&spec.out, || run_compare(gpu, spec))
+    cleaning_up(&spec.setup.out, || run_compare(gpu, spec))
 }
 
 /// Runs `f`; if it fails and `out` did not exist before, removes `out`
@@ -188,19 +215,16 @@ pub(crate) fn cleaning_up<T>(out: &Path, f: impl FnOnce() -> Result<T>) -> Resul
 
 fn run_compare(gpu: &Gpu, spec: &CompareSpec) -> Result<Report> {
     // 1. Validation, before any render or file.
-    if spec.repeats == 0 {
-        bail!("--repeats must be at least 1");
-    }
-    check_seeds(spec.halton_seed, spec.ref_seed)?;
+    spec.setup.check()?;
     if let Budget::TimeMs(t) = spec.budget {
         if !(t.is_finite() && t > 0.0) {
             bail!("--time-ms must be a positive number of milliseconds, got {t}");
         }
     }
-    let prepared = app::prepare(gpu, &spec.scene, spec.scale)?;
+    let prepared = app::prepare(gpu, &spec.setup.scene, spec.setup.scale)?;
     let integrand = prepared.integrand.as_ref();
     let film = prepared.film;
-    let params = (spec.mdas_params)(prepared.scene.mdas);
+    let params = (spec.setup.mdas_params)(prepared.scene.mdas);
     let min_spp = mdas_min_spp(params, integrand)?;
     let check_spp = match spec.budget {
         Budget::MdasSpp => params.spp,
@@ -214,33 +238,41 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec) -> Result<Report> {
     .with_context(|| {
         format!(
             "MDAS cannot render {} at spp {check_spp}",
-            spec.scene.display()
+            spec.setup.scene.display()
         )
     })?;
-    check_out_dir(&spec.out)?;
+    check_out_dir(&spec.setup.out)?;
 
     // 2. Reference.
-    let ref_spec = ReferenceSpec {
-        spp: spec.ref_spp,
-        scale: spec.scale,
-        seed: spec.ref_seed,
-    };
-    let (reference, ref_path, cached) =
-        load_reference(gpu, &spec.scene, ref_spec, &spec.cache_dir, spec.progress)?;
+    let (reference, ref_path, cached) = spec.setup.reference(gpu)?;
 
     // 3. Timing and the equal-time searches.
-    let status = spinner(spec.progress);
+    let status = spinner(spec.setup.progress);
     let mut mdas_run = |spp: u32| {
-        status.set_message(format!("mdas {spp} spp ({} repeats)", spec.repeats));
-        run_mdas(gpu, params, spp as f32, integrand, &reference, spec.repeats)
+        status.set_message(format!("mdas {spp} spp ({} repeats)", spec.setup.repeats));
+        run_mdas(
+            gpu,
+            params,
+            spp as f32,
+            integrand,
+            &reference,
+            spec.setup.repeats,
+        )
     };
     let (mdas_main, mdas_spp, mdas_search, target_ms) = match spec.budget {
         Budget::MdasSpp => {
             status.set_message(format!(
                 "mdas {} spp ({} repeats)",
-                params.spp, spec.repeats
+                params.spp, spec.setup.repeats
             ));
-            let run = run_mdas(gpu, params, params.spp, integrand, &reference, spec.repeats)?;
+            let run = run_mdas(
+                gpu,
+                params,
+                params.spp,
+                integrand,
+                &reference,
+                spec.setup.repeats,
+            )?;
             let t = run.measured.total_ms();
             (run, params.spp as f64, None, t)
         }
@@ -259,11 +291,11 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec) -> Result<Report> {
         }
     };
     // One integrator for every budget, so its pipelines compile once.
-    let mut halton = Halton::new(1, spec.halton_seed);
+    let mut halton = Halton::new(1, spec.setup.halton_seed);
     let mut halton_run = |spp: u32| -> Result<HaltonRun> {
-        status.set_message(format!("halton {spp} spp ({} repeats)", spec.repeats));
+        status.set_message(format!("halton {spp} spp ({} repeats)", spec.setup.repeats));
         halton.spp = spp;
-        let measured = measure(gpu, &mut halton, integrand, spec.repeats)?;
+        let measured = measure(gpu, &mut halton, integrand, spec.setup.repeats)?;
         let error = metrics::compare(&measured.render.image, &reference)?;
         Ok(HaltonRun {
             spp,
@@ -287,7 +319,7 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec) -> Result<Report> {
     let (w, h) = (film.width, film.height);
     let mut files = BTreeMap::new();
     let mut image = |key: &str, name: &str, pixels: &[[f32; 3]]| -> Result<()> {
-        app::write_outputs(&spec.out.join(format!("{name}.exr")), film, pixels)?;
+        app::write_outputs(&spec.setup.out.join(format!("{name}.exr")), film, pixels)?;
         files.insert(key.to_string(), format!("{name}.exr"));
         files.insert(format!("{key}_png"), format!("{name}.png"));
         Ok(())
@@ -299,7 +331,7 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec) -> Result<Report> {
         let per_pixel = metrics::relmse_per_pixel(&run.measured.render.image, &reference)?;
         let name = format!("relmse-{key}");
         heatmap::write_map(
-            &spec.out.join(&name),
+            &spec.setup.out.join(&name),
             w,
             h,
             &per_pixel,
@@ -310,7 +342,7 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec) -> Result<Report> {
     }
     let density_range = heatmap::density_range(&density);
     heatmap::write_map(
-        &spec.out.join("density-mdas"),
+        &spec.setup.out.join("density-mdas"),
         w,
         h,
         &density,
@@ -326,16 +358,16 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec) -> Result<Report> {
         .as_ref()
         .map_or(mdas_main.error.relmse, |m| m.relmse);
     let report = Report {
-        scene: spec.scene.display().to_string(),
-        scale: spec.scale,
+        scene: spec.setup.scene.display().to_string(),
+        scale: spec.setup.scale,
         film: FilmReport {
             width: w,
             height: h,
         },
         seed: Seeds {
-            halton: spec.halton_seed,
+            halton: spec.setup.halton_seed,
             mdas: params.seed,
-            reference: spec.ref_seed,
+            reference: spec.setup.ref_seed,
         },
         adapter: gpu.info.name.clone(),
         backend: format!("{:?}", gpu.info.backend),
@@ -345,9 +377,9 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec) -> Result<Report> {
         }
         .into(),
         version: env!("CARGO_PKG_VERSION").into(),
-        repeats: spec.repeats,
+        repeats: spec.setup.repeats,
         reference: ReferenceReport {
-            spp: spec.ref_spp,
+            spp: spec.setup.ref_spp,
             path: ref_path.display().to_string(),
             cached,
         },
@@ -376,7 +408,7 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec) -> Result<Report> {
         files,
     };
     let json = serde_json::to_string_pretty(&report)?;
-    image_io::write_atomic(&spec.out.join("report.json"), |temp| {
+    image_io::write_atomic(&spec.setup.out.join("report.json"), |temp| {
         std::fs::write(temp, json.as_bytes()).map_err(Into::into)
     })?;
     Ok(report)

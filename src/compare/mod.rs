@@ -13,5 +13,5 @@ pub mod sweep;
 pub use equal_time::{
     halton_at_equal_time, measure, search_equal_time, EqualTime, HaltonRun, Measured,
 };
-pub use experiment::{check_out_dir, compare, Budget, CompareSpec};
+pub use experiment::{check_out_dir, compare, Budget, CompareSpec, Setup};
 pub use report::Report;

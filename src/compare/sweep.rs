@@ -6,31 +6,21 @@
 //! listed in the result.
 
 use super::equal_time::measure;
-use super::experiment::{check_out_dir, load_reference, mdas_min_spp};
+use super::experiment::{check_out_dir, mdas_min_spp, Setup};
 use super::plot::{loglog_svg, Series};
-use crate::app::{self, ReferenceSpec};
+use crate::app;
 use crate::gpu::Gpu;
 use crate::image_io;
 use crate::integrator::{Halton, Integrator, Mdas};
 use crate::metrics;
 use crate::scene::MdasParams;
 use anyhow::{bail, Result};
-use std::path::PathBuf;
 
 /// Inputs of [`sweep`].
 pub struct SweepSpec<'a> {
-    pub scene: PathBuf,
-    pub scale: f32,
-    pub ref_spp: u32,
-    pub ref_seed: u32,
-    pub cache_dir: PathBuf,
-    pub halton_seed: u32,
-    pub repeats: u32,
+    pub setup: Setup<'a>,
     /// Budgets, samples per pixel, for both methods.
     pub spps: Vec<u32>,
-    pub out: PathBuf,
-    pub progress: bool,
-    pub mdas_params: &'a dyn Fn(MdasParams) -> MdasParams,
 }
 
 /// One measured point.
@@ -65,20 +55,17 @@ pub fn csv(rows: &[SweepRow]) -> String {
 
 /// Runs the sweep and writes `sweep.csv` and `sweep.svg` in `spec.out`.
 pub fn sweep(gpu: &Gpu, spec: &SweepSpec) -> Result<SweepResult> {
-    super::experiment::cleaning_up(&spec.out, || run_sweep(gpu, spec))
+    super::experiment::cleaning_up(&spec.setup.out, || run_sweep(gpu, spec))
 }
 
 fn run_sweep(gpu: &Gpu, spec: &SweepSpec) -> Result<SweepResult> {
-    if spec.repeats == 0 {
-        bail!("--repeats must be at least 1");
-    }
-    super::experiment::check_seeds(spec.halton_seed, spec.ref_seed)?;
+    spec.setup.check()?;
     if spec.spps.is_empty() || spec.spps.contains(&0) {
         bail!("--spps must list positive samples per pixel");
     }
-    let prepared = app::prepare(gpu, &spec.scene, spec.scale)?;
+    let prepared = app::prepare(gpu, &spec.setup.scene, spec.setup.scale)?;
     let integrand = prepared.integrand.as_ref();
-    let params = (spec.mdas_params)(prepared.scene.mdas);
+    let params = (spec.setup.mdas_params)(prepared.scene.mdas);
     let min_spp = mdas_min_spp(params, integrand)?;
     let (mdas_spps, mdas_skipped): (Vec<u32>, Vec<u32>) =
         spec.spps.iter().partition(|&&s| s >= min_spp);
@@ -89,27 +76,17 @@ fn run_sweep(gpu: &Gpu, spec: &SweepSpec) -> Result<SweepResult> {
         })?
         .config(integrand)?;
     }
-    check_out_dir(&spec.out)?;
-    let (reference, _, _) = load_reference(
-        gpu,
-        &spec.scene,
-        ReferenceSpec {
-            spp: spec.ref_spp,
-            scale: spec.scale,
-            seed: spec.ref_seed,
-        },
-        &spec.cache_dir,
-        spec.progress,
-    )?;
+    check_out_dir(&spec.setup.out)?;
+    let (reference, _, _) = spec.setup.reference(gpu)?;
     let bar = super::experiment::bar(
-        spec.progress,
+        spec.setup.progress,
         (spec.spps.len() + mdas_spps.len()) as u64,
         "sweep {bar:40} {pos}/{len} runs {msg} [{elapsed_precise} < {eta}]",
     );
     let mut rows = Vec::new();
     let mut point = |method: &'static str, spp: u32, integrator: &mut dyn Integrator| {
         bar.set_message(format!("{method} {spp} spp"));
-        let m = measure(gpu, integrator, integrand, spec.repeats)?;
+        let m = measure(gpu, integrator, integrand, spec.setup.repeats)?;
         let e = metrics::compare(&m.render.image, &reference)?;
         rows.push(SweepRow {
             method,
@@ -129,7 +106,7 @@ fn run_sweep(gpu: &Gpu, spec: &SweepSpec) -> Result<SweepResult> {
         })?;
         point("mdas", spp, &mut mdas)?;
     }
-    let mut halton = Halton::new(1, spec.halton_seed);
+    let mut halton = Halton::new(1, spec.setup.halton_seed);
     for &spp in &spec.spps {
         halton.spp = spp;
         point("halton", spp, &mut halton)?;
@@ -142,7 +119,11 @@ fn run_sweep(gpu: &Gpu, spec: &SweepSpec) -> Result<SweepResult> {
             .map(|r| (r.time_ms, r.relmse))
             .collect()
     };
-    let title = format!("{} at scale {}", spec.scene.display(), spec.scale);
+    let title = format!(
+        "{} at scale {}",
+        spec.setup.scene.display(),
+        spec.setup.scale
+    );
     let svg = loglog_svg(
         &title,
         "time (ms, median)",
@@ -161,10 +142,10 @@ fn run_sweep(gpu: &Gpu, spec: &SweepSpec) -> Result<SweepResult> {
         ],
     );
     let text = csv(&rows);
-    image_io::write_atomic(&spec.out.join("sweep.csv"), |t| {
+    image_io::write_atomic(&spec.setup.out.join("sweep.csv"), |t| {
         std::fs::write(t, text.as_bytes()).map_err(Into::into)
     })?;
-    image_io::write_atomic(&spec.out.join("sweep.svg"), |t| {
+    image_io::write_atomic(&spec.setup.out.join("sweep.svg"), |t| {
         std::fs::write(t, svg.as_bytes()).map_err(Into::into)
     })?;
     Ok(SweepResult { rows, mdas_skipped })
