@@ -21,9 +21,9 @@ pub fn source(base: &Wgsl) -> Wgsl {
 /// count → scan → apply, in one compute pass (wgpu orders the dispatches).
 pub fn record(pass: &mut wgpu::ComputePass<'_>, k: &Kernels, grid: Grid) {
     pass.set_bind_group(0, &k.group0, &[]);
-    pass.set_pipeline(&k.count);
+    pass.set_pipeline(&k.pipes.count);
     pass.dispatch_workgroups(grid.x, grid.y, 1);
     super::scan::record(pass, k);
-    pass.set_pipeline(&k.apply);
+    pass.set_pipeline(&k.pipes.apply);
     pass.dispatch_workgroups(grid.x, grid.y, 1);
 }

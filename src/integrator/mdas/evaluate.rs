@@ -22,7 +22,7 @@ pub fn record(
     integrand: &dyn Integrand,
     grid: Grid,
 ) {
-    pass.set_pipeline(&k.evaluate);
+    pass.set_pipeline(&k.pipes.evaluate);
     pass.set_bind_group(0, &k.group0, &[]);
     pass.set_bind_group(1, integrand.bind_group(), &[]);
     pass.dispatch_workgroups(grid.x, grid.y, 1);

@@ -151,13 +151,7 @@ struct Pipelines {
 
 /// Pipelines and bind group 0 of one render.
 pub struct Kernels {
-    initial: wgpu::ComputePipeline,
-    error: wgpu::ComputePipeline,
-    count: wgpu::ComputePipeline,
-    scan: wgpu::ComputePipeline,
-    apply: wgpu::ComputePipeline,
-    evaluate: wgpu::ComputePipeline,
-    reconstruct: wgpu::ComputePipeline,
+    pipes: Pipelines,
     group0: wgpu::BindGroup,
 }
 
@@ -384,16 +378,7 @@ impl Mdas {
                     &bufs.boxes,
                 ],
             );
-            let mut k = Kernels {
-                initial: pipes.initial.clone(),
-                error: pipes.error.clone(),
-                count: pipes.count.clone(),
-                scan: pipes.scan.clone(),
-                apply: pipes.apply.clone(),
-                evaluate: pipes.evaluate.clone(),
-                reconstruct: pipes.reconstruct.clone(),
-                group0,
-            };
+            let mut k = Kernels { pipes, group0 };
             let mut gp = GpuParams {
                 seed: p.seed,
                 budget: cfg.budget,

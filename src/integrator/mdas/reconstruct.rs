@@ -28,7 +28,7 @@ pub fn source(base: &Wgsl) -> Wgsl {
 }
 
 pub fn record(pass: &mut wgpu::ComputePass<'_>, k: &Kernels, grid: Grid) {
-    pass.set_pipeline(&k.reconstruct);
+    pass.set_pipeline(&k.pipes.reconstruct);
     pass.set_bind_group(0, &k.group0, &[]);
     pass.dispatch_workgroups(grid.x, grid.y, 1);
 }

@@ -18,7 +18,7 @@ pub fn source(base: &Wgsl) -> Wgsl {
 }
 
 pub fn record(pass: &mut wgpu::ComputePass<'_>, k: &Kernels) {
-    pass.set_pipeline(&k.scan);
+    pass.set_pipeline(&k.pipes.scan);
     pass.set_bind_group(0, &k.group0, &[]);
     pass.dispatch_workgroups(1, 1, 1);
 }
