@@ -16,5 +16,6 @@ pub mod gpu;
 pub mod image_io;
 pub mod integrand;
 pub mod integrator;
+pub mod lights;
 pub mod metrics;
 pub mod scene;
