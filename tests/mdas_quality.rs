@@ -8,7 +8,7 @@ mod mdas_support;
 
 use common::{gpu, TestIntegrand};
 use mdas::integrator::{Halton, Integrator, Mdas};
-use mdas::scene::Film;
+use mdas::scene::{Film, MdasParams};
 use mdas_support::*;
 
 fn linear_reference(film: Film) -> Vec<[f32; 3]> {
@@ -83,6 +83,48 @@ fn mdas_beats_halton_on_a_sharp_edge() {
         "MDAS RelMSE {} vs Halton {}",
         mdas / 24.0,
         halton / 24.0
+    );
+}
+
+/// The scene test: `scenes/tests/shadow_edge.toml`, whose only
+/// feature is a penumbra about 6 pixels wide (a step over the light's two
+/// dimensions), at 16 spp with the scene's `[mdas]` parameters, against a
+/// 1,024-spp Halton reference (its own error, ~1e-6, is far below the
+/// compared renders'). Measured with a 4,096-spp reference on lavapipe:
+/// MDAS 2.33, 2.39, 2.07 (e-4) and Halton 2.82, 2.87, 2.81 (e-4) for seeds
+/// 1–3; the seed-to-seed spread of MDAS is ~0.15e-4, so the standard error
+/// of the ratio of the 3-seed means (0.80) is ~0.04 and the bound 0.9
+/// leaves 2.5σ. (On `scenes/tests/box_shadow.toml`, whose error sits on
+/// film-space silhouettes, MDAS loses instead: BENCHMARKS.md.)
+#[test]
+fn mdas_beats_halton_on_a_shadow_edge_scene() {
+    let gpu = gpu();
+    let prepared = mdas::app::prepare(
+        gpu,
+        std::path::Path::new("scenes/tests/shadow_edge.toml"),
+        1.0,
+    )
+    .unwrap();
+    let integrand = prepared.integrand.as_ref();
+    let reference = Halton::new(1024, 99).render(gpu, integrand).unwrap().image;
+    let (mut mdas, mut halton) = (0.0, 0.0);
+    for seed in 1..=3 {
+        let p = MdasParams {
+            seed,
+            ..prepared.scene.mdas
+        };
+        mdas += relmse(
+            &Mdas::new(p).unwrap().render(gpu, integrand).unwrap().image,
+            &reference,
+        ) / 3.0;
+        let h = Halton::new(16, seed).render(gpu, integrand).unwrap();
+        halton += relmse(&h.image, &reference) / 3.0;
+    }
+    eprintln!("mean RelMSE of seeds 1-3 at 16 spp: MDAS {mdas:.3e}, Halton {halton:.3e}");
+    assert!(
+        mdas < 0.9 * halton,
+        "MDAS RelMSE {mdas:.3e} vs Halton {halton:.3e} (ratio {:.2})",
+        mdas / halton
     );
 }
 
