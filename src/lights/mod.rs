@@ -41,6 +41,9 @@
 //! Lambertian emissive triangle (its on-axis intensity; its flux is
 //! `L_e · area · π`).
 
+pub mod morton;
+pub mod perfect;
+
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
@@ -101,7 +104,11 @@ impl LightPrim {
     pub fn area(&self) -> f32 {
         match self.kind {
             KIND_TRIANGLE => {
-                let (a, b, c) = (Vec3::from(self.p0), Vec3::from(self.p1), Vec3::from(self.p2));
+                let (a, b, c) = (
+                    Vec3::from(self.p0),
+                    Vec3::from(self.p1),
+                    Vec3::from(self.p2),
+                );
                 0.5 * (b - a).cross(c - a).length()
             }
             _ => 0.0,
@@ -123,11 +130,15 @@ impl LightPrim {
     }
 
     pub fn bounds_min(&self) -> Vec3 {
-        Vec3::from(self.p0).min(Vec3::from(self.p1)).min(Vec3::from(self.p2))
+        Vec3::from(self.p0)
+            .min(Vec3::from(self.p1))
+            .min(Vec3::from(self.p2))
     }
 
     pub fn bounds_max(&self) -> Vec3 {
-        Vec3::from(self.p0).max(Vec3::from(self.p1)).max(Vec3::from(self.p2))
+        Vec3::from(self.p0)
+            .max(Vec3::from(self.p1))
+            .max(Vec3::from(self.p2))
     }
 }
 
