@@ -168,7 +168,7 @@ enum Command {
         json: bool,
     },
     /// RelMSE against time for MDAS and Halton over a range of budgets:
-    /// sweep.csv and a log-log sweep.svg in --out.
+    /// sweep.csv and a log-log plot, sweep.svg and sweep.png, in --out.
     Sweep {
         /// Scene file (TOML).
         scene: PathBuf,
@@ -325,9 +325,10 @@ fn run(cli: Cli) -> Result<()> {
                 );
             }
             println!(
-                "wrote {} and {}",
+                "wrote {}, {} and {}",
                 out.join("sweep.csv").display(),
-                out.join("sweep.svg").display()
+                out.join("sweep.svg").display(),
+                out.join("sweep.png").display()
             );
             Ok(())
         }

@@ -400,5 +400,7 @@ fn sweep_writes_csv_and_svg() {
     let svg = std::fs::read_to_string(out.join("sweep.svg")).unwrap();
     assert!(svg.starts_with("<svg") && svg.contains("Halton") && svg.contains("MDAS"));
     assert_eq!(svg.matches("<circle").count(), result.rows.len());
+    let png = image::open(out.join("sweep.png")).unwrap();
+    assert_eq!((png.width(), png.height()), (720, 480));
     std::fs::remove_dir_all(&out).ok();
 }

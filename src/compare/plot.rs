@@ -1,8 +1,11 @@
-//! A hand-written SVG log–log line plot (no fonts or rasterizer needed):
-//! decade grid lines with labels, one polyline with markers per series,
-//! a legend.
+//! A hand-written SVG log–log line plot: decade grid lines with labels,
+//! one polyline with markers per series, a legend; and its PNG raster
+//! ([`svg_to_png`], resvg with an embedded font, so the PNG looks the same
+//! on a machine without system fonts).
 
+use anyhow::{anyhow, Context, Result};
 use std::fmt::Write;
+use std::sync::OnceLock;
 
 /// One line of the plot: a name, an SVG colour and (x, y) points (x, y > 0;
 /// others are dropped).
@@ -144,6 +147,42 @@ pub fn loglog_svg(title: &str, x_label: &str, y_label: &str, series: &[Series]) 
     s
 }
 
+/// Family name of the font embedded for rasterized text (Ubuntu Light,
+/// from `epaint_default_fonts`), loaded once per process.
+fn font_options() -> &'static resvg::usvg::Options<'static> {
+    static OPTIONS: OnceLock<resvg::usvg::Options<'static>> = OnceLock::new();
+    OPTIONS.get_or_init(|| {
+        let mut options = resvg::usvg::Options::default();
+        let db = options.fontdb_mut();
+        db.load_font_data(epaint_default_fonts::UBUNTU_LIGHT.to_vec());
+        let family = db
+            .faces()
+            .next()
+            .and_then(|f| f.families.first())
+            .map(|(name, _)| name.clone());
+        if let Some(family) = family {
+            db.set_sans_serif_family(family.clone());
+            options.font_family = family;
+        }
+        options
+    })
+}
+
+/// Rasterizes an SVG document (as written by [`loglog_svg`]) to PNG bytes
+/// at its own size.
+pub fn svg_to_png(svg: &str) -> Result<Vec<u8>> {
+    let tree = resvg::usvg::Tree::from_str(svg, font_options()).context("parsing the plot SVG")?;
+    let size = tree.size().to_int_size();
+    let mut pixmap = resvg::tiny_skia::Pixmap::new(size.width(), size.height())
+        .ok_or_else(|| anyhow!("plot of size {}×{}", size.width(), size.height()))?;
+    resvg::render(
+        &tree,
+        resvg::tiny_skia::Transform::default(),
+        &mut pixmap.as_mut(),
+    );
+    pixmap.encode_png().context("encoding the plot PNG")
+}
+
 fn escape(t: &str) -> String {
     t.replace('&', "&amp;")
         .replace('<', "&lt;")
@@ -171,5 +210,37 @@ mod tests {
         assert!(svg.contains("a&lt;b"));
         assert_eq!(decades(1.0, 10.0), (0, 1));
         assert_eq!(decades(0.02, 3.0), (-2, 1));
+    }
+
+    /// The PNG has the SVG's size, a white background, the series colour
+    /// on its polyline and dark pixels of rasterized text (the embedded
+    /// font is found: without it the labels would be missing).
+    #[test]
+    fn png_raster_of_the_plot() {
+        let svg = loglog_svg(
+            "title",
+            "x",
+            "y",
+            &[Series {
+                name: "s",
+                colour: "#ff0000",
+                points: vec![(1.0, 1.0), (100.0, 0.01)],
+            }],
+        );
+        let png = svg_to_png(&svg).unwrap();
+        let img = image::load_from_memory(&png).unwrap().to_rgba8();
+        assert_eq!((img.width(), img.height()), (W as u32, H as u32));
+        assert_eq!(img.get_pixel(2, 2).0, [255, 255, 255, 255]);
+        let red = img
+            .pixels()
+            .filter(|p| p[0] > 200 && p[1] < 60 && p[2] < 60)
+            .count();
+        assert!(red > 200, "{red} red pixels");
+        // Title text: dark pixels in the band above the plot frame.
+        let title_ink = (0..W as u32)
+            .flat_map(|x| (8..30).map(move |y| (x, y)))
+            .filter(|&(x, y)| img.get_pixel(x, y)[0] < 128)
+            .count();
+        assert!(title_ink > 20, "{title_ink} title pixels");
     }
 }

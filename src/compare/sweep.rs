@@ -1,13 +1,13 @@
 //! `mdas sweep`: RelMSE against time for MDAS and Halton over a list of
-//! budgets (samples per pixel), written as `sweep.csv` and a log–log
-//! `sweep.svg` (time on x, RelMSE on y) — speed against error in one
+//! budgets (samples per pixel), written as `sweep.csv` and a log–log plot,
+//! `sweep.svg` and `sweep.png` (time on x, RelMSE on y) — speed against error in one
 //! picture. Each point is a [`measure`]d run (warm-up, median of the
 //! repeats). MDAS budgets below its initial sample count are skipped and
 //! listed in the result.
 
 use super::equal_time::measure;
 use super::experiment::{check_out_dir, mdas_min_spp, Setup};
-use super::plot::{loglog_svg, Series};
+use super::plot::{loglog_svg, svg_to_png, Series};
 use crate::app;
 use crate::gpu::Gpu;
 use crate::image_io;
@@ -53,7 +53,8 @@ pub fn csv(rows: &[SweepRow]) -> String {
     s
 }
 
-/// Runs the sweep and writes `sweep.csv` and `sweep.svg` in `spec.out`.
+/// Runs the sweep and writes `sweep.csv`, `sweep.svg` and `sweep.png` in
+/// `spec.out`.
 pub fn sweep(gpu: &Gpu, spec: &SweepSpec) -> Result<SweepResult> {
     super::experiment::cleaning_up(&spec.setup.out, || run_sweep(gpu, spec))
 }
@@ -145,8 +146,12 @@ fn run_sweep(gpu: &Gpu, spec: &SweepSpec) -> Result<SweepResult> {
     image_io::write_atomic(&spec.setup.out.join("sweep.csv"), |t| {
         std::fs::write(t, text.as_bytes()).map_err(Into::into)
     })?;
+    let png = svg_to_png(&svg)?;
     image_io::write_atomic(&spec.setup.out.join("sweep.svg"), |t| {
         std::fs::write(t, svg.as_bytes()).map_err(Into::into)
+    })?;
+    image_io::write_atomic(&spec.setup.out.join("sweep.png"), |t| {
+        std::fs::write(t, &png).map_err(Into::into)
     })?;
     Ok(SweepResult { rows, mdas_skipped })
 }
