@@ -43,6 +43,7 @@
 
 pub mod morton;
 pub mod perfect;
+pub mod radix_sort;
 
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
