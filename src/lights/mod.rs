@@ -41,9 +41,14 @@
 //! Lambertian emissive triangle (its on-axis intensity; its flux is
 //! `L_e · area · π`).
 
+pub mod alias;
+pub mod bvh;
+pub mod cut;
+pub mod importance;
 pub mod morton;
 pub mod perfect;
 pub mod radix_sort;
+pub mod sampler;
 
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;

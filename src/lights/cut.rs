@@ -1,0 +1,234 @@
+//! Stochastic lightcuts over a binary light tree (real-time stochastic
+//! lightcuts §3.2–3.3; Yuksel 2019): a *cut* is a set of nodes that covers
+//! every light exactly once; a sample picks one cut node with the cut
+//! probabilities (eq. 2 generalized to n nodes) and descends from it to a
+//! leaf with hierarchical importance sampling (eq. 1–2 at every internal
+//! node), using one random number throughout.
+//!
+//! The cut is chosen greedily for a *representative* shading point (one
+//! per k×k pixel block on the GPU, "cut sharing" §3.3): starting from the
+//! root, the refinable node (internal, `I > 0`) with the largest key
+//! `W/dmin²` (`+∞` when the point is inside its box) is replaced by its
+//! two children until the cut holds `cut_size` nodes. With `cut_size = 1`
+//! the cut is the root: plain hierarchical sampling ("no cuts").
+//!
+//! [`LightTree`] abstracts the two node layouts: the perfect tree
+//! (children by index arithmetic) and the unbalanced BVH (explicit child
+//! links); [`TreeSampler`] works on either.
+//!
+//! The probability of a light (`pmf`) repeats exactly the f32 operations
+//! of `sample` along the light's path and multiplies the same f32
+//! probabilities in the same order in f64, so both give the same number.
+
+use super::importance::{
+    choose_child, choose_cut_node, cut_key, cut_probabilities, node_importance, p_left,
+    NodeImportance, Shading,
+};
+use super::perfect::PerfectTree;
+use super::sampler::{LightSample, LightSampler};
+use super::{TreeNode, NO_LIGHT};
+
+/// Largest cut a sampler supports (the WGSL cut arrays have this size).
+pub const MAX_CUT: u32 = 64;
+
+/// A binary light tree as the samplers see it.
+pub trait LightTree {
+    /// All nodes; node 0 is the root.
+    fn nodes(&self) -> &[TreeNode];
+    /// Children `(left, right)` of an internal node; `None` for a leaf.
+    fn children(&self, node: usize) -> Option<(usize, usize)>;
+    /// Parent of a node; `None` for the root.
+    fn parent(&self, node: usize) -> Option<usize>;
+    /// The leaf node of a light; `None` for an unknown id.
+    fn leaf_of_light(&self, light: u32) -> Option<usize>;
+    /// Number of real lights.
+    fn light_count(&self) -> u32;
+    /// The light id stored in a leaf.
+    fn leaf_light(&self, node: usize) -> u32;
+}
+
+impl LightTree for PerfectTree {
+    fn nodes(&self) -> &[TreeNode] {
+        &self.nodes
+    }
+    fn children(&self, node: usize) -> Option<(usize, usize)> {
+        (!self.is_leaf(node)).then(|| (2 * node + 1, 2 * node + 2))
+    }
+    fn parent(&self, node: usize) -> Option<usize> {
+        (node > 0).then(|| (node - 1) / 2)
+    }
+    fn leaf_of_light(&self, light: u32) -> Option<usize> {
+        (light < self.light_count()).then(|| self.node_of_light(light))
+    }
+    fn light_count(&self) -> u32 {
+        self.sorted.len() as u32
+    }
+    fn leaf_light(&self, node: usize) -> u32 {
+        self.nodes[node].id
+    }
+}
+
+/// The greedy cut of at most `cut_size` (1..=[`MAX_CUT`]) nodes for the
+/// representative shading point `s` (docs/light-sampling.md "Cuts").
+pub fn select_cut<T: LightTree + ?Sized>(tree: &T, s: &Shading, cut_size: u32) -> Vec<u32> {
+    assert!(
+        (1..=MAX_CUT).contains(&cut_size),
+        "cut_size must be in 1..={MAX_CUT}, got {cut_size}"
+    );
+    let nodes = tree.nodes();
+    let mut cut = vec![0u32];
+    // Keys of the cut nodes (NaN = not refinable), kept beside the cut.
+    let key = |node: usize| -> f32 {
+        match tree.children(node) {
+            Some(_) if nodes[node].intensity > 0.0 => cut_key(&node_importance(&nodes[node], s)),
+            _ => f32::NAN,
+        }
+    };
+    let mut keys = vec![key(0)];
+    while cut.len() < cut_size as usize {
+        let mut best: Option<usize> = None;
+        for (j, &k) in keys.iter().enumerate() {
+            if k.is_nan() {
+                continue;
+            }
+            best = match best {
+                Some(b) if !(k > keys[b] || (k == keys[b] && cut[j] < cut[b])) => Some(b),
+                _ => Some(j),
+            };
+        }
+        let Some(b) = best else { break };
+        let (l, r) = tree
+            .children(cut[b] as usize)
+            .expect("refinable nodes are internal");
+        cut[b] = l as u32;
+        keys[b] = key(l);
+        cut.push(r as u32);
+        keys.push(key(r));
+    }
+    cut
+}
+
+/// Hierarchical importance sampling below `node` with `u`, the pmf so far
+/// multiplied by every child probability taken. `None` on a dead branch.
+fn descend<T: LightTree + ?Sized>(
+    tree: &T,
+    mut node: usize,
+    s: &Shading,
+    mut u: f32,
+    mut pmf: f64,
+) -> Option<LightSample> {
+    let nodes = tree.nodes();
+    while let Some((l, r)) = tree.children(node) {
+        let p = p_left(
+            &node_importance(&nodes[l], s),
+            &node_importance(&nodes[r], s),
+        )?;
+        let (left, p_taken, u_next) = choose_child(p, u);
+        pmf *= p_taken as f64;
+        u = u_next;
+        node = if left { l } else { r };
+    }
+    let light = tree.leaf_light(node);
+    (light != NO_LIGHT).then_some(LightSample { light, pmf })
+}
+
+/// Stochastic-lightcut sampler over a light tree and one cut (`[0]` = no cut).
+#[derive(Clone, Debug)]
+pub struct TreeSampler<T: LightTree = PerfectTree> {
+    pub tree: T,
+    /// Node indices of the cut, in selection order.
+    pub cut: Vec<u32>,
+}
+
+impl<T: LightTree> TreeSampler<T> {
+    /// Sampling from the root (no cut).
+    pub fn new(tree: T) -> Self {
+        TreeSampler { tree, cut: vec![0] }
+    }
+
+    /// Sampling from a given cut (which must cover every light once).
+    pub fn with_cut(tree: T, cut: Vec<u32>) -> Self {
+        TreeSampler { tree, cut }
+    }
+
+    /// Sampling from the greedy cut for the representative point `s`.
+    pub fn with_cut_at(tree: T, s: &Shading, cut_size: u32) -> Self {
+        let cut = select_cut(&tree, s, cut_size);
+        TreeSampler { tree, cut }
+    }
+
+    fn cut_importance(&self, s: &Shading) -> Vec<NodeImportance> {
+        let nodes = self.tree.nodes();
+        self.cut
+            .iter()
+            .map(|&c| node_importance(&nodes[c as usize], s))
+            .collect()
+    }
+}
+
+impl<T: LightTree> LightSampler for TreeSampler<T> {
+    fn sample(&self, s: &Shading, u: f32) -> Option<LightSample> {
+        let probs = cut_probabilities(&self.cut_importance(s))?;
+        let (j, u) = choose_cut_node(&probs, u);
+        descend(&self.tree, self.cut[j] as usize, s, u, probs[j] as f64)
+    }
+
+    fn pmf(&self, s: &Shading, light: u32) -> f64 {
+        let Some(leaf) = self.tree.leaf_of_light(light) else {
+            return 0.0;
+        };
+        // The path from the leaf up to the cut node above it.
+        let mut path = vec![leaf];
+        let j = loop {
+            let top = *path.last().unwrap();
+            if let Some(j) = self.cut.iter().position(|&c| c as usize == top) {
+                break j;
+            }
+            match self.tree.parent(top) {
+                Some(p) => path.push(p),
+                None => return 0.0, // not below the cut: not a valid cut
+            }
+        };
+        let Some(probs) = cut_probabilities(&self.cut_importance(s)) else {
+            return 0.0;
+        };
+        let nodes = self.tree.nodes();
+        let mut pmf = probs[j] as f64;
+        for step in path.windows(2).rev() {
+            let (child, node) = (step[0], step[1]);
+            let (l, r) = self.tree.children(node).expect("path nodes are internal");
+            let Some(p) = p_left(
+                &node_importance(&nodes[l], s),
+                &node_importance(&nodes[r], s),
+            ) else {
+                return 0.0;
+            };
+            pmf *= if child == l { p } else { 1.0 - p } as f64;
+        }
+        pmf
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lights::{perfect, LightPrim};
+    use glam::Vec3;
+
+    #[test]
+    fn cut_of_four_lights() {
+        let prims: Vec<_> = (0..4)
+            .map(|i| LightPrim::point(Vec3::new(i as f32, 0.0, 0.0), Vec3::ONE))
+            .collect();
+        let tree = perfect::build(&prims).unwrap();
+        let s = Shading {
+            p: Vec3::new(0.0, 1.0, 0.0),
+            n: Vec3::ZERO,
+        };
+        assert_eq!(select_cut(&tree, &s, 1), vec![0]);
+        assert_eq!(select_cut(&tree, &s, 2), vec![1, 2]);
+        // Node 1 (lights at x = 0, 1) is closer: refined first.
+        assert_eq!(select_cut(&tree, &s, 3), vec![3, 2, 4]);
+        assert_eq!(select_cut(&tree, &s, 64), vec![3, 5, 4, 6]);
+    }
+}

@@ -1,0 +1,289 @@
+//! Node importance and child probabilities of hierarchical importance
+//! sampling (real-time stochastic lightcuts §3.2, eq. 1–2), exactly as
+//! `docs/light-sampling.md` writes them, in f32 and in the same order as
+//! `wgsl/lights/sample.wgsl`.
+//!
+//! For a node with bounds `[bmin, bmax]` and intensity `I` seen from a
+//! shading point `x` with normal `n`:
+//!
+//! * `dmin²`, `dmax²`: squared distances from `x` to the nearest and the
+//!   farthest point of the box (`dmin² = 0` inside it);
+//! * `F`: an upper bound of the clamped cosine `max(0, n·ω)` over the
+//!   directions `ω` toward the node's bounding sphere (1 when `x` is inside
+//!   the sphere or `n = 0`);
+//! * `W = F·I`, 0 for dead nodes (zero intensity or EMPTY bounds).
+//!
+//! Two children `j` (left) and `k` (right) are weighted as the paper's
+//! eq. 2 averages the probabilities obtained with the minimum and the
+//! maximum distance: `p_min = W_j/dmin_j² ∕ (W_j/dmin_j² + W_k/dmin_k²)`,
+//! written as `W_j·dmin_k² / (W_j·dmin_k² + W_k·dmin_j²)` so that no small
+//! distance is divided by (the singular case, `x` inside both boxes, falls
+//! back to `W_j / (W_j + W_k)`), `p_max` likewise, `p_left = (p_min + p_max)/2`
+//! and `p_right = 1 − p_left`.
+
+use super::TreeNode;
+use glam::Vec3;
+
+/// The largest f32 below 1 (`0x1.fffffep-1`): descents clamp `u` to it.
+pub const ONE_MINUS_EPSILON: f32 = 0.999_999_94;
+
+/// A shading point: position and unit normal facing the outgoing
+/// direction (`n = 0`: no normal, every node has `F = 1`).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Shading {
+    pub p: Vec3,
+    pub n: Vec3,
+}
+
+/// A node's quantities at one shading point.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct NodeImportance {
+    /// Squared minimum distance (0 inside the box; 0 for dead nodes).
+    pub dmin2: f32,
+    /// Squared maximum distance (0 for dead nodes).
+    pub dmax2: f32,
+    /// `W = F·I` (0 for dead nodes).
+    pub w: f32,
+}
+
+/// `dmin²`, `dmax²` and `W` of `node` at `s`. Dead nodes (I = 0 or EMPTY
+/// bounds) get all three 0: their distances never matter since `W = 0`
+/// makes every rule that uses them give the same result, and EMPTY
+/// bounds would overflow them.
+pub fn node_importance(node: &TreeNode, s: &Shading) -> NodeImportance {
+    if node.intensity == 0.0 || node.is_empty() {
+        return NodeImportance::default();
+    }
+    let x = s.p.to_array();
+    let mut dmin2 = 0.0f32;
+    let mut dmax2 = 0.0f32;
+    for a in 0..3 {
+        let lo = node.min[a] - x[a];
+        let hi = x[a] - node.max[a];
+        let dmin = lo.max(0.0).max(hi);
+        let dmax = (x[a] - node.min[a]).abs().max((x[a] - node.max[a]).abs());
+        dmin2 += dmin * dmin;
+        dmax2 += dmax * dmax;
+    }
+    let f = reflectance_bound(node, s);
+    NodeImportance {
+        dmin2,
+        dmax2,
+        w: f * node.intensity,
+    }
+}
+
+fn length(v: [f32; 3]) -> f32 {
+    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
+}
+
+/// The cosine bound F of the node's bounding sphere (docs: "Reflectance
+/// bound"). Not for dead nodes.
+pub fn reflectance_bound(node: &TreeNode, s: &Shading) -> f32 {
+    let n = s.n.to_array();
+    if n == [0.0; 3] {
+        return 1.0;
+    }
+    let x = s.p.to_array();
+    let c: [f32; 3] = std::array::from_fn(|a| 0.5 * (node.min[a] + node.max[a]));
+    let r = length(std::array::from_fn(|a| 0.5 * (node.max[a] - node.min[a])));
+    let v: [f32; 3] = std::array::from_fn(|a| c[a] - x[a]);
+    let dist = length(v);
+    if dist <= r {
+        return 1.0;
+    }
+    let cos_n = (n[0] * v[0] + n[1] * v[1] + n[2] * v[2]) / dist;
+    let sin_b = r / dist;
+    let cos_b = (1.0 - sin_b * sin_b).max(0.0).sqrt();
+    if cos_n >= cos_b {
+        return 1.0;
+    }
+    let sin_n = (1.0 - cos_n * cos_n).max(0.0).sqrt();
+    (cos_n * cos_b + sin_n * sin_b).max(0.0)
+}
+
+/// `a/(a + b)` for weights `a = W_j·d_k`, `b = W_k·d_j`, falling back to
+/// `W_j/(W_j + W_k)` when both vanish. Needs `W_j + W_k > 0`.
+fn ratio(w_j: f32, d_j: f32, w_k: f32, d_k: f32) -> f32 {
+    let mut a = w_j * d_k;
+    let mut b = w_k * d_j;
+    if a + b == 0.0 {
+        a = w_j;
+        b = w_k;
+    }
+    a / (a + b)
+}
+
+/// Probability of the left child (eq. 1–2); `None` for a dead branch
+/// (`W_j + W_k == 0`). The right child's probability is `1 − p_left`.
+pub fn p_left(j: &NodeImportance, k: &NodeImportance) -> Option<f32> {
+    if j.w + k.w == 0.0 {
+        return None;
+    }
+    let p_min = ratio(j.w, j.dmin2, k.w, k.dmin2);
+    let p_max = ratio(j.w, j.dmax2, k.w, k.dmax2);
+    Some(0.5 * (p_min + p_max))
+}
+
+/// One descent step with the random number `u ∈ [0, 1)`: returns whether
+/// the left child is taken, its probability and the rescaled `u`.
+pub fn choose_child(p_left: f32, u: f32) -> (bool, f32, f32) {
+    let p_right = 1.0 - p_left;
+    let (left, p, u) = if u < p_left {
+        (true, p_left, u / p_left)
+    } else {
+        (false, p_right, (u - p_left) / p_right)
+    };
+    (left, p, u.min(ONE_MINUS_EPSILON))
+}
+
+/// Greedy-cut key of a refinable node: `+∞` when `dmin² == 0`, else
+/// `W/dmin²` (docs: "Cuts").
+pub fn cut_key(imp: &NodeImportance) -> f32 {
+    if imp.dmin2 == 0.0 {
+        f32::INFINITY
+    } else {
+        imp.w / imp.dmin2
+    }
+}
+
+/// Selection probabilities of the nodes of a cut at one shading point
+/// (eq. 2 generalized to n nodes, docs "Cut node probabilities"); `None`
+/// when every node has `W = 0`.
+pub fn cut_probabilities(imps: &[NodeImportance]) -> Option<Vec<f32>> {
+    let w_max = imps.iter().fold(0.0f32, |m, i| m.max(i.w));
+    if w_max == 0.0 {
+        return None;
+    }
+    let w: Vec<f32> = imps.iter().map(|i| i.w / w_max).collect();
+    let p_min = normalized_weights(imps, &w, |i| i.dmin2);
+    let p_max = normalized_weights(imps, &w, |i| i.dmax2);
+    Some(
+        p_min
+            .iter()
+            .zip(&p_max)
+            .map(|(a, b)| 0.5 * (a + b))
+            .collect(),
+    )
+}
+
+/// Inverse-square weights `w_j / max(d_j, 1e-20)` normalized to sum 1, or,
+/// when `x` is inside some live node (`d_j == 0`, `W_j > 0`), `w_j` over
+/// those nodes only.
+fn normalized_weights(
+    imps: &[NodeImportance],
+    w: &[f32],
+    d: impl Fn(&NodeImportance) -> f32,
+) -> Vec<f32> {
+    let inside = imps.iter().any(|i| d(i) == 0.0 && i.w > 0.0);
+    let weights: Vec<f32> = imps
+        .iter()
+        .zip(w)
+        .map(|(i, &w)| {
+            if inside {
+                if d(i) == 0.0 && i.w > 0.0 {
+                    w
+                } else {
+                    0.0
+                }
+            } else {
+                w / d(i).max(1e-20)
+            }
+        })
+        .collect();
+    let sum: f32 = weights.iter().sum();
+    weights.iter().map(|x| x / sum).collect()
+}
+
+/// Picks a cut node with `u` by a running f32 CDF over `probs` (the last
+/// node with `P > 0` takes what rounding leaves): returns the cut position
+/// and the rescaled `u`.
+pub fn choose_cut_node(probs: &[f32], u: f32) -> (usize, f32) {
+    let mut cdf = 0.0f32;
+    let mut chosen = None;
+    for (j, &p) in probs.iter().enumerate() {
+        if p <= 0.0 {
+            continue;
+        }
+        let next = cdf + p;
+        chosen = Some((j, cdf));
+        if u < next {
+            break;
+        }
+        cdf = next;
+    }
+    let (j, c_prev) = chosen.expect("cut probabilities with a positive entry");
+    (j, ((u - c_prev) / probs[j]).min(ONE_MINUS_EPSILON))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn node(min: [f32; 3], max: [f32; 3], intensity: f32) -> TreeNode {
+        TreeNode {
+            min,
+            intensity,
+            max,
+            id: 0,
+        }
+    }
+
+    #[test]
+    fn distances_and_bound() {
+        let s = Shading {
+            p: Vec3::ZERO,
+            n: Vec3::Y,
+        };
+        let imp = node_importance(&node([1.0, 0.0, 0.0], [2.0, 1.0, 0.0], 2.0), &s);
+        assert_eq!(imp.dmin2, 1.0);
+        assert_eq!(imp.dmax2, 5.0);
+        assert!(imp.w > 0.0 && imp.w <= 2.0);
+        // Entirely below the surface: F = 0.
+        let below = node_importance(&node([-1.0, -3.0, -1.0], [1.0, -2.0, 1.0], 1.0), &s);
+        assert_eq!(below.w, 0.0);
+        assert!(below.dmin2 > 0.0);
+        // Inside: dmin² = 0, F = 1.
+        let inside = node_importance(&node([-1.0; 3], [1.0; 3], 3.0), &s);
+        assert_eq!((inside.dmin2, inside.w), (0.0, 3.0));
+        assert_eq!(
+            node_importance(&TreeNode::EMPTY, &s),
+            NodeImportance::default()
+        );
+    }
+
+    #[test]
+    fn child_rules() {
+        let a = NodeImportance {
+            dmin2: 1.0,
+            dmax2: 4.0,
+            w: 1.0,
+        };
+        let dead = NodeImportance::default();
+        assert_eq!(p_left(&a, &dead), Some(1.0));
+        assert_eq!(p_left(&dead, &a), Some(0.0));
+        assert_eq!(p_left(&dead, &dead), None);
+        assert_eq!(p_left(&a, &a), Some(0.5));
+        let inside = NodeImportance {
+            dmin2: 0.0,
+            dmax2: 4.0,
+            w: 1.0,
+        };
+        // p_min = 1 (only the box around x counts), p_max = 1/2.
+        assert_eq!(p_left(&inside, &a), Some(0.75));
+        let (left, p, u) = choose_child(0.25, 0.5);
+        assert_eq!((left, p, u), (false, 0.75, 1.0 / 3.0));
+        assert_eq!(choose_child(1.0, ONE_MINUS_EPSILON).0, true);
+        assert_eq!(choose_child(0.0, 0.0).0, false);
+    }
+
+    #[test]
+    fn cut_node_choice() {
+        let probs = [0.25, 0.0, 0.75];
+        assert_eq!(choose_cut_node(&probs, 0.0), (0, 0.0));
+        assert_eq!(choose_cut_node(&probs, 0.25), (2, 0.0));
+        assert_eq!(choose_cut_node(&probs, ONE_MINUS_EPSILON).0, 2);
+        // Rounding that leaves the CDF below u: the last live node.
+        assert_eq!(choose_cut_node(&[0.5, 0.4999, 0.0], 0.99995).0, 1);
+    }
+}
