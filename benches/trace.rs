@@ -58,6 +58,7 @@ fn scene_of(camera: Camera, materials: Vec<Material>, meshes: Vec<Mesh>) -> Scen
         materials,
         meshes,
         lights: Vec::new(),
+        point_light_sets: Vec::new(),
         integrand: IntegrandSpec::AreaLight,
         mdas: MdasParams::default(),
     }

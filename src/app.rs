@@ -54,6 +54,7 @@ pub fn integrand_for(gpu: &Gpu, scene: &Scene, film: Film) -> Result<Box<dyn Int
         IntegrandSpec::AmbientOcclusion { radius } => {
             Box::new(AmbientOcclusion::new(gpu_scene, film, radius)?)
         }
+        IntegrandSpec::ManyLight(_) => anyhow::bail!("many_light integrand: not implemented yet"),
     })
 }
 

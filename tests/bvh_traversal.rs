@@ -73,6 +73,7 @@ fn scene_of(materials: Vec<Material>, meshes: Vec<Mesh>) -> Scene {
         materials,
         meshes,
         lights: Vec::new(),
+        point_light_sets: Vec::new(),
         integrand: IntegrandSpec::AreaLight,
         mdas: MdasParams::default(),
     }

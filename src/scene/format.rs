@@ -16,8 +16,12 @@
 //!             motion = [{ time, translate, rotate = [ax, ay, az, deg] }, …]
 //! [[light]]   type = point (position, intensity) | directional (direction,
 //!             irradiance) | quad (corners, radiance → emissive mesh "light{n}")
+//! [[light_set]] type = box (count, min, max) | surface (count, offset)
+//!             | grid (min, max, resolution, y); intensity, seed,
+//!             intensity_jitter, color_jitter, orbit_radius, orbit_speed
 //! [integrand] type = area_light | depth_of_field | motion_blur
 //!             | path (max_bounces = 1) | ambient_occlusion (radius)
+//!             | many_light (sampler, cut_size, block, time, frame)
 //! [mdas]      bits_per_dim, extra_image_bits, initial_samples_per_cell,
 //!             scale_factor, alpha, candidates, max_samples_per_leaf, spp, seed
 //! ```
@@ -34,7 +38,8 @@
 
 use super::shapes::{self, TriMesh};
 use super::{
-    Camera, Checker, Film, IntegrandSpec, Keyframe, Light, Material, MdasParams, Mesh, Scene,
+    Camera, Checker, Film, IntegrandSpec, Keyframe, Light, ManyLightSpec, Material, MdasParams,
+    Mesh, PointLightSet, Scene, SetLight, MANY_LIGHT_SAMPLERS,
 };
 use glam::{Affine3A, Quat, Vec2, Vec3};
 use serde::de::{self, Deserializer, SeqAccess, Visitor};
@@ -51,6 +56,10 @@ pub const MAX_FILM_SIDE: i64 = 16384;
 pub const MAX_FILM_PIXELS: i64 = 1 << 26;
 /// Largest number of triangles one shape may tessellate to.
 pub const MAX_SHAPE_TRIANGLES: u64 = 1 << 25;
+/// Largest number of point lights all `[[light_set]]`s together may generate.
+pub const MAX_SET_LIGHTS: u64 = 1 << 24;
+/// Largest `cut_size` of the `many_light` integrand.
+pub const MAX_CUT_SIZE: u32 = 64;
 
 /// Why a scene could not be loaded.
 #[derive(Debug, thiserror::Error)]
@@ -239,6 +248,8 @@ struct RawScene {
     shape: Vec<S<RawShape>>,
     #[serde(default)]
     light: Vec<S<RawLight>>,
+    #[serde(default)]
+    light_set: Vec<S<RawLightSet>>,
     integrand: Option<S<RawIntegrand>>,
     mdas: Option<S<RawMdas>>,
 }
@@ -404,6 +415,39 @@ const LIGHT_TYPES: [(&str, &[&str]); 3] = [
     ("quad", &["corners", "radiance"]),
 ];
 
+/// One `[[light_set]]`: common keys plus the union of every type's keys
+/// ([`RawLightSet::type_keys`], checked against [`LIGHT_SET_TYPES`]).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawLightSet {
+    #[serde(rename = "type")]
+    kind: S<String>,
+    intensity: Option<S<V3>>,
+    seed: Option<S<i64>>,
+    intensity_jitter: Option<S<Num>>,
+    color_jitter: Option<S<Num>>,
+    orbit_radius: Option<S<Num>>,
+    orbit_speed: Option<S<Num>>,
+    count: Option<S<i64>>,
+    min: Option<S<Vec<Num>>>,
+    max: Option<S<Vec<Num>>>,
+    offset: Option<S<Num>>,
+    resolution: Option<S<Vec<S<i64>>>>,
+    y: Option<S<Num>>,
+}
+
+impl RawLightSet {
+    fn type_keys(&self) -> Vec<(&'static str, Range<usize>)> {
+        present_keys!(self; count, min, max, offset, resolution, y)
+    }
+}
+
+const LIGHT_SET_TYPES: [(&str, &[&str]); 3] = [
+    ("box", &["count", "min", "max"]),
+    ("surface", &["count", "offset"]),
+    ("grid", &["min", "max", "resolution", "y"]),
+];
+
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawIntegrand {
@@ -411,20 +455,29 @@ struct RawIntegrand {
     kind: S<String>,
     max_bounces: Option<S<i64>>,
     radius: Option<S<Num>>,
+    sampler: Option<S<String>>,
+    cut_size: Option<S<i64>>,
+    block: Option<S<i64>>,
+    time: Option<S<Num>>,
+    frame: Option<S<i64>>,
 }
 
 impl RawIntegrand {
     fn type_keys(&self) -> Vec<(&'static str, Range<usize>)> {
-        present_keys!(self; max_bounces, radius)
+        present_keys!(self; max_bounces, radius, sampler, cut_size, block, time, frame)
     }
 }
 
-const INTEGRAND_TYPES: [(&str, &[&str]); 5] = [
+const INTEGRAND_TYPES: [(&str, &[&str]); 6] = [
     ("area_light", &[]),
     ("depth_of_field", &[]),
     ("motion_blur", &[]),
     ("path", &["max_bounces"]),
     ("ambient_occlusion", &["radius"]),
+    (
+        "many_light",
+        &["sampler", "cut_size", "block", "time", "frame"],
+    ),
 ];
 
 #[derive(Deserialize)]
@@ -663,6 +716,20 @@ impl Ctx<'_> {
             }
         }
 
+        let mut point_light_sets = Vec::with_capacity(raw.light_set.len());
+        let mut surfaces: Option<Surfaces> = None;
+        let mut set_lights = 0u64;
+        for set in &raw.light_set {
+            let r = set.get_ref();
+            let t = self.check_type("light_set", &r.kind, &r.type_keys(), &LIGHT_SET_TYPES)?;
+            if LIGHT_SET_TYPES[t].0 == "surface" && surfaces.is_none() {
+                surfaces = Some(Surfaces::new(&meshes, &materials));
+            }
+            let generated = self.light_set(r, t, surfaces.as_ref(), set_lights)?;
+            set_lights += generated.lights.len() as u64;
+            point_light_sets.push(generated);
+        }
+
         let integrand = match &raw.integrand {
             None => IntegrandSpec::AreaLight,
             Some(i) => {
@@ -683,6 +750,7 @@ impl Ctx<'_> {
             materials,
             meshes,
             lights,
+            point_light_sets,
             integrand,
             mdas,
         })
@@ -1279,8 +1347,196 @@ impl Ctx<'_> {
                     "radius",
                 )?,
             },
+            "many_light" => {
+                let d = ManyLightSpec::default();
+                let sampler = match &r.sampler {
+                    None => d.sampler,
+                    Some(v) if MANY_LIGHT_SAMPLERS.contains(&v.get_ref().as_str()) => {
+                        v.get_ref().clone()
+                    }
+                    Some(v) => {
+                        return Err(self.error(
+                            v.span(),
+                            format!(
+                                "unknown sampler '{}', expected one of {}",
+                                v.get_ref(),
+                                quoted_list(&MANY_LIGHT_SAMPLERS)
+                            ),
+                        ))
+                    }
+                };
+                IntegrandSpec::ManyLight(ManyLightSpec {
+                    sampler,
+                    cut_size: self.opt_int(
+                        &r.cut_size,
+                        "cut_size",
+                        1..=MAX_CUT_SIZE as i64,
+                        d.cut_size as i64,
+                    )? as u32,
+                    block: self.u32(&r.block, "block", 1, d.block)?,
+                    time: r.time.as_ref().map_or(d.time, |v| v.get_ref().0),
+                    frame: self.u32(&r.frame, "frame", 0, d.frame)?,
+                })
+            }
             _ => unreachable!("INTEGRAND_TYPES and this match list the same types"),
         })
+    }
+
+    /// A number in [0, 1] (a jitter amount).
+    fn unit_interval(&self, v: &Option<S<Num>>, key: &str) -> Result<f32> {
+        match v {
+            None => Ok(0.0),
+            Some(v) if (0.0..=1.0).contains(&v.get_ref().0) => Ok(v.get_ref().0),
+            Some(v) => Err(self.error(
+                v.span(),
+                format!("{key} must be in [0, 1], found {}", v.get_ref().0),
+            )),
+        }
+    }
+
+    /// Generate one `[[light_set]]` (type index `t` into
+    /// [`LIGHT_SET_TYPES`]); `before` lights were generated by earlier sets.
+    fn light_set(
+        &self,
+        r: &RawLightSet,
+        t: usize,
+        surfaces: Option<&Surfaces>,
+        before: u64,
+    ) -> Result<PointLightSet> {
+        let kind = LIGHT_SET_TYPES[t].0;
+        let intensity_v = self.need(&r.intensity, "intensity", &r.kind, "light_set")?;
+        let intensity = self.rgb(intensity_v, "intensity")?;
+        if intensity == Vec3::ZERO {
+            return Err(self.error(
+                intensity_v.span(),
+                "a light set's intensity must not be all 0",
+            ));
+        }
+        let seed = self.u32(&r.seed, "seed", 0, 0)?;
+        let intensity_jitter = self.unit_interval(&r.intensity_jitter, "intensity_jitter")?;
+        let color_jitter = self.unit_interval(&r.color_jitter, "color_jitter")?;
+        let orbit_radius = r
+            .orbit_radius
+            .as_ref()
+            .map_or(Ok(0.0), |v| self.non_negative(v, "orbit_radius"))?;
+        let orbit_speed = r.orbit_speed.as_ref().map_or(0.0, |v| v.get_ref().0);
+
+        // The count, checked against the scene-wide limit before allocating.
+        let max_count = MAX_SET_LIGHTS as i64;
+        let (count, count_span) = match kind {
+            "box" | "surface" => {
+                let v = self.need(&r.count, "count", &r.kind, "light_set")?;
+                (self.int(v, "count", 1..=max_count)? as u64, v.span())
+            }
+            "grid" => {
+                let v = self.need(&r.resolution, "resolution", &r.kind, "light_set")?;
+                let res = v.get_ref();
+                if res.len() != 2 {
+                    return Err(self.error(
+                        v.span(),
+                        format!("resolution must be [nx, nz], found {} elements", res.len()),
+                    ));
+                }
+                let nx = self.int(&res[0], "resolution nx", 1..=max_count)?;
+                let nz = self.int(&res[1], "resolution nz", 1..=max_count)?;
+                ((nx * nz) as u64, v.span())
+            }
+            _ => unreachable!("LIGHT_SET_TYPES and this match list the same types"),
+        };
+        if before + count > MAX_SET_LIGHTS {
+            return Err(self.error(
+                count_span,
+                format!(
+                    "this light set brings the scene's light-set lights to {}: absurdly large (at most 2^24 = {MAX_SET_LIGHTS} in all)",
+                    before + count
+                ),
+            ));
+        }
+
+        // Where light i sits (its orbit centre), from its random stream.
+        let position: Box<dyn Fn(u64, &mut LightRng) -> Vec3 + '_> = match kind {
+            "box" => {
+                let min_v = self.need(&r.min, "min", &r.kind, "light_set")?;
+                let min = Vec3::from(self.array::<3>(min_v, "min", "[x, y, z]")?);
+                let max_v = self.need(&r.max, "max", &r.kind, "light_set")?;
+                let max = Vec3::from(self.array::<3>(max_v, "max", "[x, y, z]")?);
+                if !max.cmpge(min).all() {
+                    return Err(self.error(
+                        max_v.span(),
+                        "light set box max must be ≥ min in x, y and z",
+                    ));
+                }
+                let size = max - min;
+                Box::new(move |_, rng| {
+                    let u = Vec3::new(rng.f32(), rng.f32(), rng.f32());
+                    (min + u * size).min(max)
+                })
+            }
+            "surface" => {
+                let surfaces = surfaces.expect("built for surface sets");
+                if surfaces.total_area <= 0.0 {
+                    return Err(self.error(
+                        r.kind.span(),
+                        "a surface light set scatters its lights over the scene's non-emissive triangles, and this scene has none (with area)",
+                    ));
+                }
+                let offset = r
+                    .offset
+                    .as_ref()
+                    .map_or(Ok(0.01), |v| self.non_negative(v, "offset"))?;
+                Box::new(move |_, rng| surfaces.sample(rng, offset))
+            }
+            "grid" => {
+                let min_v = self.need(&r.min, "min", &r.kind, "light_set")?;
+                let min = Vec2::from(self.array::<2>(min_v, "grid min", "[x, z]")?);
+                let max_v = self.need(&r.max, "max", &r.kind, "light_set")?;
+                let max = Vec2::from(self.array::<2>(max_v, "grid max", "[x, z]")?);
+                if !max.cmpgt(min).all() {
+                    return Err(self.error(
+                        max_v.span(),
+                        "light set grid max must be greater than min in x and z",
+                    ));
+                }
+                let y = self.need(&r.y, "y", &r.kind, "light_set")?.get_ref().0;
+                let res = r.resolution.as_ref().expect("checked above").get_ref();
+                let (nx, nz) = (*res[0].get_ref() as u64, *res[1].get_ref() as u64);
+                let cell = (max - min) / Vec2::new(nx as f32, nz as f32);
+                Box::new(move |i, _| {
+                    let (ix, iz) = (i % nx, i / nx);
+                    Vec3::new(
+                        min.x + (ix as f32 + 0.5) * cell.x,
+                        y,
+                        min.y + (iz as f32 + 0.5) * cell.y,
+                    )
+                })
+            }
+            _ => unreachable!("LIGHT_SET_TYPES and this match list the same types"),
+        };
+
+        let lights = (0..count)
+            .map(|i| {
+                let mut rng = LightRng::new(seed, i);
+                let base = position(i, &mut rng);
+                let phase = rng.f32() * std::f32::consts::TAU;
+                let scale = 1.0 + intensity_jitter * (2.0 * rng.f32() - 1.0);
+                let color = Vec3::new(rng.f32(), rng.f32(), rng.f32());
+                let color = Vec3::ONE + color_jitter * (2.0 * color - Vec3::ONE);
+                SetLight {
+                    base,
+                    phase,
+                    intensity: intensity * scale * color,
+                }
+            })
+            .collect();
+        let set = PointLightSet {
+            lights,
+            orbit_radius,
+            orbit_speed,
+        };
+        if set.lights.iter().any(|l| !l.base.is_finite()) {
+            return Err(self.error(r.kind.span(), "light positions overflow to infinity"));
+        }
+        Ok(set)
     }
 
     fn mdas(&self, m: &RawMdas) -> Result<MdasParams> {
@@ -1320,6 +1576,103 @@ impl Ctx<'_> {
                 .map_or(Ok(d.spp), |v| self.positive(v, "spp"))?,
             seed: self.u32(&m.seed, "seed", 0, d.seed)?,
         })
+    }
+}
+
+/// Deterministic random numbers of one generated light: a splitmix64
+/// stream keyed by (seed, light index), so light i is the same whatever
+/// the count and whatever other sets the scene has.
+struct LightRng(u64);
+
+fn mix64(mut z: u64) -> u64 {
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+impl LightRng {
+    fn new(seed: u32, index: u64) -> LightRng {
+        LightRng(mix64(
+            ((seed as u64) << 32 | 0x5EED) ^ mix64(index ^ 0x632B_E59B_D9B4_E019),
+        ))
+    }
+
+    fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        mix64(self.0)
+    }
+
+    /// Uniform in [0, 1), 24 bits.
+    fn f32(&mut self) -> f32 {
+        (self.next_u64() >> 40) as f32 * (1.0 / (1u64 << 24) as f32)
+    }
+
+    /// Uniform in [0, 1), 53 bits.
+    fn f64(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+    }
+}
+
+/// The scene's non-emissive triangles at scene time 0 (world space, moving
+/// meshes placed by their keyframes as the BVH places them), with an
+/// area-proportional CDF, for `surface` light sets.
+struct Surfaces {
+    triangles: Vec<[Vec3; 3]>,
+    /// Inclusive prefix sums of the triangle areas.
+    cdf: Vec<f64>,
+    total_area: f64,
+}
+
+impl Surfaces {
+    fn new(meshes: &[Mesh], materials: &[Material]) -> Surfaces {
+        let mut triangles = Vec::new();
+        let mut cdf = Vec::new();
+        let mut total = 0.0f64;
+        for mesh in meshes {
+            if materials[mesh.material as usize].emission.max_element() > 0.0 {
+                continue;
+            }
+            let rigid = (!mesh.motion.is_empty()).then(|| {
+                crate::accel::motion::transform_at(
+                    &crate::accel::motion::normalized_keys(&mesh.motion),
+                    0.0,
+                )
+            });
+            for idx in &mesh.indices {
+                let v = idx.map(|i| {
+                    let p = mesh.positions[i as usize];
+                    rigid.map_or(p, |r| r.apply_point(p))
+                });
+                let area = 0.5 * (v[1] - v[0]).cross(v[2] - v[0]).length() as f64;
+                if area > 0.0 && area.is_finite() {
+                    total += area;
+                    triangles.push(v);
+                    cdf.push(total);
+                }
+            }
+        }
+        Surfaces {
+            triangles,
+            cdf,
+            total_area: total,
+        }
+    }
+
+    /// A point uniform by area over the triangles, moved `offset` along
+    /// its triangle's geometric normal.
+    fn sample(&self, rng: &mut LightRng, offset: f32) -> Vec3 {
+        let x = rng.f64() * self.total_area;
+        let t = self
+            .cdf
+            .partition_point(|&c| c <= x)
+            .min(self.triangles.len() - 1);
+        let [a, b, c] = self.triangles[t];
+        let (mut u, mut v) = (rng.f32(), rng.f32());
+        if u + v > 1.0 {
+            (u, v) = (1.0 - u, 1.0 - v);
+        }
+        let n = (b - a).cross(c - a).normalize_or_zero();
+        a + u * (b - a) + v * (c - a) + offset * n
     }
 }
 
