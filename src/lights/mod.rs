@@ -49,6 +49,7 @@ pub mod morton;
 pub mod perfect;
 pub mod radix_sort;
 pub mod sampler;
+pub mod scene_lights;
 
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
