@@ -179,14 +179,14 @@ pub fn mdas_min_spp(params: MdasParams, integrand: &dyn Integrand) -> Result<u32
 /// Measures MDAS at `spp` (an average, may be fractional).
 fn run_mdas(
     gpu: &Gpu,
-    params: MdasParams,
+    mdas: &mut Mdas,
     spp: f32,
     integrand: &dyn Integrand,
     reference: &[[f32; 3]],
     repeats: u32,
 ) -> Result<HaltonRun> {
-    let mut mdas = Mdas::new(MdasParams { spp, ..params })?;
-    let measured = measure(gpu, &mut mdas, integrand, repeats)?;
+    mdas.set_spp(spp)?;
+    let measured = measure(gpu, mdas, integrand, repeats)?;
     let error = metrics::compare(&measured.render.image, reference)?;
     Ok(HaltonRun {
         spp: spp.round() as u32,
@@ -248,12 +248,14 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec) -> Result<Report> {
 
     // 3. Timing and the equal-time searches.
     let status = spinner(spec.setup.progress);
-    let mut mdas_run = |spp: u32| {
+    // One integrator for every budget, so its pipelines compile once.
+    let mut mdas = Mdas::new(params)?;
+    let mut mdas_run = |spp: f32| {
         status.set_message(format!("mdas {spp} spp ({} repeats)", spec.setup.repeats));
         run_mdas(
             gpu,
-            params,
-            spp as f32,
+            &mut mdas,
+            spp,
             integrand,
             &reference,
             spec.setup.repeats,
@@ -261,23 +263,12 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec) -> Result<Report> {
     };
     let (mdas_main, mdas_spp, mdas_search, target_ms) = match spec.budget {
         Budget::MdasSpp => {
-            status.set_message(format!(
-                "mdas {} spp ({} repeats)",
-                params.spp, spec.setup.repeats
-            ));
-            let run = run_mdas(
-                gpu,
-                params,
-                params.spp,
-                integrand,
-                &reference,
-                spec.setup.repeats,
-            )?;
+            let run = mdas_run(params.spp)?;
             let t = run.measured.total_ms();
             (run, params.spp as f64, None, t)
         }
         Budget::TimeMs(t) => {
-            let eq = search_equal_time(t, min_spp, spec.max_spp, &mut mdas_run)?;
+            let eq = search_equal_time(t, min_spp, spec.max_spp, &mut |spp| mdas_run(spp as f32))?;
             if eq.lo.measured.total_ms() > t {
                 bail!(
                     "--time-ms {t} is below the time MDAS needs for its initial samples ({:.3} ms at {} spp, the least its initial grid allows)",

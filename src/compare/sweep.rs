@@ -100,11 +100,10 @@ fn run_sweep(gpu: &Gpu, spec: &SweepSpec) -> Result<SweepResult> {
         bar.inc(1);
         anyhow::Ok(())
     };
+    // One integrator per method, so pipelines compile once.
+    let mut mdas = Mdas::new(params)?;
     for &spp in &mdas_spps {
-        let mut mdas = Mdas::new(MdasParams {
-            spp: spp as f32,
-            ..params
-        })?;
+        mdas.set_spp(spp as f32)?;
         point("mdas", spp, &mut mdas)?;
     }
     let mut halton = Halton::new(1, spec.setup.halton_seed);

@@ -184,6 +184,16 @@ impl Mdas {
         &self.params
     }
 
+    /// Changes the budget (samples per pixel) and keeps the compiled
+    /// pipelines, which do not depend on it: a budget search or a sweep
+    /// compiles them once.
+    pub fn set_spp(&mut self, spp: f32) -> Result<()> {
+        let params = MdasParams { spp, ..self.params };
+        config::validate(&params)?;
+        self.params = params;
+        Ok(())
+    }
+
     /// Caps the number of adaptive iterations (default
     /// [`MAX_ITERATIONS_DEFAULT`]); a render that hits it stops below its
     /// budget and reports the samples it took.
