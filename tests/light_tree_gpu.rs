@@ -111,3 +111,205 @@ fn radix_sort_refuses_over_capacity() {
         .unwrap_err();
     assert!(err.to_string().contains("keys buffer"), "{err}");
 }
+
+// ---- the perfect light tree ----
+
+use glam::Vec3;
+use mdas::gpu::Profiler;
+use mdas::lights::gpu_build::{BuildTimes, GpuLightTree};
+use mdas::lights::{morton, perfect, LightPrim, TreeNode};
+
+/// `n` lights in `[-s, s]^3`: points and triangles (edges up to `s/10`)
+/// alternating at random, with RGB emission in `[0, 4)`.
+fn random_lights(rng: &mut StdRng, n: usize, s: f32) -> Vec<LightPrim> {
+    let mut v = |rng: &mut StdRng, r: f32| {
+        Vec3::new(
+            rng.random_range(-r..r),
+            rng.random_range(-r..r),
+            rng.random_range(-r..r),
+        )
+    };
+    (0..n)
+        .map(|_| {
+            let p = v(rng, s);
+            let e = Vec3::new(
+                rng.random_range(0.0..4.0),
+                rng.random_range(0.0..4.0),
+                rng.random_range(0.0..4.0),
+            );
+            if rng.random::<bool>() {
+                LightPrim::point(p, e)
+            } else {
+                LightPrim::triangle(p, p + v(rng, s / 10.0), p + v(rng, s / 10.0), e)
+            }
+        })
+        .collect()
+}
+
+struct Built {
+    nodes: Vec<TreeNode>,
+    leaf_of_light: Vec<u32>,
+    sorted_ids: Vec<u32>,
+    sorted_codes: Vec<u32>,
+}
+
+fn gpu_build(gpu: &Gpu, tree: &mut GpuLightTree, prims: &[LightPrim]) -> Built {
+    let buffer = gpu
+        .buffer_from("test.lights", prims, wgpu::BufferUsages::STORAGE)
+        .unwrap();
+    let mut profiler = Profiler::new(gpu);
+    tree.build(gpu, &buffer, prims.len() as u32, &mut profiler)
+        .unwrap();
+    let times = BuildTimes::from_phases(&profiler.finish().unwrap());
+    assert!(times.total() >= 0.0);
+    let n = prims.len();
+    Built {
+        nodes: gpu
+            .read_buffer(&tree.nodes, tree.node_count() as usize)
+            .unwrap(),
+        leaf_of_light: gpu.read_buffer(&tree.leaf_of_light, n).unwrap(),
+        sorted_ids: gpu.read_buffer(&tree.sorted_ids, n).unwrap(),
+        sorted_codes: gpu.read_buffer(&tree.sorted_codes, n).unwrap(),
+    }
+}
+
+/// Builds on the GPU and checks every node bit for bit against the oracle.
+fn check_tree(gpu: &Gpu, tree: &mut GpuLightTree, prims: &[LightPrim], what: &str) {
+    let got = gpu_build(gpu, tree, prims);
+    let want = perfect::build(prims).expect("at least one light");
+    assert_eq!(tree.levels(), want.levels, "{what}: levels");
+    assert_eq!(tree.leaf_count(), want.leaf_count, "{what}: leaf count");
+    assert_eq!(tree.light_count(), prims.len() as u32);
+    let mut codes = morton::codes(prims);
+    codes.sort_unstable();
+    assert!(
+        got.sorted_codes == codes,
+        "{what}: sorted Morton codes differ"
+    );
+    assert!(got.sorted_ids == want.sorted, "{what}: leaf order differs");
+    assert!(
+        got.leaf_of_light == want.leaf_of_light,
+        "{what}: leaf_of_light differs"
+    );
+    assert_eq!(got.nodes.len(), want.nodes.len(), "{what}: node count");
+    let bits = |n: &TreeNode| -> [u32; 8] { bytemuck::cast(*n) };
+    for (i, (g, w)) in got.nodes.iter().zip(&want.nodes).enumerate() {
+        assert!(
+            bits(g) == bits(w),
+            "{what}: node {i} (level {}) differs:\n  gpu {g:?}\n  cpu {w:?}",
+            perfect::level_of(i)
+        );
+    }
+}
+
+#[test]
+fn tree_matches_cpu_oracle_bit_for_bit() {
+    let gpu = common::gpu();
+    let mut tree = GpuLightTree::new(gpu, 20_000).unwrap();
+    let mut rng = StdRng::seed_from_u64(61);
+    for n in [1usize, 2, 3, 5, 255, 256, 257, 1000, 12_146] {
+        let prims = random_lights(&mut rng, n, 10.0);
+        check_tree(gpu, &mut tree, &prims, &format!("{n} random lights"));
+    }
+    // Coordinates over many binades: centroids divide by 3 at every exponent.
+    let mut prims = Vec::new();
+    for k in -30..30 {
+        prims.extend(random_lights(&mut rng, 50, 2f32.powi(k)));
+    }
+    check_tree(gpu, &mut tree, &prims, "many scales");
+}
+
+#[test]
+fn tree_degenerate_light_sets() {
+    let gpu = common::gpu();
+    let mut tree = GpuLightTree::new(gpu, 5000).unwrap();
+    let mut rng = StdRng::seed_from_u64(62);
+
+    // Every light at one point: all codes equal (zero extents), id order.
+    let same: Vec<LightPrim> = (0..700)
+        .map(|i| LightPrim::point(Vec3::new(1.5, -2.0, 3.25), Vec3::splat(i as f32 * 0.01)))
+        .collect();
+    check_tree(gpu, &mut tree, &same, "coincident lights");
+
+    // Clusters of coincident lights among others: runs of equal codes.
+    let mut clusters = random_lights(&mut rng, 1500, 5.0);
+    for i in 0..1500 {
+        if i % 3 == 0 {
+            clusters[i] = clusters[i / 30];
+        }
+    }
+    check_tree(gpu, &mut tree, &clusters, "clusters of coincident lights");
+
+    // All lights in the plane y = 2.5: a zero-extent axis.
+    let plane: Vec<LightPrim> = random_lights(&mut rng, 3000, 8.0)
+        .into_iter()
+        .map(|mut l| {
+            l.p0[1] = 2.5;
+            l.p1[1] = 2.5;
+            l.p2[1] = 2.5;
+            l
+        })
+        .collect();
+    check_tree(gpu, &mut tree, &plane, "lights in one plane");
+
+    // Zero intensities: black lights, degenerate (zero-area) triangles,
+    // and a whole tree of them.
+    let mut dark = random_lights(&mut rng, 999, 3.0);
+    for (i, l) in dark.iter_mut().enumerate() {
+        if i % 4 == 0 {
+            l.emission = [0.0; 3];
+        } else if i % 4 == 1 && l.kind == mdas::lights::KIND_TRIANGLE {
+            l.p2 = l.p1;
+        }
+    }
+    check_tree(gpu, &mut tree, &dark, "zero-intensity lights");
+    for l in &mut dark {
+        l.emission = [0.0; 3];
+    }
+    check_tree(gpu, &mut tree, &dark, "all lights black");
+}
+
+#[test]
+fn tree_rebuilds_per_frame_and_handles_no_lights() {
+    let gpu = common::gpu();
+    let mut tree = GpuLightTree::new(gpu, 4096).unwrap();
+    let mut rng = StdRng::seed_from_u64(63);
+    // A large tree, then a smaller one with other lights in the same
+    // buffers (stale nodes and leaf slots must not leak), then a third.
+    let frames = [
+        random_lights(&mut rng, 4096, 10.0),
+        random_lights(&mut rng, 1100, 1.0),
+        random_lights(&mut rng, 3, 100.0),
+    ];
+    for (f, prims) in frames.iter().enumerate() {
+        check_tree(gpu, &mut tree, prims, &format!("frame {f}"));
+    }
+    // No lights: no tree, nothing dispatched.
+    let empty = gpu
+        .buffer_zeroed("test.no_lights", 64, wgpu::BufferUsages::STORAGE)
+        .unwrap();
+    let times = tree.build_timed(gpu, &empty, 0).unwrap();
+    assert_eq!(times.total(), 0.0);
+    assert_eq!(
+        (tree.levels(), tree.leaf_count(), tree.node_count()),
+        (0, 0, 0)
+    );
+    // Over capacity and a short light buffer: errors before any work.
+    let small = gpu
+        .buffer_from("test.lights", &frames[2], wgpu::BufferUsages::STORAGE)
+        .unwrap();
+    let err = tree.build_timed(gpu, &small, 4097).unwrap_err();
+    assert!(err.to_string().contains("capacity"), "{err}");
+    let err = tree.build_timed(gpu, &small, 4).unwrap_err();
+    assert!(err.to_string().contains("bytes"), "{err}");
+}
+
+#[test]
+fn tree_of_one_million_lights() {
+    let gpu = common::gpu();
+    let n = 1 << 20;
+    let mut tree = GpuLightTree::new(gpu, n).unwrap();
+    let mut rng = StdRng::seed_from_u64(64);
+    let prims = random_lights(&mut rng, n as usize, 50.0);
+    check_tree(gpu, &mut tree, &prims, "1M lights");
+}

@@ -44,6 +44,7 @@
 pub mod alias;
 pub mod bvh;
 pub mod cut;
+pub mod gpu_build;
 pub mod importance;
 pub mod morton;
 pub mod perfect;

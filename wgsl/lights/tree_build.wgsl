@@ -1,0 +1,72 @@
+// The perfect light tree's nodes (real-time stochastic lightcuts §3.1, §4):
+// `leaves` copies the Morton-sorted lights into the leaf level, pads it with
+// bogus leaves and records each light's leaf slot; `internal` builds k
+// levels above a source level ℓs in one dispatch. src/lights/gpu_build.rs
+// explains why the result equals the level-by-level CPU oracle bit for bit.
+
+@compute @workgroup_size(WG)
+fn leaves(@builtin(workgroup_id) wid: vec3<u32>,
+          @builtin(num_workgroups) groups: vec3<u32>,
+          @builtin(local_invocation_index) lid: u32) {
+    opaque_zero = params.zero;
+    let slot = linear_index(wid, groups, lid);
+    let p = params.leaf_count;
+    if (slot >= p) {
+        return;
+    }
+    if (slot < params.n) {
+        let id = sorted_ids[slot];
+        nodes[p - 1u + slot] = leaf_node(prims[id], id);
+        leaf_of_light[id] = slot;
+    } else {
+        nodes[p - 1u + slot] = empty_node();
+    }
+}
+
+// A workgroup loads B = 2^k consecutive nodes of level ℓs and gathers them
+// pairwise in shared memory, writing level ℓs − t (t = 1..k) as it goes:
+// destination node j of level ℓs − t is the balanced pairwise gather, in
+// child order, of source nodes [j·2^t, (j+1)·2^t).
+var<workgroup> wg_lo: array<vec4<f32>, WG>;
+var<workgroup> wg_hi: array<vec4<f32>, WG>;
+
+fn gather_lo(a: vec4<f32>, b: vec4<f32>) -> vec4<f32> {
+    return vec4<f32>(min(a.xyz, b.xyz), a.w + b.w);
+}
+
+@compute @workgroup_size(WG)
+fn internal(@builtin(workgroup_id) wid: vec3<u32>,
+            @builtin(num_workgroups) groups: vec3<u32>,
+            @builtin(local_invocation_index) lid: u32) {
+    let src = params.src_level;
+    let k = params.levels_up;
+    let block = 1u << k;
+    let w = wid.x + wid.y * groups.x;
+    let in_range = w < (1u << (src - k));
+    if (in_range && lid < block) {
+        let node = nodes[(1u << src) - 1u + w * block + lid];
+        wg_lo[lid] = vec4<f32>(node.bmin, node.intensity);
+        wg_hi[lid] = vec4<f32>(node.bmax, 0.0);
+    }
+    workgroupBarrier();
+    for (var t = 1u; t <= k; t++) {
+        let width = block >> t;
+        var lo: vec4<f32>;
+        var hi: vec4<f32>;
+        if (lid < width) {
+            lo = gather_lo(wg_lo[2u * lid], wg_lo[2u * lid + 1u]);
+            hi = vec4<f32>(max(wg_hi[2u * lid].xyz, wg_hi[2u * lid + 1u].xyz), 0.0);
+        }
+        workgroupBarrier();
+        if (lid < width) {
+            wg_lo[lid] = lo;
+            wg_hi[lid] = hi;
+            if (in_range) {
+                let level = src - t;
+                nodes[(1u << level) - 1u + w * width + lid] =
+                    TreeNode(lo.xyz, lo.w, hi.xyz, NO_LIGHT);
+            }
+        }
+        workgroupBarrier();
+    }
+}
