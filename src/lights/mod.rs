@@ -45,6 +45,7 @@ pub mod alias;
 pub mod bvh;
 pub mod cut;
 pub mod gpu_build;
+pub mod gpu_sampler;
 pub mod importance;
 pub mod morton;
 pub mod perfect;

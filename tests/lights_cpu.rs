@@ -1,0 +1,894 @@
+//! CPU tests of many-light sampling (src/lights): exact Morton codes, the
+//! perfect-tree oracle, the light BVH, cuts, and every sampler's pmf
+//! (consistency, normalization, unbiasedness, chi-square goodness of fit),
+//! on random scenes and on hard cases.
+//!
+//! Statistics (fixed seeds, so the outcome is deterministic):
+//! * chi-square: `M = 200,000` selections per case, cells with expected
+//!   count < 5 pooled (pbrt's rule), plus a "no light" cell with the
+//!   probability `1 − Σ pmf` that sampling returns `None`; dof = cells − 1;
+//!   overall significance 1e-3, Bonferroni-corrected over the number of
+//!   cases of the test (α = 1e-3 / cases).
+//! * estimator check (pbrt): `E[1/(pmf(X)·N₊)] = 1` where `N₊` counts the
+//!   lights with `pmf > 0` (a `None` sample contributes 0), checked on
+//!   `65,536` stratified `u` to 6 standard errors.
+
+use glam::Vec3;
+use mdas::lights::bvh::{self, LightBvh, INTERNAL_BIT, MAX_DEPTH};
+use mdas::lights::cut::{LightTree, MAX_CUT};
+use mdas::lights::importance::{node_importance, ONE_MINUS_EPSILON};
+use mdas::lights::morton::{codes, exponent, morton30, quantize_axis};
+use mdas::lights::perfect::{self, gather, PerfectTree};
+use mdas::lights::sampler::{
+    new_sampler, select_cut, LightSampler, PowerSampler, SamplerKind, Shading, TreeSampler,
+    UniformSampler,
+};
+use mdas::lights::{LightPrim, TreeNode, NO_LIGHT};
+use rand::rngs::StdRng;
+use rand::{RngExt, SeedableRng};
+
+// ---------------------------------------------------------------- helpers
+
+fn random_scene(rng: &mut StdRng, n: usize) -> Vec<LightPrim> {
+    (0..n)
+        .map(|_| {
+            let c = Vec3::new(
+                rng.random_range(-5.0..5.0),
+                rng.random_range(-5.0..5.0),
+                rng.random_range(-5.0..5.0),
+            );
+            let e = if rng.random::<f32>() < 0.1 {
+                Vec3::ZERO
+            } else {
+                Vec3::new(
+                    rng.random_range(0.0..10.0),
+                    rng.random_range(0.0..10.0),
+                    rng.random_range(0.0..10.0),
+                )
+            };
+            if rng.random::<f32>() < 0.7 {
+                LightPrim::point(c, e)
+            } else {
+                let mut v = || {
+                    c + Vec3::new(
+                        rng.random_range(-0.5..0.5),
+                        rng.random_range(-0.5..0.5),
+                        rng.random_range(-0.5..0.5),
+                    )
+                };
+                let (a, b, d) = (v(), v(), v());
+                LightPrim::triangle(a, b, d, e)
+            }
+        })
+        .collect()
+}
+
+fn random_unit(rng: &mut StdRng) -> Vec3 {
+    loop {
+        let v = Vec3::new(
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+        );
+        let l = v.length();
+        if l > 0.1 && l <= 1.0 {
+            return v / l;
+        }
+    }
+}
+
+fn random_shading(rng: &mut StdRng) -> Shading {
+    Shading {
+        p: Vec3::new(
+            rng.random_range(-6.0..6.0),
+            rng.random_range(-6.0..6.0),
+            rng.random_range(-6.0..6.0),
+        ),
+        n: random_unit(rng),
+    }
+}
+
+/// Every sampler variant: the six kinds, the cut kinds with cuts of 4 and
+/// 16 nodes chosen at `rep` (a representative point of the block).
+fn samplers(
+    prims: &[LightPrim],
+    rep: &Shading,
+) -> Vec<(String, Box<dyn LightSampler + Send + Sync>)> {
+    let mut v = Vec::new();
+    for kind in SamplerKind::ALL {
+        if kind.uses_cut() {
+            for size in [4, 16] {
+                v.push((
+                    format!("{kind}/cut{size}"),
+                    new_sampler(kind, prims, Some((rep, size))),
+                ));
+            }
+        } else {
+            v.push((kind.to_string(), new_sampler(kind, prims, None)));
+        }
+    }
+    v
+}
+
+/// `Σ_lights pmf`.
+fn pmf_sum(s: &dyn LightSampler, sh: &Shading, n: usize) -> f64 {
+    (0..n as u32).map(|i| s.pmf(sh, i)).sum()
+}
+
+/// Regularized upper incomplete gamma Q(a, x) (Numerical Recipes 6.2).
+fn gamma_q(a: f64, x: f64) -> f64 {
+    fn ln_gamma(x: f64) -> f64 {
+        let c = [
+            76.18009172947146,
+            -86.50532032941677,
+            24.01409824083091,
+            -1.231739572450155,
+            0.1208650973866179e-2,
+            -0.5395239384953e-5,
+        ];
+        let t = x + 5.5 - (x + 0.5) * (x + 5.5).ln();
+        let s = c
+            .iter()
+            .enumerate()
+            .fold(1.000000000190015, |s, (j, c)| s + c / (x + 1.0 + j as f64));
+        -t + (2.5066282746310005 * s / x).ln()
+    }
+    if x <= 0.0 {
+        return 1.0;
+    }
+    let gln = ln_gamma(a);
+    if x < a + 1.0 {
+        let (mut ap, mut sum) = (a, 1.0 / a);
+        let mut del = sum;
+        for _ in 0..10_000 {
+            ap += 1.0;
+            del *= x / ap;
+            sum += del;
+            if del.abs() < sum.abs() * 1e-15 {
+                break;
+            }
+        }
+        1.0 - sum * (-x + a * x.ln() - gln).exp()
+    } else {
+        let tiny = 1e-300;
+        let mut b = x + 1.0 - a;
+        let mut c = 1.0 / tiny;
+        let mut d = 1.0 / b;
+        let mut h = d;
+        for i in 1..10_000 {
+            let an = -(i as f64) * (i as f64 - a);
+            b += 2.0;
+            d = an * d + b;
+            if d.abs() < tiny {
+                d = tiny;
+            }
+            c = b + an / c;
+            if c.abs() < tiny {
+                c = tiny;
+            }
+            d = 1.0 / d;
+            let del = d * c;
+            h *= del;
+            if (del - 1.0).abs() < 1e-15 {
+                break;
+            }
+        }
+        (-x + a * x.ln() - gln).exp() * h
+    }
+}
+
+/// Chi-square p-value of observed counts against expected counts, pooling
+/// cells with expected < 5. Panics if a cell with expected 0 was observed.
+fn chi_square_p(observed: &[u64], expected: &[f64]) -> (f64, usize) {
+    let mut cells: Vec<(f64, u64)> = Vec::new();
+    let (mut pool_e, mut pool_o) = (0.0, 0u64);
+    for (&o, &e) in observed.iter().zip(expected) {
+        assert!(
+            e > 0.0 || o == 0,
+            "a cell of probability 0 was drawn {o} times"
+        );
+        if e < 5.0 {
+            pool_e += e;
+            pool_o += o;
+        } else {
+            cells.push((e, o));
+        }
+    }
+    if pool_e >= 5.0 || cells.is_empty() {
+        cells.push((pool_e, pool_o));
+    } else if pool_e > 0.0 {
+        let last = cells.last_mut().unwrap();
+        last.0 += pool_e;
+        last.1 += pool_o;
+    }
+    let dof = cells.len().saturating_sub(1);
+    if dof == 0 {
+        return (1.0, 0);
+    }
+    let chi2: f64 = cells.iter().map(|&(e, o)| (o as f64 - e).powi(2) / e).sum();
+    (gamma_q(dof as f64 / 2.0, chi2 / 2.0), dof)
+}
+
+/// Sample-vs-pmf checks on one sampler at one shading point over
+/// `strata` stratified `u` plus the edges: each sample's pmf equals
+/// `pmf(light)` exactly and is positive; returns the fraction of `None`.
+fn check_consistency(name: &str, s: &dyn LightSampler, sh: &Shading, strata: u32) -> f64 {
+    let mut none = 0u32;
+    let us = (0..strata)
+        .map(|k| (k as f32 + 0.5) / strata as f32)
+        .chain([0.0, ONE_MINUS_EPSILON]);
+    for u in us {
+        match s.sample(sh, u) {
+            Some(ls) => {
+                let q = s.pmf(sh, ls.light);
+                assert_eq!(
+                    ls.pmf, q,
+                    "{name}: sample pmf != pmf(light {}) at u = {u}",
+                    ls.light
+                );
+                assert!(ls.pmf > 0.0 && ls.pmf.is_finite(), "{name}: pmf {}", ls.pmf);
+            }
+            None => none += 1,
+        }
+    }
+    none as f64 / (strata + 2) as f64
+}
+
+// ---------------------------------------------------------------- Morton
+
+/// Reference quantization through f64 and log2 (an independent path).
+fn quantize_reference(c: f32, lo: f32, hi: f32) -> u32 {
+    let e = hi - lo;
+    if e == 0.0 {
+        return 0;
+    }
+    let big_e = (e as f64).log2().floor() as i32;
+    let d = (c - lo) as f64;
+    ((d * 2f64.powi(9 - big_e)).floor() as u32).min(1023)
+}
+
+#[test]
+fn morton_quantization_matches_an_f64_reference() {
+    let mut rng = StdRng::seed_from_u64(1);
+    let scales = [1e-40f32, 1e-30, 1e-3, 1.0, 7.3, 1e6, 1e30];
+    for &scale in &scales {
+        for _ in 0..2000 {
+            let lo = rng.random_range(-1.0f32..1.0) * scale;
+            let hi = lo + rng.random::<f32>() * scale;
+            let c = lo + (hi - lo) * rng.random::<f32>();
+            let c = c.clamp(lo, hi);
+            assert_eq!(
+                quantize_axis(c, lo, hi),
+                quantize_reference(c, lo, hi),
+                "c={c:e} lo={lo:e} hi={hi:e}"
+            );
+        }
+    }
+    // Subnormal extents: the exponent comes from the bits.
+    for bits in [1u32, 2, 3, 0x1234, 0x7fffff] {
+        let e = f32::from_bits(bits);
+        assert_eq!(exponent(e), (e as f64).log2().floor() as i32);
+        assert_eq!(quantize_axis(e, 0.0, e), quantize_reference(e, 0.0, e));
+        assert!(quantize_axis(e, 0.0, e) >= 512);
+    }
+    // Extents of exactly a power of two reach cell 512, just below it 1023.
+    assert_eq!(quantize_axis(8.0, 0.0, 8.0), 512);
+    assert_eq!(quantize_axis(7.999_999_5, 0.0, 7.999_999_5), 1023);
+}
+
+#[test]
+fn morton_codes_of_degenerate_sets() {
+    // All lights in the plane y = 2: the y bits are 0.
+    let prims: Vec<_> = (0..16)
+        .map(|i| LightPrim::point(Vec3::new(i as f32, 2.0, (i * 7 % 5) as f32), Vec3::ONE))
+        .collect();
+    for c in codes(&prims) {
+        assert_eq!(c & 0o2222222222, 0, "y bits of {c:o}");
+    }
+    // Coincident lights: one code, 0.
+    let same = vec![LightPrim::point(Vec3::splat(3.0), Vec3::ONE); 5];
+    assert_eq!(codes(&same), vec![0; 5]);
+    // Two lights on the x axis: lo → 0, hi → cell 512 of x.
+    let two = [
+        LightPrim::point(Vec3::ZERO, Vec3::ONE),
+        LightPrim::point(Vec3::X, Vec3::ONE),
+    ];
+    assert_eq!(codes(&two), vec![0, morton30([512, 0, 0])]);
+    assert_eq!(morton30([512, 0, 0]), 1 << 29);
+    assert!(codes(&[]).is_empty());
+}
+
+#[test]
+fn struct_sizes_match_the_wgsl_layout() {
+    assert_eq!(size_of::<TreeNode>(), 32);
+    // 4 × (vec3<f32> + u32): the WGSL struct in wgsl/lights/light_prim.wgsl.
+    assert_eq!(size_of::<LightPrim>(), 64);
+}
+
+// ---------------------------------------------------------------- perfect tree
+
+fn check_perfect_tree(prims: &[LightPrim], t: &PerfectTree) {
+    let n = prims.len();
+    let p = n.next_power_of_two();
+    assert_eq!(t.leaf_count as usize, p);
+    assert_eq!(t.levels, p.trailing_zeros() + 1);
+    assert_eq!(t.nodes.len(), 2 * p - 1);
+    assert_eq!(t.sorted.len(), n);
+    // sorted is a permutation sorted by (code, id); leaf_of_light inverts it.
+    let c = codes(prims);
+    let mut seen = vec![false; n];
+    for (slot, &id) in t.sorted.iter().enumerate() {
+        assert!(!seen[id as usize]);
+        seen[id as usize] = true;
+        assert_eq!(t.leaf_of_light[id as usize] as usize, slot);
+        if slot > 0 {
+            let prev = t.sorted[slot - 1];
+            assert!((c[prev as usize], prev) < (c[id as usize], id));
+        }
+        let leaf = &t.nodes[t.leaf_node_index(slot as u32)];
+        assert_eq!(leaf.id, id);
+        assert_eq!(leaf.intensity, prims[id as usize].intensity());
+        assert_eq!(Vec3::from(leaf.min), prims[id as usize].bounds_min());
+        assert_eq!(Vec3::from(leaf.max), prims[id as usize].bounds_max());
+    }
+    // Bogus leaves.
+    for slot in n..p {
+        assert_eq!(t.nodes[p - 1 + slot], TreeNode::EMPTY);
+    }
+    // Internal nodes: the gather of their children, and the union of the
+    // real leaves below them (the bogus ones drop out).
+    for i in 0..p - 1 {
+        let node = &t.nodes[i];
+        assert_eq!(*node, gather(&t.nodes[2 * i + 1], &t.nodes[2 * i + 2]));
+        assert_eq!(node.id, NO_LIGHT);
+        let level = perfect::level_of(i);
+        let span = 1usize << (t.levels - 1 - level);
+        let first = (i + 1) * span - p; // first leaf slot below i
+        let real: Vec<_> = (first..first + span).filter(|&s| s < n).collect();
+        if real.is_empty() {
+            assert!(node.is_empty() && node.intensity == 0.0);
+            continue;
+        }
+        for a in 0..3 {
+            let lo = real
+                .iter()
+                .map(|&s| t.nodes[p - 1 + s].min[a])
+                .fold(f32::INFINITY, f32::min);
+            let hi = real
+                .iter()
+                .map(|&s| t.nodes[p - 1 + s].max[a])
+                .fold(f32::NEG_INFINITY, f32::max);
+            assert_eq!((node.min[a], node.max[a]), (lo, hi));
+        }
+        let sum: f64 = real
+            .iter()
+            .map(|&s| t.nodes[p - 1 + s].intensity as f64)
+            .sum();
+        assert!((node.intensity as f64 - sum).abs() <= 1e-5 * sum.max(1e-30));
+    }
+}
+
+#[test]
+fn perfect_tree_invariants() {
+    assert!(perfect::build(&[]).is_none());
+    let mut rng = StdRng::seed_from_u64(2);
+    for n in [1, 2, 3, 5, 1000, 4097] {
+        let prims = random_scene(&mut rng, n);
+        let t = perfect::build(&prims).unwrap();
+        check_perfect_tree(&prims, &t);
+        // Deterministic.
+        assert_eq!(perfect::build(&prims).unwrap(), t);
+    }
+    // Coincident lights: sorted by id.
+    let same = vec![LightPrim::point(Vec3::ONE, Vec3::ONE); 6];
+    let t = perfect::build(&same).unwrap();
+    assert_eq!(t.sorted, (0..6).collect::<Vec<_>>());
+    check_perfect_tree(&same, &t);
+}
+
+// ---------------------------------------------------------------- BVH
+
+fn check_bvh(prims: &[LightPrim], b: &LightBvh) {
+    let n = prims.len();
+    assert_eq!(b.nodes.len(), 2 * n - 1);
+    assert_eq!(b.parent[0], NO_LIGHT);
+    assert!(b.depth <= MAX_DEPTH);
+    let mut leaves = vec![false; n];
+    for (i, node) in b.nodes.iter().enumerate() {
+        match b.children(i) {
+            Some((l, r)) => {
+                assert!(l > i && r == l + 1 && r < b.nodes.len());
+                assert_eq!((b.parent[l] as usize, b.parent[r] as usize), (i, i));
+                assert_eq!(node.id, INTERNAL_BIT | l as u32);
+                let g = gather(&b.nodes[l], &b.nodes[r]);
+                assert_eq!(
+                    (node.min, node.max, node.intensity),
+                    (g.min, g.max, g.intensity)
+                );
+            }
+            None => {
+                let id = node.id as usize;
+                assert!(!leaves[id]);
+                leaves[id] = true;
+                assert_eq!(b.leaf_of_light[id] as usize, i);
+                assert_eq!(node.intensity, prims[id].intensity());
+            }
+        }
+    }
+    assert!(leaves.iter().all(|&x| x));
+}
+
+#[test]
+fn bvh_invariants() {
+    assert!(bvh::build(&[]).is_none());
+    let mut rng = StdRng::seed_from_u64(3);
+    for n in [1, 2, 3, 5, 1000] {
+        let prims = random_scene(&mut rng, n);
+        let b = bvh::build(&prims).unwrap();
+        check_bvh(&prims, &b);
+        assert_eq!(bvh::build(&prims).unwrap(), b);
+    }
+    // Lights on a line, exponentially spaced: the depth stays bounded.
+    let line: Vec<_> = (0..300)
+        .map(|i| LightPrim::point(Vec3::new(1.1f32.powi(i), 0.0, 0.0), Vec3::ONE))
+        .collect();
+    let b = bvh::build(&line).unwrap();
+    check_bvh(&line, &b);
+    let same = vec![LightPrim::point(Vec3::ONE, Vec3::ONE); 33];
+    let b = bvh::build(&same).unwrap();
+    check_bvh(&same, &b);
+    assert_eq!(b.depth, 7);
+}
+
+// ---------------------------------------------------------------- cuts
+
+/// Each light lies below exactly one cut node.
+fn check_cut_covers<T: LightTree>(t: &T, cut: &[u32]) {
+    for light in 0..t.light_count() {
+        let mut node = t.leaf_of_light(light);
+        let mut hits = 0;
+        while let Some(x) = node {
+            hits += cut.iter().filter(|&&c| c as usize == x).count();
+            node = t.parent(x);
+        }
+        assert_eq!(hits, 1, "light {light} under {hits} cut nodes of {cut:?}");
+    }
+}
+
+#[test]
+fn cuts_partition_the_lights() {
+    let mut rng = StdRng::seed_from_u64(4);
+    for n in [1, 2, 5, 37, 300] {
+        let prims = random_scene(&mut rng, n);
+        let t = perfect::build(&prims).unwrap();
+        let b = bvh::build(&prims).unwrap();
+        for _ in 0..5 {
+            let s = random_shading(&mut rng);
+            for size in [1, 2, 3, 8, MAX_CUT] {
+                let c = select_cut(&t, &s, size);
+                assert!(c.len() <= size as usize);
+                check_cut_covers(&t, &c);
+                let c = select_cut(&b, &s, size);
+                assert!(c.len() <= size as usize);
+                check_cut_covers(&b, &c);
+                // The BVH has no zero-intensity padding: a full cut unless
+                // lights ran out (refinable nodes need I > 0).
+                if b.nodes[0].intensity > 0.0 && prims.iter().all(|p| p.intensity() > 0.0) {
+                    assert_eq!(c.len(), (size as usize).min(n));
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn cut_refines_the_node_with_the_largest_key() {
+    // Lights far apart: the cut refines around the representative point.
+    let prims: Vec<_> = (0..16)
+        .map(|i| LightPrim::point(Vec3::new(i as f32 * 10.0, 0.0, 0.0), Vec3::ONE))
+        .collect();
+    let t = perfect::build(&prims).unwrap();
+    let s = Shading {
+        p: Vec3::new(0.0, 1.0, 0.0),
+        n: Vec3::ZERO,
+    };
+    let cut = select_cut(&t, &s, 5);
+    // The leaf nearest (x = 0, slot 0 = node 15) must be in the cut.
+    assert!(cut.contains(&15), "{cut:?}");
+    let nodes: Vec<_> = cut.iter().map(|&c| t.nodes[c as usize]).collect();
+    // The farthest half (node 2) is never refined.
+    assert!(cut.contains(&2), "{cut:?} {nodes:?}");
+}
+
+// ---------------------------------------------------------------- samplers
+
+#[test]
+fn sampler_names() {
+    for k in SamplerKind::ALL {
+        assert_eq!(k.to_string().parse::<SamplerKind>().unwrap(), k);
+    }
+    let err = "lightcuts".parse::<SamplerKind>().unwrap_err();
+    for name in [
+        "uniform",
+        "power",
+        "tree_nocut",
+        "tree",
+        "unbalanced",
+        "unbalanced_nocut",
+    ] {
+        assert!(err.contains(name), "{err}");
+    }
+}
+
+#[test]
+fn pmf_consistency_normalization_and_unbiasedness() {
+    let mut rng = StdRng::seed_from_u64(5);
+    for n in [1, 2, 5, 37, 200] {
+        let prims = random_scene(&mut rng, n);
+        for _ in 0..4 {
+            let s = random_shading(&mut rng);
+            let mut rep = s;
+            rep.p += Vec3::new(0.3, -0.2, 0.1);
+            for (name, sampler) in samplers(&prims, &rep) {
+                let none = check_consistency(&name, sampler.as_ref(), &s, 4096);
+                let sum = pmf_sum(sampler.as_ref(), &s, n);
+                // Σ pmf + P(None) = 1 (P(None) estimated on 4098 points).
+                assert!(sum <= 1.0 + 1e-5, "{name}: Σ pmf = {sum}");
+                assert!(
+                    (sum + none - 1.0).abs() < 2e-3,
+                    "{name}: Σ pmf {sum} + none {none}"
+                );
+                // Unbiasedness: every light that can contribute has pmf > 0.
+                for i in 0..n as u32 {
+                    let leaf = perfect::leaf_node(&prims[i as usize], i);
+                    let live = match name.as_str() {
+                        "uniform" => true,
+                        "power" => prims[i as usize].intensity() > 0.0,
+                        _ => {
+                            prims[i as usize].kind == mdas::lights::KIND_POINT
+                                && node_importance(&leaf, &s).w > 0.0
+                        }
+                    };
+                    if live {
+                        assert!(sampler.pmf(&s, i) > 0.0, "{name}: light {i} has pmf 0");
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn estimator_of_the_live_light_count() {
+    let mut rng = StdRng::seed_from_u64(6);
+    let prims = random_scene(&mut rng, 60);
+    let m = 65_536u32;
+    for _ in 0..3 {
+        let s = random_shading(&mut rng);
+        for (name, sampler) in samplers(&prims, &s) {
+            let live = (0..60).filter(|&i| sampler.pmf(&s, i) > 0.0).count() as f64;
+            if live == 0.0 {
+                continue;
+            }
+            let xs: Vec<f64> = (0..m)
+                .map(|k| {
+                    let u = (k as f32 + 0.5) / m as f32;
+                    sampler
+                        .sample(&s, u)
+                        .map_or(0.0, |ls| 1.0 / (ls.pmf * live))
+                })
+                .collect();
+            let mean = xs.iter().sum::<f64>() / m as f64;
+            let var = xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (m - 1) as f64;
+            let se = (var / m as f64).sqrt();
+            assert!(
+                (mean - 1.0).abs() <= 6.0 * se + 1e-9,
+                "{name}: E[1/(pmf·N+)] = {mean} ± {se}"
+            );
+        }
+    }
+}
+
+#[test]
+fn chi_square_of_selection_frequencies() {
+    const M: u64 = 200_000;
+    let mut rng = StdRng::seed_from_u64(7);
+    let mut cases = Vec::new();
+    for n in [3, 20, 150] {
+        let prims = random_scene(&mut rng, n);
+        for _ in 0..2 {
+            let s = random_shading(&mut rng);
+            let mut rep = s;
+            rep.p += Vec3::new(-0.4, 0.2, 0.5);
+            cases.push((prims.clone(), s, rep));
+        }
+    }
+    let tests = cases.len() * samplers(&cases[0].0, &cases[0].2).len();
+    let alpha = 1e-3 / tests as f64;
+    for (prims, s, rep) in &cases {
+        let n = prims.len();
+        for (name, sampler) in samplers(prims, rep) {
+            let mut counts = vec![0u64; n + 1];
+            for _ in 0..M {
+                let u: f32 = rng.random();
+                match sampler.sample(s, u) {
+                    Some(ls) => counts[ls.light as usize] += 1,
+                    None => counts[n] += 1,
+                }
+            }
+            let mut expected: Vec<f64> = (0..n as u32)
+                .map(|i| sampler.pmf(s, i) * M as f64)
+                .collect();
+            let sum: f64 = expected.iter().sum::<f64>() / M as f64;
+            expected.push((1.0 - sum).max(0.0) * M as f64);
+            let (p, dof) = chi_square_p(&counts, &expected);
+            assert!(
+                p >= alpha,
+                "{name}, {n} lights: chi-square p = {p:e} < {alpha:e} (dof {dof})"
+            );
+        }
+    }
+}
+
+// ---------------------------------------------------------------- hard cases
+
+#[test]
+fn one_light() {
+    let prims = [LightPrim::point(Vec3::new(0.0, 2.0, 0.0), Vec3::ONE)];
+    let up = Shading {
+        p: Vec3::ZERO,
+        n: Vec3::Y,
+    };
+    let down = Shading {
+        p: Vec3::ZERO,
+        n: -Vec3::Y,
+    };
+    for kind in SamplerKind::ALL {
+        let s = new_sampler(kind, &prims, Some((&up, 8)));
+        for u in [0.0, 0.5, ONE_MINUS_EPSILON] {
+            let ls = s.sample(&up, u).unwrap();
+            assert_eq!((ls.light, ls.pmf), (0, 1.0), "{kind}");
+            // Facing away: the trees know, uniform and power do not.
+            let away = s.sample(&down, u);
+            if matches!(kind, SamplerKind::Uniform | SamplerKind::Power) {
+                assert_eq!(away.unwrap().pmf, 1.0);
+            } else {
+                assert!(away.is_none(), "{kind}");
+                assert_eq!(s.pmf(&down, 0), 0.0);
+            }
+        }
+        assert_eq!(s.pmf(&up, 1), 0.0);
+    }
+}
+
+#[test]
+fn zero_lights_never_sample() {
+    let s = Shading::default();
+    for kind in SamplerKind::ALL {
+        let sampler = new_sampler(kind, &[], Some((&s, 4)));
+        assert!(sampler.sample(&s, 0.5).is_none());
+        assert_eq!(sampler.pmf(&s, 0), 0.0);
+    }
+}
+
+#[test]
+fn coincident_lights_follow_their_intensities() {
+    let prims: Vec<_> = (0..7)
+        .map(|i| LightPrim::point(Vec3::new(1.0, 3.0, -2.0), Vec3::splat(i as f32 + 1.0)))
+        .collect();
+    let total: f32 = prims.iter().map(|p| p.intensity()).sum();
+    let s = Shading {
+        p: Vec3::ZERO,
+        n: Vec3::Y,
+    };
+    for (name, sampler) in samplers(&prims, &s) {
+        check_consistency(&name, sampler.as_ref(), &s, 1024);
+        if name == "uniform" {
+            continue;
+        }
+        for (i, p) in prims.iter().enumerate() {
+            let want = (p.intensity() / total) as f64;
+            let got = sampler.pmf(&s, i as u32);
+            assert!(
+                (got - want).abs() < 1e-6,
+                "{name}: light {i}: {got} vs {want}"
+            );
+        }
+    }
+}
+
+#[test]
+fn lights_in_one_plane_and_points_on_lights() {
+    let mut rng = StdRng::seed_from_u64(8);
+    let prims: Vec<_> = (0..50)
+        .map(|_| {
+            LightPrim::point(
+                Vec3::new(
+                    rng.random_range(-3.0..3.0),
+                    0.0,
+                    rng.random_range(-3.0..3.0),
+                ),
+                Vec3::splat(rng.random_range(0.1..2.0)),
+            )
+        })
+        .collect();
+    let on_light = Vec3::from(prims[7].p0);
+    let points = [
+        // In the plane, inside every box that spans it.
+        Shading {
+            p: Vec3::new(0.1, 0.0, 0.2),
+            n: Vec3::Y,
+        },
+        // Exactly on a light, normal in the plane.
+        Shading {
+            p: on_light,
+            n: Vec3::X,
+        },
+        // On a light without a normal.
+        Shading {
+            p: on_light,
+            n: Vec3::ZERO,
+        },
+        // Above the plane.
+        Shading {
+            p: Vec3::new(0.0, 1.0, 0.0),
+            n: -Vec3::Y,
+        },
+    ];
+    for s in &points {
+        for (name, sampler) in samplers(&prims, s) {
+            let none = check_consistency(&name, sampler.as_ref(), s, 2048);
+            let sum = pmf_sum(sampler.as_ref(), s, prims.len());
+            assert!(sum.is_finite() && sum <= 1.0 + 1e-5, "{name}: Σ pmf {sum}");
+            assert!((sum + none - 1.0).abs() < 2e-3, "{name}: {sum} + {none}");
+        }
+    }
+    // On the light without a normal: that light is inside its own leaf box,
+    // so the trees sample it with positive probability.
+    let s = points[2];
+    for (name, sampler) in samplers(&prims, &s) {
+        assert!(sampler.pmf(&s, 7) > 0.0, "{name}");
+    }
+}
+
+#[test]
+fn zero_intensity_lights_are_never_picked() {
+    let mut rng = StdRng::seed_from_u64(9);
+    let mut prims = random_scene(&mut rng, 40);
+    for (i, p) in prims.iter_mut().enumerate() {
+        if i % 3 == 0 {
+            p.emission = [0.0; 3];
+        }
+    }
+    let s = random_shading(&mut rng);
+    for (name, sampler) in samplers(&prims, &s) {
+        if name == "uniform" {
+            continue;
+        }
+        for i in (0..40).step_by(3) {
+            assert_eq!(sampler.pmf(&s, i), 0.0, "{name}: light {i}");
+        }
+        for k in 0..5000 {
+            if let Some(ls) = sampler.sample(&s, (k as f32 + 0.5) / 5000.0) {
+                assert_ne!(ls.light % 3, 0, "{name}");
+            }
+        }
+    }
+    // All zero: power and the trees sample nothing.
+    let dark: Vec<_> = prims
+        .iter()
+        .map(|p| LightPrim {
+            emission: [0.0; 3],
+            ..*p
+        })
+        .collect();
+    for (name, sampler) in samplers(&dark, &s) {
+        if name != "uniform" {
+            assert!(sampler.sample(&s, 0.3).is_none(), "{name}");
+            assert_eq!(pmf_sum(sampler.as_ref(), &s, 40), 0.0, "{name}");
+        }
+    }
+}
+
+#[test]
+fn dead_branches_return_no_light() {
+    let s = Shading {
+        p: Vec3::ZERO,
+        n: Vec3::Y,
+    };
+    // Every light below the surface.
+    let mut rng = StdRng::seed_from_u64(10);
+    let below: Vec<_> = (0..30)
+        .map(|_| {
+            LightPrim::point(
+                Vec3::new(
+                    rng.random_range(-5.0..5.0),
+                    rng.random_range(-5.0..-0.1),
+                    rng.random_range(-5.0..5.0),
+                ),
+                Vec3::ONE,
+            )
+        })
+        .collect();
+    // Two lights below the surface whose common box reaches the shading
+    // point (the root looks alive, both children are dead).
+    let pair = [
+        LightPrim::point(Vec3::new(-10.0, -1.0, 0.0), Vec3::ONE),
+        LightPrim::point(Vec3::new(10.0, -1.0, 0.0), Vec3::ONE),
+    ];
+    for prims in [&below[..], &pair[..]] {
+        for (name, sampler) in samplers(prims, &s) {
+            if name == "uniform" || name == "power" {
+                continue;
+            }
+            for k in 0..256 {
+                assert!(sampler.sample(&s, k as f32 / 256.0).is_none(), "{name}");
+            }
+            assert_eq!(pmf_sum(sampler.as_ref(), &s, prims.len()), 0.0, "{name}");
+        }
+    }
+    let t = perfect::build(&pair).unwrap();
+    assert!(node_importance(&t.nodes[0], &s).w > 0.0);
+}
+
+#[test]
+fn deep_trees_keep_finite_positive_pmfs() {
+    let n = (1 << 20) + 3; // 22 levels
+    let mut rng = StdRng::seed_from_u64(11);
+    let prims: Vec<_> = (0..n)
+        .map(|_| {
+            LightPrim::point(
+                Vec3::new(
+                    rng.random_range(-100.0..100.0),
+                    rng.random_range(0.0..100.0),
+                    rng.random_range(-100.0..100.0),
+                ),
+                Vec3::splat(rng.random_range(0.01..1.0)),
+            )
+        })
+        .collect();
+    let t = perfect::build(&prims).unwrap();
+    assert_eq!(t.levels, 22);
+    let s = Shading {
+        p: Vec3::new(0.0, -1.0, 0.0),
+        n: Vec3::Y,
+    };
+    let far = Shading {
+        p: Vec3::new(500.0, -1.0, 500.0),
+        n: Vec3::Y,
+    };
+    let samplers: Vec<(&str, Box<dyn LightSampler>)> = vec![
+        ("tree_nocut", Box::new(TreeSampler::new(t.clone()))),
+        ("tree/cut32", Box::new(TreeSampler::with_cut_at(t, &s, 32))),
+    ];
+    for (name, sampler) in &samplers {
+        for sh in [&s, &far] {
+            let mut min_pmf = f64::INFINITY;
+            for k in 0..500 {
+                let ls = sampler.sample(sh, (k as f32 + 0.5) / 500.0).expect(name);
+                assert_eq!(ls.pmf, sampler.pmf(sh, ls.light), "{name}");
+                min_pmf = min_pmf.min(ls.pmf);
+            }
+            assert!(min_pmf > 0.0 && min_pmf.is_finite(), "{name}: {min_pmf}");
+            // The farthest light from the cut's corner still has a pmf > 0.
+            let p = sampler.pmf(sh, n as u32 - 1);
+            assert!(p > 0.0 && p.is_finite() && p < 1e-3, "{name}: {p}");
+        }
+    }
+}
+
+#[test]
+fn baselines_match_their_definitions() {
+    let s = Shading::default();
+    let u = UniformSampler { count: 7 };
+    assert_eq!(u.sample(&s, ONE_MINUS_EPSILON).unwrap().light, 6);
+    assert_eq!(u.sample(&s, 0.0).unwrap().light, 0);
+    assert_eq!(u.pmf(&s, 3), 1.0 / 7.0);
+    let p = PowerSampler::from_weights(&[1.0, 0.0, 3.0]);
+    assert_eq!(p.pmf(&s, 0), 0.25);
+    assert_eq!(p.pmf(&s, 2), 0.75);
+    for k in 0..1000 {
+        let ls = p.sample(&s, k as f32 / 1000.0).unwrap();
+        assert_ne!(ls.light, 1);
+    }
+}
