@@ -1,0 +1,298 @@
+//! The GPU side of the light samplers: the buffers of `@group(1)` bindings
+//! 16–21 that `wgsl/lights/sample.wgsl` reads, their layout entries and the
+//! WGSL to include.
+//!
+//! | binding | WGSL | contents |
+//! |---|---|---|
+//! | 16 | `light_nodes: array<TreeNode>` | perfect tree (CPU-built or from the GPU build) or the unbalanced BVH |
+//! | 17 | `light_prims: array<LightPrim>` | the lights |
+//! | 18 | `light_index: array<u32>` | perfect: leaf slot per light; BVH: leaf node per light, then parent per node; power: f32 bits of each pmf |
+//! | 19 | `light_alias: array<AliasEntry>` | power: the alias table |
+//! | 20 | `light_cuts: array<u32>` | tree kinds with cuts: `cut_size` nodes per k×k block, `NO_LIGHT`-padded |
+//! | 21 | `light_params: LightParams` | uniform: counts, kind, tree shape, cut layout |
+//!
+//! Unused bindings hold one zeroed element. The cuts buffer is writable
+//! (`STORAGE | COPY_DST`): a cut pre-pass binds it read-write in its own
+//! group and fills it with `select_cut`, or [`GpuSamplerData::write_cuts`]
+//! uploads CPU cuts. The sampling pass binds it read-only.
+
+use super::alias::PowerSampler;
+use super::bvh::{self, LightBvh, INTERNAL_BIT};
+use super::cut::MAX_CUT;
+use super::perfect::{self, PerfectTree};
+use super::sampler::SamplerKind;
+use super::{gpu_build, LightPrim, TreeNode, NO_LIGHT};
+use crate::gpu::buffer::STORAGE;
+use crate::gpu::shader::{storage_entry, uniform_entry, Wgsl};
+use crate::gpu::Gpu;
+use crate::wgsl_file;
+use anyhow::{bail, Result};
+use bytemuck::{Pod, Zeroable};
+
+/// First binding of the light samplers in `@group(1)`.
+pub const FIRST_BINDING: u32 = 16;
+
+/// `light_params` (binding 21), mirrored by `LightParams` in
+/// `wgsl/lights/bindings.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
+pub struct LightParams {
+    /// N.
+    pub count: u32,
+    /// [`SamplerKind::index`].
+    pub kind: u32,
+    /// Perfect tree: `L + 1` levels and `P` leaves; 0 otherwise.
+    pub levels: u32,
+    pub leaf_count: u32,
+    pub node_count: u32,
+    /// Entries per block in `light_cuts` (1 for the kinds without cuts).
+    pub cut_size: u32,
+    pub block_size: u32,
+    pub blocks_per_row: u32,
+    /// Power: N, or 0 when `Σ I = 0`.
+    pub alias_count: u32,
+    pub _pad: [u32; 3],
+}
+
+/// How the film is tiled into cut-sharing blocks (§3.3).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CutLayout {
+    /// Nodes per cut, 1..=[`MAX_CUT`].
+    pub cut_size: u32,
+    /// Block side k in pixels.
+    pub block_size: u32,
+    pub blocks_per_row: u32,
+    pub block_rows: u32,
+}
+
+impl CutLayout {
+    /// k×k blocks covering a `width × height` film.
+    pub fn for_film(width: u32, height: u32, block_size: u32, cut_size: u32) -> Self {
+        let block_size = block_size.max(1);
+        CutLayout {
+            cut_size,
+            block_size,
+            blocks_per_row: width.div_ceil(block_size),
+            block_rows: height.div_ceil(block_size),
+        }
+    }
+
+    pub fn blocks(&self) -> u32 {
+        self.blocks_per_row * self.block_rows
+    }
+}
+
+/// Where the tree of a tree kind comes from.
+pub enum TreeSource<'a> {
+    /// A perfect tree built on the CPU.
+    Perfect(&'a PerfectTree),
+    /// A perfect tree built on the GPU: its `2P − 1` nodes and the leaf
+    /// slot of each light (the buffers are bound as they are).
+    PerfectGpu {
+        nodes: &'a wgpu::Buffer,
+        leaf_of_light: &'a wgpu::Buffer,
+    },
+    /// The unbalanced BVH.
+    Bvh(&'a LightBvh),
+}
+
+/// The buffers of bindings 16–21 for one sampler kind.
+pub struct GpuSamplerData {
+    pub kind: SamplerKind,
+    pub params: LightParams,
+    pub nodes: wgpu::Buffer,
+    pub prims: wgpu::Buffer,
+    pub index: wgpu::Buffer,
+    pub alias: wgpu::Buffer,
+    pub cuts: wgpu::Buffer,
+    pub uniform: wgpu::Buffer,
+}
+
+impl GpuSamplerData {
+    /// Uploads what `kind` needs. `tree` supplies the tree of the tree
+    /// kinds (`None`: built here on the CPU from `prims`); `cuts` sizes the
+    /// cut buffer (only the kinds with cuts allocate one per block; it
+    /// starts with every cut = [root]).
+    pub fn new(
+        gpu: &Gpu,
+        kind: SamplerKind,
+        prims: &[LightPrim],
+        tree: Option<TreeSource<'_>>,
+        cuts: CutLayout,
+    ) -> Result<Self> {
+        if !(1..=MAX_CUT).contains(&cuts.cut_size) {
+            bail!("cut_size must be in 1..={MAX_CUT}, got {}", cuts.cut_size);
+        }
+        let n = prims.len() as u32;
+        let mut params = LightParams {
+            count: n,
+            kind: kind.index(),
+            cut_size: if kind.uses_cut() { cuts.cut_size } else { 1 },
+            block_size: cuts.block_size.max(1),
+            blocks_per_row: cuts.blocks_per_row,
+            ..Default::default()
+        };
+        let zero_u32: &[u32] = &[];
+        let label = |s: &str| format!("lights.sampler.{s}");
+        let storage = |name: &str, bytes: &[u8]| gpu.buffer_from(&label(name), bytes, STORAGE);
+        let empty = || storage("unused", bytemuck::cast_slice(zero_u32));
+
+        let mut alias = None;
+        let mut index = None;
+        let mut nodes = None;
+        if n > 0 {
+            match kind {
+                SamplerKind::Uniform => {}
+                SamplerKind::Power => {
+                    let power = PowerSampler::new(prims);
+                    params.alias_count = power.table.len() as u32;
+                    alias = Some(storage("alias", bytemuck::cast_slice(&power.table))?);
+                    let bits: Vec<u32> = power.pmf.iter().map(|p| p.to_bits()).collect();
+                    index = Some(storage("index", bytemuck::cast_slice(&bits))?);
+                }
+                SamplerKind::Tree | SamplerKind::TreeNoCut => {
+                    let p = n.next_power_of_two();
+                    params.leaf_count = p;
+                    params.levels = p.trailing_zeros() + 1;
+                    params.node_count = 2 * p - 1;
+                    let built;
+                    let source = match tree {
+                        Some(t) => t,
+                        None => {
+                            built = perfect::build(prims).unwrap();
+                            TreeSource::Perfect(&built)
+                        }
+                    };
+                    match source {
+                        TreeSource::Perfect(t) => {
+                            if t.light_count() != n {
+                                bail!(
+                                    "perfect tree over {} lights for {n} lights",
+                                    t.light_count()
+                                );
+                            }
+                            nodes = Some(storage("nodes", bytemuck::cast_slice(&t.nodes))?);
+                            index = Some(storage("index", bytemuck::cast_slice(&t.leaf_of_light))?);
+                        }
+                        TreeSource::PerfectGpu {
+                            nodes: gpu_nodes,
+                            leaf_of_light,
+                        } => {
+                            let need = params.node_count as u64 * size_of::<TreeNode>() as u64;
+                            if gpu_nodes.size() < need || leaf_of_light.size() < 4 * n as u64 {
+                                bail!("GPU light tree buffers too small for {n} lights");
+                            }
+                            nodes = Some(gpu_nodes.clone());
+                            index = Some(leaf_of_light.clone());
+                        }
+                        TreeSource::Bvh(_) => {
+                            bail!("sampler '{kind}' needs a perfect tree, got a BVH")
+                        }
+                    }
+                }
+                SamplerKind::Unbalanced | SamplerKind::UnbalancedNoCut => {
+                    let built;
+                    let b = match tree {
+                        Some(TreeSource::Bvh(b)) => b,
+                        None => {
+                            built = bvh::build(prims).unwrap();
+                            &built
+                        }
+                        Some(_) => bail!("sampler '{kind}' needs a light BVH, got a perfect tree"),
+                    };
+                    if b.leaf_of_light.len() as u32 != n {
+                        bail!(
+                            "light BVH over {} lights for {n} lights",
+                            b.leaf_of_light.len()
+                        );
+                    }
+                    params.node_count = b.nodes.len() as u32;
+                    nodes = Some(storage("nodes", bytemuck::cast_slice(&b.nodes))?);
+                    let table: Vec<u32> =
+                        b.leaf_of_light.iter().chain(&b.parent).copied().collect();
+                    index = Some(storage("index", bytemuck::cast_slice(&table))?);
+                }
+            }
+        }
+        let cut_entries = if kind.uses_cut() && n > 0 {
+            let mut c = vec![NO_LIGHT; (cuts.blocks() * cuts.cut_size) as usize];
+            for b in 0..cuts.blocks() as usize {
+                c[b * cuts.cut_size as usize] = 0;
+            }
+            c
+        } else {
+            Vec::new()
+        };
+        Ok(GpuSamplerData {
+            kind,
+            params,
+            nodes: nodes.map_or_else(empty, Ok)?,
+            prims: storage("prims", bytemuck::cast_slice(prims))?,
+            index: index.map_or_else(empty, Ok)?,
+            alias: alias.map_or_else(empty, Ok)?,
+            cuts: storage("cuts", bytemuck::cast_slice(&cut_entries))?,
+            uniform: gpu.uniform(&label("params"), &params),
+        })
+    }
+
+    /// Uploads cuts: `cut_size` node indices per block (`NO_LIGHT`-padded),
+    /// blocks row-major.
+    pub fn write_cuts(&self, gpu: &Gpu, cuts: &[u32]) -> Result<()> {
+        if !self.kind.uses_cut() {
+            bail!("sampler '{}' has no cuts", self.kind);
+        }
+        let bytes: &[u8] = bytemuck::cast_slice(cuts);
+        if bytes.len() as u64 > self.cuts.size() {
+            bail!("{} cut entries do not fit the cut buffer", cuts.len());
+        }
+        gpu.queue.write_buffer(&self.cuts, 0, bytes);
+        Ok(())
+    }
+
+    /// Layout entries of bindings 16–21 (compute, read-only storage and a
+    /// uniform), to merge into a `@group(1)` layout.
+    pub fn layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
+        let mut e: Vec<_> = (0..5)
+            .map(|i| storage_entry(FIRST_BINDING + i, true))
+            .collect();
+        e.push(uniform_entry(FIRST_BINDING + 5));
+        e
+    }
+
+    /// Bind group entries matching [`Self::layout_entries`].
+    pub fn bind_group_entries(&self) -> Vec<wgpu::BindGroupEntry<'_>> {
+        [
+            &self.nodes,
+            &self.prims,
+            &self.index,
+            &self.alias,
+            &self.cuts,
+            &self.uniform,
+        ]
+        .into_iter()
+        .enumerate()
+        .map(|(i, b)| wgpu::BindGroupEntry {
+            binding: FIRST_BINDING + i as u32,
+            resource: b.as_entire_binding(),
+        })
+        .collect()
+    }
+
+    /// The WGSL of the samplers: the light structs
+    /// ([`gpu_build::prim_wgsl`]: `lights/light_prim.wgsl` with its
+    /// constants, `NO_LIGHT` among them), the bindings and `light_sample`, `light_pmf`,
+    /// `select_cut`, with the constants they use.
+    pub fn wgsl() -> Wgsl {
+        let mut w = gpu_build::prim_wgsl()
+            .constant("MAX_CUT", MAX_CUT)
+            .constant("LIGHT_MAX_DEPTH", bvh::MAX_DEPTH)
+            .constant("LIGHT_INTERNAL_BIT", INTERNAL_BIT);
+        for k in SamplerKind::ALL {
+            let name = format!("LIGHT_KIND_{}", k.name().to_uppercase());
+            w = w.constant(&name, k.index());
+        }
+        w.part(wgsl_file!("lights/light_prim.wgsl"))
+            .part(wgsl_file!("lights/bindings.wgsl"))
+            .part(wgsl_file!("lights/sample.wgsl"))
+    }
+}

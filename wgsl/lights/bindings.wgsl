@@ -1,0 +1,59 @@
+// Light-sampler bindings at @group(1), 16–21 (src/lights/gpu_sampler.rs owns
+// the layout and the buffers). TreeNode and LightPrim come from
+// lights/light_prim.wgsl; constants from Rust: MAX_CUT, LIGHT_MAX_DEPTH,
+// LIGHT_INTERNAL_BIT, NO_LIGHT, LIGHT_KIND_* (SamplerKind::index).
+//
+// 16 light_nodes   perfect tree (2P − 1 nodes, level by level) or the
+//                  unbalanced BVH (id = light for a leaf, LIGHT_INTERNAL_BIT |
+//                  left child for an internal node, right = left + 1)
+// 17 light_prims   the N light primitives
+// 18 light_index   per kind: perfect tree: leaf slot of each light (N);
+//                  BVH: leaf node of each light (N), then the parent of each
+//                  node (node_count, NO_LIGHT for the root); power: the f32
+//                  bits of each light's pmf (N); uniform: unused
+// 19 light_alias   power: the alias table (N entries); others: unused
+// 20 light_cuts    tree / unbalanced: cut_size node indices per k×k pixel
+//                  block, row-major over blocks, NO_LIGHT-padded; written by
+//                  the cut pre-pass (select_cut) or uploaded
+// 21 light_params  the uniform below
+
+// AliasEntry { q, alias } of src/lights/alias.rs (`alias` is a WGSL keyword).
+struct AliasEntry {
+    q: f32,
+    alias_id: u32,
+}
+
+struct LightParams {
+    // N, the number of lights (0: every sampler returns NO_LIGHT).
+    count: u32,
+    // SamplerKind::index: LIGHT_KIND_*.
+    kind: u32,
+    // Perfect tree: L + 1 levels and P leaves (0 otherwise).
+    levels: u32,
+    leaf_count: u32,
+    // Nodes in light_nodes.
+    node_count: u32,
+    // Cut entries per block (1 for the no-cut kinds).
+    cut_size: u32,
+    // Cut sharing: k×k pixel blocks, blocks_per_row = ceil(width / k).
+    block_size: u32,
+    blocks_per_row: u32,
+    // Power: N, or 0 when Σ I = 0 (no light can be sampled).
+    alias_count: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+}
+
+@group(1) @binding(16) var<storage, read> light_nodes: array<TreeNode>;
+@group(1) @binding(17) var<storage, read> light_prims: array<LightPrim>;
+@group(1) @binding(18) var<storage, read> light_index: array<u32>;
+@group(1) @binding(19) var<storage, read> light_alias: array<AliasEntry>;
+@group(1) @binding(20) var<storage, read> light_cuts: array<u32>;
+@group(1) @binding(21) var<uniform> light_params: LightParams;
+
+// First light_cuts entry of the block holding pixel `px`.
+fn light_cut_base(px: vec2<u32>) -> u32 {
+    let block = px / light_params.block_size;
+    return (block.y * light_params.blocks_per_row + block.x) * light_params.cut_size;
+}

@@ -1,0 +1,450 @@
+// Light sampling on the GPU: the WGSL mirror of src/lights/{importance,cut,
+// alias,sampler}.rs, following docs/light-sampling.md operation by operation
+// (real-time stochastic lightcuts §3.2–3.3). Needs lights/light_prim.wgsl and
+// lights/bindings.wgsl.
+//
+//   light_sample(p, n, cut_base, u) -> LightPick  one light and its pmf
+//   light_pmf(p, n, cut_base, light) -> LightPmf  the pmf of a given light
+//   select_cut(p, n, &out) -> u32                 the greedy cut (pre-pass)
+//
+// `p` is the shading point, `n` its unit normal facing the outgoing direction
+// (vec3(0) = no normal), `cut_base` the block's first light_cuts entry
+// (light_cut_base; ignored by the kinds without cuts), `u` ∈ [0, 1).
+// Probabilities are (mantissa, exponent) pairs renormalized with frexp after
+// every product, so 20+ tree levels never underflow.
+// No recursion, every loop bounded by MAX_CUT or LIGHT_MAX_DEPTH.
+
+struct LightPmf {
+    m: f32,
+    e: i32,
+}
+
+struct LightPick {
+    // The light, or NO_LIGHT (no lights, or all candidates have zero importance).
+    light: u32,
+    // pmf = pmf_m · 2^pmf_e.
+    pmf_m: f32,
+    pmf_e: i32,
+}
+
+struct NodeImportance {
+    dmin2: f32,
+    dmax2: f32,
+    w: f32,
+}
+
+// 0x1.fffffep-1, the largest f32 below 1.
+const LIGHT_ONE_MINUS_EPSILON: f32 = 0.99999994;
+
+fn light_pmf_from(p: f32) -> LightPmf {
+    let r = frexp(p);
+    return LightPmf(r.fract, r.exp);
+}
+
+fn light_pmf_mul(a: LightPmf, p: f32) -> LightPmf {
+    let r = frexp(a.m * p);
+    return LightPmf(r.fract, a.e + r.exp);
+}
+
+fn light_no_pick() -> LightPick {
+    return LightPick(NO_LIGHT, 0.0, 0);
+}
+
+fn light_uses_bvh() -> bool {
+    return light_params.kind == LIGHT_KIND_UNBALANCED || light_params.kind == LIGHT_KIND_UNBALANCED_NOCUT;
+}
+
+fn light_uses_cut() -> bool {
+    return light_params.kind == LIGHT_KIND_TREE || light_params.kind == LIGHT_KIND_UNBALANCED;
+}
+
+fn light_is_leaf(node: u32) -> bool {
+    if (light_uses_bvh()) {
+        return (light_nodes[node].id & LIGHT_INTERNAL_BIT) == 0u;
+    }
+    return node + 1u >= light_params.leaf_count;
+}
+
+// Left child of an internal node; the right child is left + 1 in both layouts.
+fn light_left_child(node: u32) -> u32 {
+    if (light_uses_bvh()) {
+        return light_nodes[node].id & ~LIGHT_INTERNAL_BIT;
+    }
+    return 2u * node + 1u;
+}
+
+fn light_length(v: vec3<f32>) -> f32 {
+    return sqrt(v.x * v.x + v.y * v.y + v.z * v.z);
+}
+
+// The cosine bound F of the node's bounding sphere (importance.rs).
+fn light_reflectance_bound(node: TreeNode, x: vec3<f32>, n: vec3<f32>) -> f32 {
+    if (all(n == vec3<f32>(0.0))) {
+        return 1.0;
+    }
+    let c = 0.5 * (node.bmin + node.bmax);
+    let r = light_length(0.5 * (node.bmax - node.bmin));
+    let v = c - x;
+    let dist = light_length(v);
+    if (dist <= r) {
+        return 1.0;
+    }
+    let cos_n = (n.x * v.x + n.y * v.y + n.z * v.z) / dist;
+    let sin_b = r / dist;
+    let cos_b = sqrt(max(1.0 - sin_b * sin_b, 0.0));
+    if (cos_n >= cos_b) {
+        return 1.0;
+    }
+    let sin_n = sqrt(max(1.0 - cos_n * cos_n, 0.0));
+    return max(cos_n * cos_b + sin_n * sin_b, 0.0);
+}
+
+// dmin², dmax² and W = F·I; all 0 for dead nodes (I = 0 or EMPTY bounds).
+fn light_node_importance(node: TreeNode, x: vec3<f32>, n: vec3<f32>) -> NodeImportance {
+    if (node.intensity == 0.0 || node.bmin.x > node.bmax.x) {
+        return NodeImportance(0.0, 0.0, 0.0);
+    }
+    let dmin = max(max(node.bmin - x, vec3<f32>(0.0)), x - node.bmax);
+    let dmax = max(abs(x - node.bmin), abs(x - node.bmax));
+    let dmin2 = dmin.x * dmin.x + dmin.y * dmin.y + dmin.z * dmin.z;
+    let dmax2 = dmax.x * dmax.x + dmax.y * dmax.y + dmax.z * dmax.z;
+    return NodeImportance(dmin2, dmax2, light_reflectance_bound(node, x, n) * node.intensity);
+}
+
+fn light_importance_of(node: u32, x: vec3<f32>, n: vec3<f32>) -> NodeImportance {
+    return light_node_importance(light_nodes[node], x, n);
+}
+
+fn light_ratio(w_j: f32, d_j: f32, w_k: f32, d_k: f32) -> f32 {
+    var a = w_j * d_k;
+    var b = w_k * d_j;
+    if (a + b == 0.0) {
+        a = w_j;
+        b = w_k;
+    }
+    return a / (a + b);
+}
+
+// Probability of the left child (eq. 1–2), or −1 for a dead branch.
+fn light_p_left(j: NodeImportance, k: NodeImportance) -> f32 {
+    if (j.w + k.w == 0.0) {
+        return -1.0;
+    }
+    return 0.5 * (light_ratio(j.w, j.dmin2, k.w, k.dmin2) + light_ratio(j.w, j.dmax2, k.w, k.dmax2));
+}
+
+// Hierarchical importance sampling from `start` down to a leaf.
+fn light_descend(start: u32, x: vec3<f32>, n: vec3<f32>, u_in: f32, pmf_in: LightPmf) -> LightPick {
+    var node = start;
+    var u = u_in;
+    var pmf = pmf_in;
+    for (var step = 0u; step < LIGHT_MAX_DEPTH; step++) {
+        if (light_is_leaf(node)) {
+            break;
+        }
+        let l = light_left_child(node);
+        let p_left = light_p_left(light_importance_of(l, x, n), light_importance_of(l + 1u, x, n));
+        if (p_left < 0.0) {
+            return light_no_pick();
+        }
+        let p_right = 1.0 - p_left;
+        if (u < p_left) {
+            pmf = light_pmf_mul(pmf, p_left);
+            u = u / p_left;
+            node = l;
+        } else {
+            pmf = light_pmf_mul(pmf, p_right);
+            u = (u - p_left) / p_right;
+            node = l + 1u;
+        }
+        u = min(u, LIGHT_ONE_MINUS_EPSILON);
+    }
+    let id = light_nodes[node].id;
+    if (!light_is_leaf(node) || id == NO_LIGHT) {
+        return light_no_pick();
+    }
+    return LightPick(id, pmf.m, pmf.e);
+}
+
+// Number of nodes in the block's cut (1, the root, for the no-cut kinds).
+fn light_cut_len(cut_base: u32) -> u32 {
+    if (!light_uses_cut()) {
+        return 1u;
+    }
+    let size = min(light_params.cut_size, MAX_CUT);
+    for (var j = 0u; j < size; j++) {
+        if (light_cuts[cut_base + j] == NO_LIGHT) {
+            return j;
+        }
+    }
+    return size;
+}
+
+fn light_cut_node(cut_base: u32, j: u32) -> u32 {
+    if (!light_uses_cut()) {
+        return 0u;
+    }
+    return light_cuts[cut_base + j];
+}
+
+// Cut node probabilities (eq. 2 over n nodes, docs "Cut node probabilities")
+// into `probs`; false when every node has W = 0.
+fn light_cut_probabilities(
+    x: vec3<f32>,
+    n: vec3<f32>,
+    cut_base: u32,
+    len: u32,
+    probs: ptr<function, array<f32, MAX_CUT>>,
+) -> bool {
+    var imps: array<NodeImportance, MAX_CUT>;
+    var w_max = 0.0;
+    var inside_min = false;
+    var inside_max = false;
+    for (var j = 0u; j < len; j++) {
+        let imp = light_importance_of(light_cut_node(cut_base, j), x, n);
+        imps[j] = imp;
+        w_max = max(w_max, imp.w);
+        inside_min = inside_min || (imp.dmin2 == 0.0 && imp.w > 0.0);
+        inside_max = inside_max || (imp.dmax2 == 0.0 && imp.w > 0.0);
+    }
+    if (w_max == 0.0) {
+        return false;
+    }
+    if (len == 1u) {
+        (*probs)[0] = 1.0; // both normalized weights are w/w = 1
+        return true;
+    }
+    var w_min_of: array<f32, MAX_CUT>;
+    var sum_min = 0.0;
+    var sum_max = 0.0;
+    for (var j = 0u; j < len; j++) {
+        let imp = imps[j];
+        let w = imp.w / w_max;
+        var a = w / max(imp.dmin2, 1e-20);
+        if (inside_min) {
+            a = select(0.0, w, imp.dmin2 == 0.0 && imp.w > 0.0);
+        }
+        var b = w / max(imp.dmax2, 1e-20);
+        if (inside_max) {
+            b = select(0.0, w, imp.dmax2 == 0.0 && imp.w > 0.0);
+        }
+        w_min_of[j] = a;
+        (*probs)[j] = b;
+        sum_min += a;
+        sum_max += b;
+    }
+    for (var j = 0u; j < len; j++) {
+        (*probs)[j] = 0.5 * (w_min_of[j] / sum_min + (*probs)[j] / sum_max);
+    }
+    return true;
+}
+
+fn light_sample_tree(x: vec3<f32>, n: vec3<f32>, cut_base: u32, u: f32) -> LightPick {
+    var probs: array<f32, MAX_CUT>;
+    let len = light_cut_len(cut_base);
+    if (len == 0u || !light_cut_probabilities(x, n, cut_base, len, &probs)) {
+        return light_no_pick();
+    }
+    // Running CDF; the last node with P > 0 takes what rounding leaves.
+    var cdf = 0.0;
+    var chosen = 0u;
+    var c_prev = 0.0;
+    for (var j = 0u; j < len; j++) {
+        let p = probs[j];
+        if (p <= 0.0) {
+            continue;
+        }
+        let next = cdf + p;
+        chosen = j;
+        c_prev = cdf;
+        if (u < next) {
+            break;
+        }
+        cdf = next;
+    }
+    let u_node = min((u - c_prev) / probs[chosen], LIGHT_ONE_MINUS_EPSILON);
+    return light_descend(light_cut_node(cut_base, chosen), x, n, u_node, light_pmf_from(probs[chosen]));
+}
+
+fn light_sample(s_p: vec3<f32>, s_n: vec3<f32>, cut_base: u32, u: f32) -> LightPick {
+    let count = light_params.count;
+    if (count == 0u) {
+        return light_no_pick();
+    }
+    switch (light_params.kind) {
+        case LIGHT_KIND_UNIFORM: {
+            let i = min(u32(floor(u * f32(count))), count - 1u);
+            let pmf = light_pmf_from(1.0 / f32(count));
+            return LightPick(i, pmf.m, pmf.e);
+        }
+        case LIGHT_KIND_POWER: {
+            if (light_params.alias_count == 0u) {
+                return light_no_pick();
+            }
+            let t = u * f32(count);
+            let i = min(u32(floor(t)), count - 1u);
+            let v = t - f32(i);
+            let entry = light_alias[i];
+            let light = select(entry.alias_id, i, v < entry.q);
+            let pmf = light_pmf_from(bitcast<f32>(light_index[light]));
+            return LightPick(light, pmf.m, pmf.e);
+        }
+        default: {
+            return light_sample_tree(s_p, s_n, cut_base, u);
+        }
+    }
+}
+
+// pmf of `light` in the perfect tree: find the cut node above its leaf, then
+// multiply the child probabilities along the path (leaf index bits).
+fn light_pmf_perfect(x: vec3<f32>, n: vec3<f32>, cut_base: u32, light: u32) -> LightPmf {
+    let leaf1 = light_params.leaf_count + light_index[light]; // leaf node + 1
+    let leaf_level = light_params.levels - 1u;
+    let len = light_cut_len(cut_base);
+    var found = NO_LIGHT;
+    var d = 0u;
+    for (var j = 0u; j < len; j++) {
+        let c1 = light_cut_node(cut_base, j) + 1u;
+        let level = u32(firstLeadingBit(c1));
+        if (level <= leaf_level && (leaf1 >> (leaf_level - level)) == c1) {
+            found = j;
+            d = leaf_level - level;
+            break;
+        }
+    }
+    var probs: array<f32, MAX_CUT>;
+    if (found == NO_LIGHT || !light_cut_probabilities(x, n, cut_base, len, &probs)) {
+        return LightPmf(0.0, 0);
+    }
+    var pmf = light_pmf_from(probs[found]);
+    for (var t = d; t > 0u; t--) {
+        let node = (leaf1 >> t) - 1u;
+        let child = (leaf1 >> (t - 1u)) - 1u;
+        let l = 2u * node + 1u;
+        let p_left = light_p_left(light_importance_of(l, x, n), light_importance_of(l + 1u, x, n));
+        if (p_left < 0.0) {
+            return LightPmf(0.0, 0);
+        }
+        pmf = light_pmf_mul(pmf, select(1.0 - p_left, p_left, child == l));
+    }
+    return pmf;
+}
+
+// pmf of `light` in the BVH: walk up the parent links to the cut, then
+// multiply the child probabilities top-down (the order sampling uses).
+fn light_pmf_bvh(x: vec3<f32>, n: vec3<f32>, cut_base: u32, light: u32) -> LightPmf {
+    let len = light_cut_len(cut_base);
+    var path: array<u32, LIGHT_MAX_DEPTH>;
+    var depth = 0u;
+    var node = light_index[light];
+    var found = NO_LIGHT;
+    for (var step = 0u; step < LIGHT_MAX_DEPTH; step++) {
+        path[depth] = node;
+        depth += 1u;
+        for (var j = 0u; j < len; j++) {
+            if (light_cut_node(cut_base, j) == node) {
+                found = j;
+                break;
+            }
+        }
+        if (found != NO_LIGHT) {
+            break;
+        }
+        node = light_index[light_params.count + node];
+        if (node == NO_LIGHT) {
+            break;
+        }
+    }
+    var probs: array<f32, MAX_CUT>;
+    if (found == NO_LIGHT || !light_cut_probabilities(x, n, cut_base, len, &probs)) {
+        return LightPmf(0.0, 0);
+    }
+    var pmf = light_pmf_from(probs[found]);
+    for (var i = depth - 1u; i > 0u; i--) {
+        let l = light_left_child(path[i]);
+        let p_left = light_p_left(light_importance_of(l, x, n), light_importance_of(l + 1u, x, n));
+        if (p_left < 0.0) {
+            return LightPmf(0.0, 0);
+        }
+        pmf = light_pmf_mul(pmf, select(1.0 - p_left, p_left, path[i - 1u] == l));
+    }
+    return pmf;
+}
+
+fn light_pmf(s_p: vec3<f32>, s_n: vec3<f32>, cut_base: u32, light: u32) -> LightPmf {
+    let count = light_params.count;
+    if (light >= count) {
+        return LightPmf(0.0, 0);
+    }
+    switch (light_params.kind) {
+        case LIGHT_KIND_UNIFORM: {
+            return light_pmf_from(1.0 / f32(count));
+        }
+        case LIGHT_KIND_POWER: {
+            if (light_params.alias_count == 0u) {
+                return LightPmf(0.0, 0);
+            }
+            return light_pmf_from(bitcast<f32>(light_index[light]));
+        }
+        case LIGHT_KIND_UNBALANCED, LIGHT_KIND_UNBALANCED_NOCUT: {
+            return light_pmf_bvh(s_p, s_n, cut_base, light);
+        }
+        default: {
+            return light_pmf_perfect(s_p, s_n, cut_base, light);
+        }
+    }
+}
+
+// Greedy-cut key (docs "Cuts"): −1 = not refinable (a leaf or I = 0); a point
+// inside the box gives the largest f32 (the CPU's +∞), other keys W/dmin²
+// stay below it.
+fn light_cut_key(node: u32, x: vec3<f32>, n: vec3<f32>) -> f32 {
+    let nd = light_nodes[node];
+    if (light_is_leaf(node) || !(nd.intensity > 0.0)) {
+        return -1.0;
+    }
+    let imp = light_node_importance(nd, x, n);
+    if (imp.dmin2 == 0.0) {
+        return bitcast<f32>(0x7f7fffffu);
+    }
+    return min(imp.w / imp.dmin2, bitcast<f32>(0x7f7ffffeu));
+}
+
+// The greedy cut of at most light_params.cut_size nodes for the
+// representative point (p, n), written to `out` in selection order; returns
+// its length (0 without lights or for the kinds without a tree).
+fn select_cut(p: vec3<f32>, n: vec3<f32>, out: ptr<function, array<u32, MAX_CUT>>) -> u32 {
+    if (light_params.count == 0u || light_params.kind == LIGHT_KIND_UNIFORM || light_params.kind == LIGHT_KIND_POWER) {
+        return 0u;
+    }
+    let size = clamp(light_params.cut_size, 1u, MAX_CUT);
+    var keys: array<f32, MAX_CUT>;
+    (*out)[0] = 0u;
+    keys[0] = light_cut_key(0u, p, n);
+    var len = 1u;
+    for (var it = 1u; it < MAX_CUT; it++) {
+        if (len >= size) {
+            break;
+        }
+        var best = NO_LIGHT;
+        for (var j = 0u; j < len; j++) {
+            let k = keys[j];
+            if (k < 0.0) {
+                continue;
+            }
+            if (best == NO_LIGHT || k > keys[best] || (k == keys[best] && (*out)[j] < (*out)[best])) {
+                best = j;
+            }
+        }
+        if (best == NO_LIGHT) {
+            break;
+        }
+        let l = light_left_child((*out)[best]);
+        (*out)[best] = l;
+        keys[best] = light_cut_key(l, p, n);
+        (*out)[len] = l + 1u;
+        keys[len] = light_cut_key(l + 1u, p, n);
+        len += 1u;
+    }
+    return len;
+}
