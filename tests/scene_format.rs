@@ -635,3 +635,93 @@ fn corrupted_scenes_never_panic() {
         }
     }
 }
+
+/// The three many-light scenes carry the `many_light` integrand with their
+/// stated parameters, and their light sets the stated shape.
+#[test]
+fn many_light_scenes_parse_their_integrand_and_light_sets() {
+    use scene::ManyLightSpec;
+    let spec = |file: &str| scene::load(&scene_path(file)).unwrap();
+    let s = spec("cornell_lights.toml");
+    assert_eq!(
+        s.integrand,
+        IntegrandSpec::ManyLight(ManyLightSpec {
+            sampler: "tree".into(),
+            cut_size: 8,
+            block: 8,
+            time: 0.5,
+            frame: 0
+        })
+    );
+    assert!(s.point_light_sets.is_empty());
+    // The Cornell box walls and blocks are cornell.toml's.
+    let cornell = spec("cornell.toml");
+    for (a, b) in s.meshes[..7].iter().zip(&cornell.meshes[..7]) {
+        assert_eq!(a, b);
+    }
+    for (file, count, orbit) in [
+        ("vpl_atrium.toml", 100_000, 0.0),
+        ("lights_1m.toml", 1_000_000, 0.05),
+    ] {
+        let s = spec(file);
+        assert_eq!(
+            s.integrand,
+            IntegrandSpec::ManyLight(ManyLightSpec {
+                cut_size: 16,
+                ..ManyLightSpec::default()
+            }),
+            "{file}"
+        );
+        assert_eq!(s.point_light_sets.len(), 1, "{file}");
+        assert_eq!(s.point_light_sets[0].len(), count, "{file}");
+        assert_eq!(s.point_light_sets[0].orbit_radius, orbit, "{file}");
+        assert!(s.lights.is_empty(), "{file}");
+        assert!(
+            s.materials.iter().all(|m| m.emission == Vec3::ZERO),
+            "{file}: lit by its light set only"
+        );
+    }
+}
+
+#[test]
+fn light_set_keys_parse_into_the_set() {
+    let text = format!(
+        "{BASE}[[light_set]]\ntype = \"grid\"\nmin = [-1, -2]\nmax = [1, 2]\nresolution = [2, 4]\ny = 3\nintensity = [1, 2, 3]\norbit_radius = 0.5\norbit_speed = -2\nseed = 4\n"
+    );
+    let (_, r) = load_text("light-set-grid", &text);
+    let s = r.unwrap();
+    let set = &s.point_light_sets[0];
+    assert_eq!(
+        (set.len(), set.orbit_radius, set.orbit_speed),
+        (8, 0.5, -2.0)
+    );
+    // x fastest, cell centres.
+    let bases: Vec<Vec3> = set.lights.iter().map(|l| l.base).collect();
+    assert_eq!(bases[0], Vec3::new(-0.5, 3.0, -1.5));
+    assert_eq!(bases[1], Vec3::new(0.5, 3.0, -1.5));
+    assert_eq!(bases[2], Vec3::new(-0.5, 3.0, -0.5));
+    assert_eq!(bases[7], Vec3::new(0.5, 3.0, 1.5));
+    // No jitter: every light has the set's intensity.
+    assert!(set
+        .lights
+        .iter()
+        .all(|l| l.intensity == Vec3::new(1.0, 2.0, 3.0)));
+    // position(t) = base + r·(cos(φ + ωt), 0, sin(φ + ωt)).
+    let l = set.lights[5];
+    let a = l.phase - 2.0 * 0.75;
+    assert!(set
+        .position(&l, 0.75)
+        .abs_diff_eq(l.base + 0.5 * Vec3::new(a.cos(), 0.0, a.sin()), 1e-6));
+    // Without an orbit the light stays at its base.
+    let text = text.replace("orbit_radius = 0.5\n", "");
+    let (_, r) = load_text("light-set-static", &text);
+    let s = r.unwrap();
+    let l = s.point_light_sets[0].lights[5];
+    assert_eq!(s.point_light_sets[0].position(&l, 9.0), l.base);
+    // Unknown top-level keys name light_set among the expected ones.
+    let m = error_at("light-sets", &format!("{BASE}[[light_sets]]\n"), 12, 3);
+    assert!(
+        m.contains("unknown field 'light_sets'") && m.contains("'light_set'"),
+        "{m}"
+    );
+}
