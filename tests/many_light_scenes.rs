@@ -137,6 +137,9 @@ fn vpl_atrium_has_100k_surface_lights_on_the_hall() {
             triangles: 0
         }
     );
+    // 7 quads (floor, walls, roof strips) and 23 boxes (pillars, balcony
+    // slabs and parapets, the basin).
+    assert_eq!(s.triangle_count(), 7 * 2 + 23 * 12);
     let set = &s.point_light_sets[0];
     assert_eq!(set.orbit_radius, 0.0);
     // Inside the hall's box grown by the 0.15 offset.
