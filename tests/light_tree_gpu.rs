@@ -313,3 +313,121 @@ fn tree_of_one_million_lights() {
     let prims = random_lights(&mut rng, n as usize, 50.0);
     check_tree(gpu, &mut tree, &prims, "1M lights");
 }
+
+// ---- the exact per-light arithmetic of wgsl/lights/light_prim.wgsl ----
+
+/// Runs `prim_centroid` and `prim_intensity` over `prims` on the GPU.
+fn gpu_prim_quantities(gpu: &Gpu, prims: &[LightPrim]) -> Vec<[u32; 4]> {
+    use mdas::gpu::shader::{bind_buffers, storage_entry, uniform_entry};
+    let kernel = r#"
+@group(0) @binding(0) var<uniform> zero: vec4<u32>;
+@group(0) @binding(1) var<storage, read> prims: array<LightPrim>;
+@group(0) @binding(2) var<storage, read_write> out: array<vec4<u32>>;
+
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    opaque_zero = zero.x;
+    let i = gid.x;
+    if (i < arrayLength(&prims)) {
+        let l = prims[i];
+        out[i] = vec4<u32>(bitcast<vec3<u32>>(prim_centroid(l)), bitcast<u32>(prim_intensity(l)));
+    }
+}
+"#;
+    let source = mdas::lights::gpu_build::prim_wgsl().part(("test_prim_quantities", kernel));
+    let layout = gpu
+        .device
+        .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("test.prim.layout"),
+            entries: &[
+                uniform_entry(0),
+                storage_entry(1, true),
+                storage_entry(2, false),
+            ],
+        });
+    let pipeline = gpu
+        .compute_pipeline("test.prim", &source, "main", &[&layout])
+        .unwrap();
+    let zero = gpu.uniform("test.prim.zero", &[0u32; 4]);
+    let input = gpu
+        .buffer_from("test.prim.in", prims, wgpu::BufferUsages::STORAGE)
+        .unwrap();
+    let out = gpu
+        .buffer_zeroed("test.prim.out", 16 * prims.len() as u64, STORAGE)
+        .unwrap();
+    let group = bind_buffers(gpu, "test.prim", &layout, &[&zero, &input, &out]);
+    let mut encoder = gpu.device.create_command_encoder(&Default::default());
+    {
+        let mut pass = encoder.begin_compute_pass(&Default::default());
+        pass.set_pipeline(&pipeline);
+        pass.set_bind_group(0, &group, &[]);
+        pass.dispatch_workgroups((prims.len() as u32).div_ceil(64), 1, 1);
+    }
+    gpu.queue.submit([encoder.finish()]);
+    gpu.read_buffer(&out, prims.len()).unwrap()
+}
+
+#[test]
+fn per_light_arithmetic_is_exact() {
+    let gpu = common::gpu();
+    let mut rng = StdRng::seed_from_u64(65);
+    // A normal f32 with a random mantissa and sign and an exponent field in
+    // [3, 250] (no overflow in the sums below, no subnormal quotient).
+    let any = |rng: &mut StdRng| {
+        let field = rng.random_range(3u32..=250);
+        f32::from_bits((rng.random::<u32>() & 0x807f_ffff) | (field << 23))
+    };
+    let mut prims = Vec::new();
+    // Division by 3 at every exponent: p1 = p2 = 0, so the centroid is p0 / 3.
+    for _ in 0..50_000 {
+        let p = Vec3::new(any(&mut rng), any(&mut rng), any(&mut rng));
+        prims.push(LightPrim::point(p, Vec3::ZERO));
+        prims.last_mut().unwrap().p1 = [0.0; 3];
+        prims.last_mut().unwrap().p2 = [0.0; 3];
+    }
+    // Mantissas that end in the rounding boundaries of x / 3.
+    for m in 0..3000u32 {
+        let x = f32::from_bits((100 << 23) | (m * 2797 % 0x80_0000));
+        prims.push(LightPrim::point(Vec3::splat(x), Vec3::ONE));
+        prims.last_mut().unwrap().p1 = [0.0; 3];
+        prims.last_mut().unwrap().p2 = [0.0; 3];
+    }
+    // Triangles and points at many scales: centroids, luminance, cross
+    // products and areas (products that a driver could fuse into fmas).
+    for _ in 0..50_000 {
+        let s = 2f32.powi(rng.random_range(-20..20));
+        let mut v = |rng: &mut StdRng| {
+            Vec3::new(
+                rng.random_range(-s..s),
+                rng.random_range(-s..s),
+                rng.random_range(-s..s),
+            )
+        };
+        let e = Vec3::new(
+            rng.random_range(0.0..100.0),
+            rng.random_range(0.0..100.0),
+            rng.random_range(0.0..100.0),
+        );
+        let (a, b, c) = (v(&mut rng), v(&mut rng), v(&mut rng));
+        prims.push(LightPrim::triangle(a, b, c, e));
+        prims.push(LightPrim::point(a, e));
+    }
+    let got = gpu_prim_quantities(gpu, &prims);
+    let mut bad = 0;
+    for (i, (l, g)) in prims.iter().zip(&got).enumerate() {
+        let c = l.centroid();
+        let want = [
+            c.x.to_bits(),
+            c.y.to_bits(),
+            c.z.to_bits(),
+            l.intensity().to_bits(),
+        ];
+        if *g != want {
+            if bad < 5 {
+                eprintln!("light {i} {l:?}: gpu {g:x?}, cpu {want:x?}");
+            }
+            bad += 1;
+        }
+    }
+    assert_eq!(bad, 0, "{bad} of {} lights differ", prims.len());
+}
