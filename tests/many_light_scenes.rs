@@ -480,6 +480,17 @@ fn many_light_integrand_parses_with_defaults() {
     }
 }
 
+/// The parser accepts exactly the names `SamplerKind` parses.
+#[test]
+fn sampler_names_are_the_sampler_kinds() {
+    use mdas::lights::sampler::SamplerKind;
+    let kinds: Vec<&str> = SamplerKind::ALL.iter().map(|k| k.name()).collect();
+    assert_eq!(kinds, scene::MANY_LIGHT_SAMPLERS);
+    for name in scene::MANY_LIGHT_SAMPLERS {
+        assert_eq!(name.parse::<SamplerKind>().unwrap().name(), name);
+    }
+}
+
 #[test]
 fn bad_many_light_input_is_an_error_at_its_position() {
     let integrand = |body: &str| format!("{BASE}[integrand]\ntype = \"many_light\"\n{body}");
