@@ -1454,7 +1454,7 @@ impl Ctx<'_> {
         }
 
         // Where light i sits (its orbit centre), from its random stream.
-        let position: Box<dyn Fn(u64, &mut LightRng) -> Vec3 + '_> = match kind {
+        let position: Box<PlaceLight> = match kind {
             "box" => {
                 let min_v = self.need(&r.min, "min", &r.kind, "light_set")?;
                 let min = Vec3::from(self.array::<3>(min_v, "min", "[x, y, z]")?);
@@ -1578,6 +1578,9 @@ impl Ctx<'_> {
         })
     }
 }
+
+/// Where generated light i sits (its orbit centre), given its random stream.
+type PlaceLight<'a> = dyn Fn(u64, &mut LightRng) -> Vec3 + 'a;
 
 /// Deterministic random numbers of one generated light: a splitmix64
 /// stream keyed by (seed, light index), so light i is the same whatever
