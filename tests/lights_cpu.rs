@@ -507,7 +507,7 @@ fn sampler_names() {
     for k in SamplerKind::ALL {
         assert_eq!(k.to_string().parse::<SamplerKind>().unwrap(), k);
     }
-    let err = "lightcuts".parse::<SamplerKind>().unwrap_err();
+    let err = "lightcuts".parse::<SamplerKind>().unwrap_err().to_string();
     for name in [
         "uniform",
         "power",

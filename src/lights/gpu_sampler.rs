@@ -16,7 +16,7 @@
 //! group and fills it with `select_cut`, or [`GpuSamplerData::write_cuts`]
 //! uploads CPU cuts. The sampling pass binds it read-only.
 
-use super::alias::PowerSampler;
+use super::alias::{AliasEntry, PowerSampler};
 use super::bvh::{self, LightBvh, INTERNAL_BIT};
 use super::cut::MAX_CUT;
 use super::perfect::{self, PerfectTree};
@@ -132,10 +132,7 @@ impl GpuSamplerData {
             blocks_per_row: cuts.blocks_per_row,
             ..Default::default()
         };
-        let zero_u32: &[u32] = &[];
         let label = |s: &str| format!("lights.sampler.{s}");
-        let storage = |name: &str, bytes: &[u8]| gpu.buffer_from(&label(name), bytes, STORAGE);
-        let empty = || storage("unused", bytemuck::cast_slice(zero_u32));
 
         let mut alias = None;
         let mut index = None;
@@ -146,9 +143,9 @@ impl GpuSamplerData {
                 SamplerKind::Power => {
                     let power = PowerSampler::new(prims);
                     params.alias_count = power.table.len() as u32;
-                    alias = Some(storage("alias", bytemuck::cast_slice(&power.table))?);
+                    alias = Some(gpu.buffer_from(&label("alias"), &power.table, STORAGE)?);
                     let bits: Vec<u32> = power.pmf.iter().map(|p| p.to_bits()).collect();
-                    index = Some(storage("index", bytemuck::cast_slice(&bits))?);
+                    index = Some(gpu.buffer_from(&label("index"), &bits, STORAGE)?);
                 }
                 SamplerKind::Tree | SamplerKind::TreeNoCut => {
                     let p = n.next_power_of_two();
@@ -171,8 +168,12 @@ impl GpuSamplerData {
                                     t.light_count()
                                 );
                             }
-                            nodes = Some(storage("nodes", bytemuck::cast_slice(&t.nodes))?);
-                            index = Some(storage("index", bytemuck::cast_slice(&t.leaf_of_light))?);
+                            nodes = Some(gpu.buffer_from(&label("nodes"), &t.nodes, STORAGE)?);
+                            index = Some(gpu.buffer_from(
+                                &label("index"),
+                                &t.leaf_of_light,
+                                STORAGE,
+                            )?);
                         }
                         TreeSource::PerfectGpu {
                             nodes: gpu_nodes,
@@ -207,10 +208,10 @@ impl GpuSamplerData {
                         );
                     }
                     params.node_count = b.nodes.len() as u32;
-                    nodes = Some(storage("nodes", bytemuck::cast_slice(&b.nodes))?);
+                    nodes = Some(gpu.buffer_from(&label("nodes"), &b.nodes, STORAGE)?);
                     let table: Vec<u32> =
                         b.leaf_of_light.iter().chain(&b.parent).copied().collect();
-                    index = Some(storage("index", bytemuck::cast_slice(&table))?);
+                    index = Some(gpu.buffer_from(&label("index"), &table, STORAGE)?);
                 }
             }
         }
@@ -226,11 +227,20 @@ impl GpuSamplerData {
         Ok(GpuSamplerData {
             kind,
             params,
-            nodes: nodes.map_or_else(empty, Ok)?,
-            prims: storage("prims", bytemuck::cast_slice(prims))?,
-            index: index.map_or_else(empty, Ok)?,
-            alias: alias.map_or_else(empty, Ok)?,
-            cuts: storage("cuts", bytemuck::cast_slice(&cut_entries))?,
+            nodes: nodes.map_or_else(
+                || gpu.buffer_from::<TreeNode>(&label("unused"), &[], STORAGE),
+                Ok,
+            )?,
+            prims: gpu.buffer_from(&label("prims"), prims, STORAGE)?,
+            index: index.map_or_else(
+                || gpu.buffer_from::<u32>(&label("unused"), &[], STORAGE),
+                Ok,
+            )?,
+            alias: alias.map_or_else(
+                || gpu.buffer_from::<AliasEntry>(&label("unused"), &[], STORAGE),
+                Ok,
+            )?,
+            cuts: gpu.buffer_from(&label("cuts"), &cut_entries, STORAGE)?,
             uniform: gpu.uniform(&label("params"), &params),
         })
     }
@@ -291,8 +301,7 @@ impl GpuSamplerData {
             let name = format!("LIGHT_KIND_{}", k.name().to_uppercase());
             w = w.constant(&name, k.index());
         }
-        w.part(wgsl_file!("lights/light_prim.wgsl"))
-            .part(wgsl_file!("lights/bindings.wgsl"))
+        w.part(wgsl_file!("lights/bindings.wgsl"))
             .part(wgsl_file!("lights/sample.wgsl"))
     }
 }

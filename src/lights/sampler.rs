@@ -71,6 +71,11 @@ impl SamplerKind {
         }
     }
 
+    /// All names, comma-separated.
+    pub fn names() -> String {
+        Self::ALL.map(|k| k.name()).join(", ")
+    }
+
     /// The value of `light_params.kind` in WGSL (the index in [`Self::ALL`]).
     pub fn index(self) -> u32 {
         Self::ALL.iter().position(|&k| k == self).unwrap() as u32
@@ -98,19 +103,18 @@ impl fmt::Display for SamplerKind {
     }
 }
 
+/// A sampler name that is not one of [`SamplerKind::ALL`].
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("unknown light sampler '{0}': expected one of {names}", names = SamplerKind::names())]
+pub struct UnknownSampler(pub String);
+
 impl FromStr for SamplerKind {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
+    type Err = UnknownSampler;
+    fn from_str(s: &str) -> Result<Self, UnknownSampler> {
         Self::ALL
             .into_iter()
             .find(|k| k.name() == s)
-            .ok_or_else(|| {
-                let names: Vec<_> = Self::ALL.iter().map(|k| k.name()).collect();
-                format!(
-                    "unknown light sampler '{s}': expected one of {}",
-                    names.join(", ")
-                )
-            })
+            .ok_or_else(|| UnknownSampler(s.to_string()))
     }
 }
 
@@ -188,9 +192,10 @@ mod tests {
     fn names_round_trip() {
         for k in SamplerKind::ALL {
             assert_eq!(k.to_string().parse::<SamplerKind>(), Ok(k));
+            assert!(UnknownSampler(String::new()).to_string().contains(k.name()));
             assert_eq!(SamplerKind::ALL[k.index() as usize], k);
         }
-        let e = "trees".parse::<SamplerKind>().unwrap_err();
+        let e = "trees".parse::<SamplerKind>().unwrap_err().to_string();
         assert!(
             e.contains("'trees'") && e.contains("unbalanced_nocut"),
             "{e}"

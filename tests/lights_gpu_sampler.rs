@@ -1,0 +1,557 @@
+//! The WGSL light samplers (`wgsl/lights/sample.wgsl`) against the CPU
+//! samplers, for every kind, on a CPU-built tree uploaded directly and on
+//! the tree the GPU builder produces.
+//!
+//! A kernel evaluates `light_sample`, `light_pmf` of the sampled light and
+//! `light_pmf` of a random probe light for 4096 (shading point, u) pairs.
+//! The GPU's f32 division and square root need not be correctly rounded
+//! (WGSL allows 2.5 ulp), so a decision can flip when `u` lies within a few
+//! ulp of a boundary: a differing pick counts as such a boundary case when
+//! the CPU sampler picks the GPU's light for some `u` within ±64 ulp; those
+//! must be rare (≤ 0.5%), any other difference fails. The pmfs of equal
+//! picks and of the probes must agree to a relative 1e-5.
+
+mod common;
+
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
+use mdas::gpu::buffer::STORAGE;
+use mdas::gpu::shader::{storage_entry, Wgsl};
+use mdas::gpu::{Gpu, Profiler};
+use mdas::lights::bvh;
+use mdas::lights::cut::MAX_CUT;
+use mdas::lights::gpu_build::GpuLightTree;
+use mdas::lights::gpu_sampler::{CutLayout, GpuSamplerData, TreeSource};
+use mdas::lights::perfect;
+use mdas::lights::sampler::{
+    select_cut, LightSampler, PowerSampler, SamplerKind, Shading, TreeSampler, UniformSampler,
+};
+use mdas::lights::{LightPrim, NO_LIGHT};
+use rand::rngs::StdRng;
+use rand::{RngExt, SeedableRng};
+
+const QUERIES: usize = 4096;
+const BLOCKS: u32 = 64;
+const CUT_SIZE: u32 = 16;
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+struct Query {
+    p: [f32; 3],
+    u: f32,
+    n: [f32; 3],
+    cut_base: u32,
+    probe: u32,
+    _pad: [u32; 3],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+struct Answer {
+    light: u32,
+    pmf_m: f32,
+    pmf_e: i32,
+    sampled_m: f32,
+    sampled_e: i32,
+    probe_m: f32,
+    probe_e: i32,
+    _pad: u32,
+}
+
+const KERNEL: &str = r#"
+struct Query { p: vec3<f32>, u: f32, n: vec3<f32>, cut_base: u32, probe: u32, _p0: u32, _p1: u32, _p2: u32 }
+struct Answer { light: u32, pmf_m: f32, pmf_e: i32, sampled_m: f32, sampled_e: i32, probe_m: f32, probe_e: i32, _pad: u32 }
+struct Rep { p: vec3<f32>, _p0: u32, n: vec3<f32>, _p1: u32 }
+
+@group(0) @binding(0) var<storage, read> queries: array<Query>;
+@group(0) @binding(1) var<storage, read_write> answers: array<Answer>;
+@group(0) @binding(2) var<storage, read> reps: array<Rep>;
+@group(0) @binding(3) var<storage, read_write> cut_out: array<u32>;
+
+@compute @workgroup_size(64)
+fn sample_main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if (i >= arrayLength(&queries)) {
+        return;
+    }
+    let q = queries[i];
+    let pick = light_sample(q.p, q.n, q.cut_base, q.u);
+    var sampled = LightPmf(0.0, 0);
+    if (pick.light != NO_LIGHT) {
+        sampled = light_pmf(q.p, q.n, q.cut_base, pick.light);
+    }
+    let probe = light_pmf(q.p, q.n, q.cut_base, q.probe);
+    answers[i] = Answer(pick.light, pick.pmf_m, pick.pmf_e, sampled.m, sampled.e, probe.m, probe.e, 0u);
+}
+
+@compute @workgroup_size(64)
+fn cut_main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let b = gid.x;
+    if (b >= arrayLength(&reps)) {
+        return;
+    }
+    var cut: array<u32, MAX_CUT>;
+    let len = select_cut(reps[b].p, reps[b].n, &cut);
+    for (var j = 0u; j < MAX_CUT; j++) {
+        cut_out[b * (MAX_CUT + 1u) + j] = select(NO_LIGHT, cut[j], j < len);
+    }
+    cut_out[b * (MAX_CUT + 1u) + MAX_CUT] = len;
+}
+"#;
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+struct Rep {
+    p: [f32; 3],
+    _p0: u32,
+    n: [f32; 3],
+    _p1: u32,
+}
+
+fn pmf_value(m: f32, e: i32) -> f64 {
+    m as f64 * 2f64.powi(e)
+}
+
+fn rel_diff(a: f64, b: f64) -> f64 {
+    if a == b {
+        0.0
+    } else {
+        (a - b).abs() / a.abs().max(b.abs())
+    }
+}
+
+fn scene(rng: &mut StdRng, n: usize) -> Vec<LightPrim> {
+    (0..n)
+        .map(|i| {
+            let c = Vec3::new(
+                rng.random_range(-5.0..5.0),
+                rng.random_range(-5.0..5.0),
+                rng.random_range(-5.0..5.0),
+            );
+            let e = if i % 11 == 10 {
+                Vec3::ZERO
+            } else {
+                Vec3::new(rng.random(), rng.random(), rng.random()) * 5.0
+            };
+            if i % 4 == 0 {
+                let d = Vec3::new(rng.random(), rng.random(), rng.random()) * 0.5;
+                LightPrim::triangle(
+                    c,
+                    c + Vec3::new(d.x, 0.0, 0.0),
+                    c + Vec3::new(0.0, d.y, d.z),
+                    e,
+                )
+            } else {
+                LightPrim::point(c, e)
+            }
+        })
+        .collect()
+}
+
+fn unit(rng: &mut StdRng) -> Vec3 {
+    loop {
+        let v = Vec3::new(rng.random(), rng.random(), rng.random()) * 2.0 - Vec3::ONE;
+        if v.length() > 0.1 && v.length() <= 1.0 {
+            return v.normalize();
+        }
+    }
+}
+
+/// Block representatives, queries near them (a block's pixels), and the
+/// CPU cut of every block.
+struct Setup {
+    prims: Vec<LightPrim>,
+    reps: Vec<Shading>,
+    queries: Vec<Query>,
+}
+
+fn setup(seed: u64, n: usize) -> Setup {
+    let mut rng = StdRng::seed_from_u64(seed);
+    let prims = scene(&mut rng, n);
+    let reps: Vec<_> = (0..BLOCKS)
+        .map(|b| Shading {
+            p: Vec3::new(
+                rng.random_range(-6.0..6.0),
+                rng.random_range(-6.0..6.0),
+                rng.random_range(-6.0..6.0),
+            ),
+            // A few blocks without a normal.
+            n: if b % 16 == 5 {
+                Vec3::ZERO
+            } else {
+                unit(&mut rng)
+            },
+        })
+        .collect();
+    let queries = (0..QUERIES)
+        .map(|i| {
+            let b = i as u32 % BLOCKS;
+            let rep = reps[b as usize];
+            let mut p = rep.p + (Vec3::new(rng.random(), rng.random(), rng.random()) - 0.5) * 0.4;
+            if i % 97 == 0 {
+                p = Vec3::from(prims[i % n].p0); // exactly on a light
+            }
+            let nrm = if rep.n == Vec3::ZERO {
+                Vec3::ZERO
+            } else {
+                (rep.n + unit(&mut rng) * 0.2).normalize()
+            };
+            Query {
+                p: p.into(),
+                u: rng.random(),
+                n: nrm.into(),
+                cut_base: b * CUT_SIZE,
+                probe: rng.random_range(0..n as u32),
+                _pad: [0; 3],
+            }
+        })
+        .collect();
+    Setup {
+        prims,
+        reps,
+        queries,
+    }
+}
+
+struct Harness {
+    layout0: wgpu::BindGroupLayout,
+    layout1: wgpu::BindGroupLayout,
+    sample: wgpu::ComputePipeline,
+    cut: wgpu::ComputePipeline,
+}
+
+impl Harness {
+    fn new(gpu: &Gpu) -> Harness {
+        let layout0 = gpu
+            .device
+            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("test.lights.layout0"),
+                entries: &[
+                    storage_entry(0, true),
+                    storage_entry(1, false),
+                    storage_entry(2, true),
+                    storage_entry(3, false),
+                ],
+            });
+        let layout1 = gpu
+            .device
+            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("test.lights.layout1"),
+                entries: &GpuSamplerData::layout_entries(),
+            });
+        let source: Wgsl = GpuSamplerData::wgsl().part(("tests/lights_gpu_sampler.rs", KERNEL));
+        let sample = gpu
+            .compute_pipeline(
+                "test.lights.sample",
+                &source,
+                "sample_main",
+                &[&layout0, &layout1],
+            )
+            .unwrap();
+        let cut = gpu
+            .compute_pipeline(
+                "test.lights.cut",
+                &source,
+                "cut_main",
+                &[&layout0, &layout1],
+            )
+            .unwrap();
+        Harness {
+            layout0,
+            layout1,
+            sample,
+            cut,
+        }
+    }
+
+    /// Runs both kernels; returns the answers and, per block, the GPU cut.
+    fn run(&self, gpu: &Gpu, data: &GpuSamplerData, s: &Setup) -> (Vec<Answer>, Vec<Vec<u32>>) {
+        gpu.scoped("light sampler test", || {
+            let queries = gpu.buffer_from("test.lights.queries", &s.queries, STORAGE)?;
+            let answers = gpu.buffer_zeroed(
+                "test.lights.answers",
+                (QUERIES * size_of::<Answer>()) as u64,
+                STORAGE,
+            )?;
+            let reps: Vec<Rep> = s
+                .reps
+                .iter()
+                .map(|r| Rep {
+                    p: r.p.into(),
+                    n: r.n.into(),
+                    ..Default::default()
+                })
+                .collect();
+            let reps = gpu.buffer_from("test.lights.reps", &reps, STORAGE)?;
+            let cut_words = (BLOCKS * (MAX_CUT + 1)) as usize;
+            let cuts = gpu.buffer_zeroed("test.lights.cuts", 4 * cut_words as u64, STORAGE)?;
+            let bind0 = mdas::gpu::shader::bind_buffers(
+                gpu,
+                "test.lights.bind0",
+                &self.layout0,
+                &[&queries, &answers, &reps, &cuts],
+            );
+            let bind1 = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("test.lights.bind1"),
+                layout: &self.layout1,
+                entries: &data.bind_group_entries(),
+            });
+            let mut enc = gpu.device.create_command_encoder(&Default::default());
+            {
+                let mut pass = enc.begin_compute_pass(&Default::default());
+                pass.set_bind_group(0, &bind0, &[]);
+                pass.set_bind_group(1, &bind1, &[]);
+                pass.set_pipeline(&self.sample);
+                pass.dispatch_workgroups((QUERIES as u32).div_ceil(64), 1, 1);
+                pass.set_pipeline(&self.cut);
+                pass.dispatch_workgroups(BLOCKS.div_ceil(64), 1, 1);
+            }
+            gpu.queue.submit([enc.finish()]);
+            let answers = gpu.read_buffer::<Answer>(&answers, QUERIES)?;
+            let words = gpu.read_buffer::<u32>(&cuts, cut_words)?;
+            let cuts = words
+                .chunks(MAX_CUT as usize + 1)
+                .map(|c| c[..c[MAX_CUT as usize] as usize].to_vec())
+                .collect();
+            Ok((answers, cuts))
+        })
+        .unwrap()
+    }
+}
+
+fn shading(q: &Query) -> Shading {
+    Shading {
+        p: Vec3::from(q.p),
+        n: Vec3::from(q.n),
+    }
+}
+
+/// Compares GPU answers with the CPU samplers (one per block).
+fn compare<'a>(
+    name: &str,
+    answers: &[Answer],
+    s: &Setup,
+    cpu: &dyn Fn(u32) -> &'a dyn LightSampler,
+) {
+    let (mut boundary, mut picks) = (0, 0);
+    for (i, (q, a)) in s.queries.iter().zip(answers).enumerate() {
+        let sampler = cpu(i as u32 % BLOCKS);
+        let sh = shading(q);
+        let want = sampler.sample(&sh, q.u);
+        let got_light = (a.light != NO_LIGHT).then_some(a.light);
+        picks += got_light.is_some() as u32;
+        if want.map(|w| w.light) != got_light {
+            // A boundary case if the CPU reaches the GPU's pick within ±64 ulp.
+            let near = (-64i32..=64).any(|k| {
+                let u = f32::from_bits((q.u.to_bits() as i32 + k).max(0) as u32);
+                u < 1.0 && sampler.sample(&sh, u).map(|w| w.light) == got_light
+            });
+            assert!(
+                near,
+                "{name}: query {i} (u = {}) CPU picks {want:?}, GPU {got_light:?}",
+                q.u
+            );
+            boundary += 1;
+        } else if let Some(w) = want {
+            let g = pmf_value(a.pmf_m, a.pmf_e);
+            assert!(
+                rel_diff(w.pmf, g) < 1e-5,
+                "{name}: query {i}: light {} pmf CPU {} GPU {g}",
+                w.light,
+                w.pmf
+            );
+        }
+        if let Some(l) = got_light {
+            // The GPU's own sample pmf and pmf query agree.
+            let (g, p) = (
+                pmf_value(a.pmf_m, a.pmf_e),
+                pmf_value(a.sampled_m, a.sampled_e),
+            );
+            assert!(
+                rel_diff(g, p) < 1e-6,
+                "{name}: query {i}: light {l}: {g} vs {p}"
+            );
+            assert!(g > 0.0, "{name}: query {i}: GPU pmf 0");
+        }
+        let want_probe = sampler.pmf(&sh, q.probe);
+        let got_probe = pmf_value(a.probe_m, a.probe_e);
+        assert!(
+            rel_diff(want_probe, got_probe) < 1e-5,
+            "{name}: query {i}: pmf of light {}: CPU {want_probe} GPU {got_probe}",
+            q.probe
+        );
+    }
+    eprintln!("{name}: {picks} picks, {boundary} boundary cases of {QUERIES}");
+    assert!(
+        picks > QUERIES as u32 / 4,
+        "{name}: too few picks to test anything"
+    );
+    assert!(
+        boundary * 200 <= QUERIES,
+        "{name}: {boundary} boundary cases"
+    );
+}
+
+fn cut_layout() -> CutLayout {
+    CutLayout {
+        cut_size: CUT_SIZE,
+        block_size: 8,
+        blocks_per_row: BLOCKS,
+        block_rows: 1,
+    }
+}
+
+/// Uploads the CPU cuts of every block; returns them.
+fn upload_cpu_cuts<T: mdas::lights::cut::LightTree>(
+    gpu: &Gpu,
+    data: &GpuSamplerData,
+    tree: &T,
+    s: &Setup,
+) -> Vec<Vec<u32>> {
+    let cuts: Vec<_> = s
+        .reps
+        .iter()
+        .map(|r| select_cut(tree, r, CUT_SIZE))
+        .collect();
+    let mut flat = vec![NO_LIGHT; (BLOCKS * CUT_SIZE) as usize];
+    for (b, c) in cuts.iter().enumerate() {
+        flat[b * CUT_SIZE as usize..][..c.len()].copy_from_slice(c);
+    }
+    data.write_cuts(gpu, &flat).unwrap();
+    cuts
+}
+
+/// GPU cuts equal the CPU's except where near-equal keys may order
+/// differently: at most 2 blocks of 64.
+fn compare_cuts(name: &str, gpu_cuts: &[Vec<u32>], cpu_cuts: &[Vec<u32>]) {
+    let differ = gpu_cuts
+        .iter()
+        .zip(cpu_cuts)
+        .filter(|(g, c)| g != c)
+        .count();
+    eprintln!("{name}: {differ} of {BLOCKS} GPU cuts differ from the CPU's");
+    assert!(differ <= 2, "{name}: {differ} cuts differ");
+}
+
+#[test]
+fn gpu_samplers_match_the_cpu() {
+    let gpu = common::gpu();
+    let h = Harness::new(gpu);
+    for (seed, n) in [(1u64, 1usize), (2, 5), (3, 300)] {
+        let s = setup(seed, n);
+        let tree = perfect::build(&s.prims).unwrap();
+        let bvh = bvh::build(&s.prims).unwrap();
+        for kind in SamplerKind::ALL {
+            let name = format!("{kind} ({n} lights)");
+            let source = if kind.uses_bvh() {
+                Some(TreeSource::Bvh(&bvh))
+            } else if kind.uses_perfect_tree() {
+                Some(TreeSource::Perfect(&tree))
+            } else {
+                None
+            };
+            let data = GpuSamplerData::new(gpu, kind, &s.prims, source, cut_layout()).unwrap();
+            // CPU samplers per block.
+            let samplers: Vec<Box<dyn LightSampler>> = match kind {
+                SamplerKind::Uniform => vec![Box::new(UniformSampler { count: n as u32 })],
+                SamplerKind::Power => vec![Box::new(PowerSampler::new(&s.prims))],
+                SamplerKind::TreeNoCut => vec![Box::new(TreeSampler::new(tree.clone()))],
+                SamplerKind::UnbalancedNoCut => vec![Box::new(TreeSampler::new(bvh.clone()))],
+                SamplerKind::Tree => upload_cpu_cuts(gpu, &data, &tree, &s)
+                    .into_iter()
+                    .map(|c| {
+                        Box::new(TreeSampler::with_cut(tree.clone(), c)) as Box<dyn LightSampler>
+                    })
+                    .collect(),
+                SamplerKind::Unbalanced => upload_cpu_cuts(gpu, &data, &bvh, &s)
+                    .into_iter()
+                    .map(|c| {
+                        Box::new(TreeSampler::with_cut(bvh.clone(), c)) as Box<dyn LightSampler>
+                    })
+                    .collect(),
+            };
+            let (answers, gpu_cuts) = h.run(gpu, &data, &s);
+            let cpu =
+                |b: u32| -> &dyn LightSampler { samplers[b as usize % samplers.len()].as_ref() };
+            compare(&name, &answers, &s, &cpu);
+            match kind {
+                SamplerKind::Tree => {
+                    let want: Vec<_> = s
+                        .reps
+                        .iter()
+                        .map(|r| select_cut(&tree, r, CUT_SIZE))
+                        .collect();
+                    compare_cuts(&name, &gpu_cuts, &want);
+                }
+                SamplerKind::Unbalanced => {
+                    let want: Vec<_> = s
+                        .reps
+                        .iter()
+                        .map(|r| select_cut(&bvh, r, CUT_SIZE))
+                        .collect();
+                    compare_cuts(&name, &gpu_cuts, &want);
+                }
+                SamplerKind::TreeNoCut | SamplerKind::UnbalancedNoCut => {
+                    assert!(gpu_cuts.iter().all(|c| c == &[0]), "{name}: {gpu_cuts:?}");
+                }
+                _ => assert!(gpu_cuts.iter().all(|c| c.is_empty()), "{name}"),
+            }
+        }
+    }
+}
+
+#[test]
+fn gpu_built_tree_samples_like_the_cpu_tree() {
+    let gpu = common::gpu();
+    let h = Harness::new(gpu);
+    let s = setup(4, 1000);
+    let n = s.prims.len() as u32;
+    let mut built = GpuLightTree::new(gpu, n).unwrap();
+    let prims = gpu
+        .buffer_from("test.lights.prims", &s.prims, STORAGE)
+        .unwrap();
+    built
+        .build(gpu, &prims, n, &mut Profiler::new(gpu))
+        .unwrap();
+    let tree = perfect::build(&s.prims).unwrap();
+    for kind in [SamplerKind::TreeNoCut, SamplerKind::Tree] {
+        let source = TreeSource::PerfectGpu {
+            nodes: &built.nodes,
+            leaf_of_light: &built.leaf_of_light,
+        };
+        let data = GpuSamplerData::new(gpu, kind, &s.prims, Some(source), cut_layout()).unwrap();
+        let samplers: Vec<TreeSampler> = if kind.uses_cut() {
+            upload_cpu_cuts(gpu, &data, &tree, &s)
+                .into_iter()
+                .map(|c| TreeSampler::with_cut(tree.clone(), c))
+                .collect()
+        } else {
+            vec![TreeSampler::new(tree.clone())]
+        };
+        let (answers, _) = h.run(gpu, &data, &s);
+        let cpu = |b: u32| -> &dyn LightSampler { &samplers[b as usize % samplers.len()] };
+        compare(&format!("{kind} on the GPU-built tree"), &answers, &s, &cpu);
+    }
+}
+
+#[test]
+fn zero_lights_sample_nothing_on_the_gpu() {
+    let gpu = common::gpu();
+    let h = Harness::new(gpu);
+    let mut s = setup(5, 1);
+    s.prims.clear();
+    for q in &mut s.queries {
+        q.probe = 0;
+    }
+    for kind in SamplerKind::ALL {
+        let data = GpuSamplerData::new(gpu, kind, &[], None, cut_layout()).unwrap();
+        let (answers, cuts) = h.run(gpu, &data, &s);
+        assert!(
+            answers
+                .iter()
+                .all(|a| a.light == NO_LIGHT && a.probe_m == 0.0),
+            "{kind}"
+        );
+        assert!(cuts.iter().all(|c| c.is_empty()), "{kind}");
+    }
+}
