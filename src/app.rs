@@ -6,7 +6,7 @@ use crate::accel::GpuScene;
 use crate::gpu::Gpu;
 use crate::image_io;
 use crate::integrand::{
-    AmbientOcclusion, AreaLight, DepthOfField, Integrand, MotionBlur, PathTracing,
+    AmbientOcclusion, AreaLight, DepthOfField, Integrand, ManyLight, MotionBlur, PathTracing,
 };
 use crate::integrator::{Halton, Integrator, Render};
 use crate::scene::{Film, IntegrandSpec, MdasParams, Scene};
@@ -44,17 +44,19 @@ pub fn mdas_params_at_scale(params: MdasParams, scale: f32) -> MdasParams {
 /// Builds the scene's GPU representation and its integrand over `film`.
 pub fn integrand_for(gpu: &Gpu, scene: &Scene, film: Film) -> Result<Box<dyn Integrand>> {
     let gpu_scene = Arc::new(GpuScene::new(gpu, scene, film)?);
-    Ok(match scene.integrand {
+    Ok(match &scene.integrand {
         IntegrandSpec::AreaLight => Box::new(AreaLight::new(gpu_scene, film)),
         IntegrandSpec::DepthOfField => Box::new(DepthOfField::new(gpu_scene, film)),
         IntegrandSpec::MotionBlur => Box::new(MotionBlur::new(gpu_scene, film)),
         IntegrandSpec::PathTracing { max_bounces } => {
-            Box::new(PathTracing::new(gpu_scene, film, max_bounces)?)
+            Box::new(PathTracing::new(gpu_scene, film, *max_bounces)?)
         }
         IntegrandSpec::AmbientOcclusion { radius } => {
-            Box::new(AmbientOcclusion::new(gpu_scene, film, radius)?)
+            Box::new(AmbientOcclusion::new(gpu_scene, film, *radius)?)
         }
-        IntegrandSpec::ManyLight(_) => anyhow::bail!("many_light integrand: not implemented yet"),
+        IntegrandSpec::ManyLight(spec) => {
+            Box::new(ManyLight::new(gpu, scene, gpu_scene, film, spec)?)
+        }
     })
 }
 

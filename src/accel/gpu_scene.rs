@@ -43,6 +43,10 @@ pub struct GpuScene {
     pub stats: SceneStats,
     /// Host copy of the uniform buffer's contents.
     pub uniforms: SceneUniforms,
+    /// The buffers of bindings 0–7, for integrands that extend `@group(1)`
+    /// with their own bindings ([`GpuScene::layout_entries`],
+    /// [`GpuScene::bind_group_entries`]).
+    buffers: [wgpu::Buffer; 8],
 }
 
 impl GpuScene {
@@ -133,14 +137,34 @@ impl GpuScene {
                 bind_group,
                 stats,
                 uniforms,
+                buffers,
             })
         })
     }
 
-    /// The layout of `@group(1)`: binding 0 uniform, 1–7 read-only storage.
-    pub fn bind_group_layout(gpu: &Gpu) -> wgpu::BindGroupLayout {
+    /// The entries of the scene's `@group(1)` layout: binding 0 uniform,
+    /// 1–7 read-only storage.
+    pub fn layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
         let mut entries = vec![uniform_entry(0)];
         entries.extend((1..=7).map(|b| storage_entry(b, true)));
+        entries
+    }
+
+    /// Bind group entries matching [`GpuScene::layout_entries`].
+    pub fn bind_group_entries(&self) -> Vec<wgpu::BindGroupEntry<'_>> {
+        self.buffers
+            .iter()
+            .enumerate()
+            .map(|(i, b)| wgpu::BindGroupEntry {
+                binding: i as u32,
+                resource: b.as_entire_binding(),
+            })
+            .collect()
+    }
+
+    /// The layout of `@group(1)`: binding 0 uniform, 1–7 read-only storage.
+    pub fn bind_group_layout(gpu: &Gpu) -> wgpu::BindGroupLayout {
+        let entries = Self::layout_entries();
         gpu.device
             .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                 label: Some("mdas.scene"),

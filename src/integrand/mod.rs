@@ -26,6 +26,7 @@
 //! | [`motion_blur`]         | `motion_blur`        | 3            | shutter time (1) |
 //! | [`path`]                | `path`               | 2+2m / 4+4m  | per vertex: [area NEE (2)], bounce (2) |
 //! | [`ambient_occlusion`]   | `ambient_occlusion`  | 4            | hemisphere direction (2) |
+//! | [`many_light`]          | `many_light`         | 3 / 5        | light selection (1), [point on an emissive triangle (2)] |
 //!
 //! The scene integrands share `wgsl/shared/shading.wgsl` (surface records,
 //! ray offsets, delta-light and area-light direct lighting).
@@ -33,6 +34,7 @@
 pub mod ambient_occlusion;
 pub mod area_light;
 pub mod depth_of_field;
+pub mod many_light;
 pub mod motion_blur;
 pub mod path;
 
@@ -44,6 +46,7 @@ use crate::wgsl_file;
 pub use ambient_occlusion::AmbientOcclusion;
 pub use area_light::AreaLight;
 pub use depth_of_field::DepthOfField;
+pub use many_light::ManyLight;
 pub use motion_blur::MotionBlur;
 pub use path::PathTracing;
 

@@ -1,0 +1,267 @@
+//! Many-light direct lighting: one light sample per evaluation, chosen by
+//! a many-light sampler ([`crate::lights`]; real-time stochastic lightcuts
+//! and its baselines).
+//!
+//! Dimensions: 0–1 film point (raster units); 2 selects the light through
+//! the sampler (`light_sample`, so MDAS adapts over the selection too);
+//! 3–4, present only when the scene has emissive triangles, are a uniform
+//! point on the selected triangle. The estimator is
+//! L_e(x) + ρ(x)/π · C(y) · cosθ_x · V(x, y) / pmf(light), with
+//! C = I/d² for a point light and C = L_e·cosθ_y·area/d² for a triangle
+//! (one-sided: 0 behind it). The camera ray is a pinhole ray at the frame
+//! time `time` of the `[integrand]` table; shading normals face the
+//! viewer (two-sided reflection) and are what the sampler bounds use.
+//!
+//! # One frame
+//!
+//! [`ManyLight::new`] sets up one frame: the light primitives at the frame
+//! time ([`crate::lights::scene_lights::light_prims`]) are uploaded; the
+//! tree kinds build their perfect light tree **on the GPU**
+//! ([`GpuLightTree`]), the `unbalanced` kinds build their BVH on the CPU,
+//! `power` its alias table. Kinds with cuts (`tree`, `unbalanced`) then run
+//! the cut-sharing pre-pass (paper §3.3): one invocation per k×k pixel
+//! block picks a representative pixel at random (a hash of the block and
+//! the frame number), traces its primary ray through the pixel centre and
+//! stores `select_cut` of that shading point; every sample in the block
+//! samples through that cut. A representative ray that hits nothing keeps
+//! the cut [root]. The set-up times are in [`ManyLight::setup_times`];
+//! integrators time only the evaluation.
+//!
+//! Interleaved sampling (paper §3.4) is not implemented: it is biased per
+//! pixel and relies on a denoiser.
+
+use super::{scene_wgsl, Integrand};
+use crate::accel::GpuScene;
+use crate::gpu::buffer::STORAGE;
+use crate::gpu::profiler::PhaseTimes;
+use crate::gpu::shader::{storage_entry, Wgsl};
+use crate::gpu::{Gpu, Profiler};
+use crate::lights::gpu_build::GpuLightTree;
+use crate::lights::gpu_sampler::{CutLayout, GpuSamplerData, TreeSource, FIRST_BINDING};
+use crate::lights::sampler::SamplerKind;
+use crate::lights::scene_lights::light_prims;
+use crate::lights::{LightPrim, KIND_TRIANGLE};
+use crate::scene::{Film, ManyLightSpec, Scene};
+use crate::wgsl_file;
+use anyhow::{Context, Result};
+use std::sync::Arc;
+
+/// Workgroup size of the cut pre-pass.
+const CUT_WG: u32 = 64;
+
+pub struct ManyLight {
+    scene: Arc<GpuScene>,
+    film: Film,
+    spec: ManyLightSpec,
+    kind: SamplerKind,
+    light_count: u32,
+    triangles: bool,
+    sampler: GpuSamplerData,
+    layout: wgpu::BindGroupLayout,
+    bind_group: wgpu::BindGroup,
+    setup: PhaseTimes,
+    /// Keeps the GPU-built tree's buffers alive (bound in `bind_group`).
+    _tree: Option<GpuLightTree>,
+}
+
+impl ManyLight {
+    /// Sets up one frame of `scene` (its `[integrand]` table is `spec`) for
+    /// rendering over `film`; `gpu_scene` must be the same scene's upload
+    /// for the same film. The sampler is `spec.sampler`.
+    pub fn new(
+        gpu: &Gpu,
+        scene: &Scene,
+        gpu_scene: Arc<GpuScene>,
+        film: Film,
+        spec: &ManyLightSpec,
+    ) -> Result<ManyLight> {
+        let kind: SamplerKind = spec.sampler.parse().map_err(anyhow::Error::msg)?;
+        let prims = light_prims(scene, spec.time);
+        let n = u32::try_from(prims.len()).context("more than 2^32 lights")?;
+        let triangles = prims.iter().any(|l| l.kind == KIND_TRIANGLE);
+        let cuts = CutLayout::for_film(film.width, film.height, spec.block, spec.cut_size);
+        let mut profiler = Profiler::new(gpu);
+        let mut cpu_build_ms = None;
+
+        let (sampler, tree) = gpu.scoped("many_light set-up", || {
+            let mut tree = None;
+            let sampler = if kind.uses_perfect_tree() && n > 0 {
+                let mut t = GpuLightTree::new(gpu, n)?;
+                let buffer = gpu.buffer_from(
+                    "many_light.prims",
+                    bytemuck::cast_slice::<LightPrim, u8>(&prims),
+                    STORAGE,
+                )?;
+                t.build(gpu, &buffer, n, &mut profiler)?;
+                let s = GpuSamplerData::new(
+                    gpu,
+                    kind,
+                    &prims,
+                    Some(TreeSource::PerfectGpu {
+                        nodes: &t.nodes,
+                        leaf_of_light: &t.leaf_of_light,
+                    }),
+                    cuts,
+                )?;
+                tree = Some(t);
+                s
+            } else {
+                // CPU-built structures (BVH, alias table) are part of the
+                // set-up time, measured on the wall clock.
+                let start = std::time::Instant::now();
+                let s = GpuSamplerData::new(gpu, kind, &prims, None, cuts)?;
+                cpu_build_ms = Some(start.elapsed().as_secs_f64() * 1e3);
+                s
+            };
+            Ok((sampler, tree))
+        })?;
+
+        let mut entries = GpuScene::layout_entries();
+        entries.extend(GpuSamplerData::layout_entries());
+        let layout = gpu
+            .device
+            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("many_light.group1"),
+                entries: &entries,
+            });
+        let bind_group = {
+            let mut e = gpu_scene.bind_group_entries();
+            e.extend(sampler.bind_group_entries());
+            gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("many_light.group1"),
+                layout: &layout,
+                entries: &e,
+            })
+        };
+
+        let this = ManyLight {
+            scene: gpu_scene,
+            film,
+            spec: spec.clone(),
+            kind,
+            light_count: n,
+            triangles,
+            sampler,
+            layout,
+            bind_group,
+            setup: PhaseTimes::default(),
+            _tree: tree,
+        };
+        if kind.uses_cut() && n > 0 {
+            this.select_cuts(gpu, cuts, &mut profiler)?;
+        }
+        let mut setup = profiler.finish()?;
+        if let Some(ms) = cpu_build_ms {
+            setup.add("many_light.cpu_build", ms);
+        }
+        Ok(ManyLight { setup, ..this })
+    }
+
+    /// The cut-sharing pre-pass: fills the cut buffer, one cut per block.
+    fn select_cuts(&self, gpu: &Gpu, cuts: CutLayout, profiler: &mut Profiler) -> Result<()> {
+        gpu.scoped("many_light cut selection", || {
+            // Group 1 as for sampling, except that the cut buffer (written
+            // here through group 0) is replaced by a dummy at its binding.
+            let dummy = gpu.buffer_zeroed("many_light.cuts.dummy", 4, STORAGE)?;
+            let cut_binding = FIRST_BINDING + 4;
+            let mut e = self.scene.bind_group_entries();
+            e.extend(self.sampler.bind_group_entries().into_iter().map(|mut x| {
+                if x.binding == cut_binding {
+                    x.resource = dummy.as_entire_binding();
+                }
+                x
+            }));
+            let group1 = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("many_light.cuts.group1"),
+                layout: &self.layout,
+                entries: &e,
+            });
+            let layout0 = gpu
+                .device
+                .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                    label: Some("many_light.cuts.group0"),
+                    entries: &[storage_entry(0, false)],
+                });
+            let group0 = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("many_light.cuts.group0"),
+                layout: &layout0,
+                entries: &[wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: self.sampler.cuts.as_entire_binding(),
+                }],
+            });
+            let source = self
+                .wgsl()
+                .constant("CUT_WG", CUT_WG)
+                .constant("CUT_BLOCKS", cuts.blocks())
+                .part(wgsl_file!("shared/rng.wgsl"))
+                .part(wgsl_file!("many_light_cuts.wgsl"));
+            let pipeline = gpu.compute_pipeline(
+                "many_light.cuts",
+                &source,
+                "select_cuts",
+                &[&layout0, &self.layout],
+            )?;
+            let (gx, gy) = gpu.dispatch_dims(cuts.blocks().div_ceil(CUT_WG));
+            profiler.phase("many_light.cuts", |encoder, timestamps| {
+                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("many_light.cuts"),
+                    timestamp_writes: timestamps,
+                });
+                pass.set_pipeline(&pipeline);
+                pass.set_bind_group(0, &group0, &[]);
+                pass.set_bind_group(1, &group1, &[]);
+                pass.dispatch_workgroups(gx, gy, 1);
+            })
+        })
+    }
+
+    pub fn sampler(&self) -> SamplerKind {
+        self.kind
+    }
+
+    pub fn light_count(&self) -> u32 {
+        self.light_count
+    }
+
+    /// GPU (or wall-clock) times of the frame's set-up: the light tree's
+    /// build phases (`light_tree.*`), CPU builds and the cut pre-pass.
+    pub fn setup_times(&self) -> &PhaseTimes {
+        &self.setup
+    }
+}
+
+impl Integrand for ManyLight {
+    fn name(&self) -> &'static str {
+        "many_light"
+    }
+
+    fn dims(&self) -> u32 {
+        if self.triangles {
+            5
+        } else {
+            3
+        }
+    }
+
+    fn film(&self) -> Film {
+        self.film
+    }
+
+    fn wgsl(&self) -> Wgsl {
+        scene_wgsl()
+            .include(&GpuSamplerData::wgsl())
+            .constant("ML_TIME_BITS", self.spec.time.to_bits())
+            .constant("ML_FRAME", self.spec.frame)
+            .constant("ML_TRIANGLES", self.triangles as u32)
+            .part(wgsl_file!("many_light.wgsl"))
+    }
+
+    fn layout(&self) -> &wgpu::BindGroupLayout {
+        &self.layout
+    }
+
+    fn bind_group(&self) -> &wgpu::BindGroup {
+        &self.bind_group
+    }
+}

@@ -1,0 +1,81 @@
+// Many-light direct lighting (src/integrand/many_light.rs): dims 0–1 film
+// point, u[0] light selection through the sampler (lights/sample.wgsl),
+// u[1..3] a uniform point on a selected emissive triangle (only when
+// ML_TRIANGLES = 1). One shadow ray; the estimate is
+//   L_e(x) + ρ(x)/π · C(y) · cosθ_x · V(x, y) / pmf(light),
+// C = I/d² (point) or L_e·cosθ_y·area/d² (one-sided triangle).
+// Constants from Rust: ML_TIME_BITS (frame time, f32 bits), ML_FRAME,
+// ML_TRIANGLES.
+
+fn ml_time() -> f32 {
+    return bitcast<f32>(ML_TIME_BITS);
+}
+
+// The film pixel holding film point `film`, clamped to the film.
+fn ml_pixel(film: vec2<f32>) -> vec2<u32> {
+    let size = vec2<u32>(scene.film_size);
+    let px = vec2<u32>(max(floor(film), vec2<f32>(0.0)));
+    return min(px, size - vec2<u32>(1u));
+}
+
+// Radiance reflected at s from the light picked with u (one shadow ray).
+fn ml_direct(s: Surface, px: vec2<u32>, u: vec3<f32>, time: f32) -> vec3<f32> {
+    if (all(s.rho == vec3<f32>(0.0))) {
+        return vec3<f32>(0.0);
+    }
+    let pick = light_sample(s.x, s.n, light_cut_base(px), u.x);
+    if (pick.light == NO_LIGHT || !(pick.pmf_m > 0.0)) {
+        return vec3<f32>(0.0);
+    }
+    let l = light_prims[pick.light];
+    let origin = offset_origin(s.x, s.n);
+    var y = l.p0;
+    var area = 0.0;
+    var ng = vec3<f32>(0.0);
+    if (l.kind == KIND_TRIANGLE) {
+        let b = sample_uniform_triangle(u.yz);
+        y = l.p0 * b.x + l.p1 * b.y + l.p2 * (1.0 - b.x - b.y);
+        let c = cross(l.p1 - l.p0, l.p2 - l.p0);
+        area = 0.5 * length(c);
+        ng = normalize(c);
+    }
+    let to_light = y - origin;
+    let dist2 = dot(to_light, to_light);
+    if (!(dist2 > 0.0)) {
+        return vec3<f32>(0.0);
+    }
+    let dist = sqrt(dist2);
+    let wi = to_light / dist;
+    let cos_x = dot(s.n, wi);
+    if (cos_x <= 0.0) {
+        return vec3<f32>(0.0);
+    }
+    var c = l.emission * (cos_x / dist2);
+    if (l.kind == KIND_TRIANGLE) {
+        let cos_y = -dot(ng, wi);
+        if (cos_y <= 0.0 || !(area > 0.0)) {
+            return vec3<f32>(0.0);
+        }
+        c *= cos_y * area;
+    }
+    if (scene_occluded(origin, wi, dist * (1.0 - RAY_EPSILON), time)) {
+        return vec3<f32>(0.0);
+    }
+    // c / pmf with pmf = m·2^e: divide by the mantissa, then scale.
+    return s.rho * INV_PI * ldexp(c / pick.pmf_m, vec3<i32>(-pick.pmf_e));
+}
+
+fn integrand(p: ptr<function, IntegrandPoint>) -> vec3<f32> {
+    let time = ml_time();
+    let ray = camera_ray((*p).film, vec2<f32>(0.5));
+    let hit = scene_closest(ray.origin, ray.dir, RAY_T_MAX, time);
+    if (hit.prim == BVH_MISS) {
+        return scene.background;
+    }
+    let s = surface_at(hit, ray.dir, time);
+    var u = vec3<f32>((*p).u[0], 0.5, 0.5);
+    if (ML_TRIANGLES == 1u) {
+        u = vec3<f32>((*p).u[0], (*p).u[1], (*p).u[2]);
+    }
+    return s.emitted + ml_direct(s, ml_pixel((*p).film), u, time);
+}
