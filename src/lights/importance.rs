@@ -57,11 +57,9 @@ pub fn node_importance(node: &TreeNode, s: &Shading) -> NodeImportance {
     let x = s.p.to_array();
     let mut dmin2 = 0.0f32;
     let mut dmax2 = 0.0f32;
-    for a in 0..3 {
-        let lo = node.min[a] - x[a];
-        let hi = x[a] - node.max[a];
-        let dmin = lo.max(0.0).max(hi);
-        let dmax = (x[a] - node.min[a]).abs().max((x[a] - node.max[a]).abs());
+    for ((x, lo), hi) in x.iter().zip(node.min).zip(node.max) {
+        let dmin = (lo - x).max(0.0).max(x - hi);
+        let dmax = (x - lo).abs().max((x - hi).abs());
         dmin2 += dmin * dmin;
         dmax2 += dmax * dmax;
     }
@@ -273,8 +271,8 @@ mod tests {
         assert_eq!(p_left(&inside, &a), Some(0.75));
         let (left, p, u) = choose_child(0.25, 0.5);
         assert_eq!((left, p, u), (false, 0.75, 1.0 / 3.0));
-        assert_eq!(choose_child(1.0, ONE_MINUS_EPSILON).0, true);
-        assert_eq!(choose_child(0.0, 0.0).0, false);
+        assert!(choose_child(1.0, ONE_MINUS_EPSILON).0);
+        assert!(!choose_child(0.0, 0.0).0);
     }
 
     #[test]
