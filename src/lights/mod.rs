@@ -5,7 +5,7 @@
 //! # Data (shared by the CPU code, the GPU build and the WGSL samplers)
 //!
 //! * [`LightPrim`] — one light primitive (point light or emissive
-//!   triangle), 48 bytes, at one frame time.
+//!   triangle), 64 bytes, at one frame time.
 //! * [`TreeNode`] — one node of a light tree, 32 bytes: bounds, the total
 //!   scalar intensity below it and, for a leaf, the light id.
 //!
