@@ -20,7 +20,7 @@ use std::time::Duration;
 
 fn lights(n: usize) -> Vec<LightPrim> {
     let mut rng = StdRng::seed_from_u64(n as u64);
-    let mut v = |rng: &mut StdRng, r: f32| {
+    let v = |rng: &mut StdRng, r: f32| {
         Vec3::new(
             rng.random_range(-r..r),
             rng.random_range(-r..r),

@@ -122,7 +122,7 @@ use mdas::lights::{morton, perfect, LightPrim, TreeNode};
 /// `n` lights in `[-s, s]^3`: points and triangles (edges up to `s/10`)
 /// alternating at random, with RGB emission in `[0, 4)`.
 fn random_lights(rng: &mut StdRng, n: usize, s: f32) -> Vec<LightPrim> {
-    let mut v = |rng: &mut StdRng, r: f32| {
+    let v = |rng: &mut StdRng, r: f32| {
         Vec3::new(
             rng.random_range(-r..r),
             rng.random_range(-r..r),
@@ -396,7 +396,7 @@ fn per_light_arithmetic_is_exact() {
     // products and areas (products that a driver could fuse into fmas).
     for _ in 0..50_000 {
         let s = 2f32.powi(rng.random_range(-20..20));
-        let mut v = |rng: &mut StdRng| {
+        let v = |rng: &mut StdRng| {
             Vec3::new(
                 rng.random_range(-s..s),
                 rng.random_range(-s..s),
