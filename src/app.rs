@@ -9,6 +9,7 @@ use crate::integrand::{
     AmbientOcclusion, AreaLight, DepthOfField, Integrand, ManyLight, MotionBlur, PathTracing,
 };
 use crate::integrator::{Halton, Integrator, Render};
+use crate::lights::sampler::SamplerKind;
 use crate::scene::{Film, IntegrandSpec, MdasParams, Scene};
 use anyhow::{bail, Context, Result};
 use sha2::{Digest, Sha256};
@@ -44,6 +45,18 @@ pub fn mdas_params_at_scale(params: MdasParams, scale: f32) -> MdasParams {
 /// Builds the scene's GPU representation and its integrand over `film`.
 pub fn integrand_for(gpu: &Gpu, scene: &Scene, film: Film) -> Result<Box<dyn Integrand>> {
     let gpu_scene = Arc::new(GpuScene::new(gpu, scene, film)?);
+    integrand_on(gpu, scene, gpu_scene, film)
+}
+
+/// The integrand of `scene.integrand` over an already uploaded scene
+/// (`gpu_scene` must be `scene`'s upload for `film`), so several integrands
+/// (e.g. one per light sampler) can share one BVH.
+pub fn integrand_on(
+    gpu: &Gpu,
+    scene: &Scene,
+    gpu_scene: Arc<GpuScene>,
+    film: Film,
+) -> Result<Box<dyn Integrand>> {
     Ok(match &scene.integrand {
         IntegrandSpec::AreaLight => Box::new(AreaLight::new(gpu_scene, film)),
         IntegrandSpec::DepthOfField => Box::new(DepthOfField::new(gpu_scene, film)),
@@ -60,15 +73,105 @@ pub fn integrand_for(gpu: &Gpu, scene: &Scene, film: Film) -> Result<Box<dyn Int
     })
 }
 
+/// The scene-file name of an integrand type (`[integrand] type`).
+pub fn integrand_type_name(spec: &IntegrandSpec) -> &'static str {
+    match spec {
+        IntegrandSpec::AreaLight => "area_light",
+        IntegrandSpec::DepthOfField => "depth_of_field",
+        IntegrandSpec::MotionBlur => "motion_blur",
+        IntegrandSpec::PathTracing { .. } => "path",
+        IntegrandSpec::AmbientOcclusion { .. } => "ambient_occlusion",
+        IntegrandSpec::ManyLight(_) => "many_light",
+    }
+}
+
+/// The light sampler of a `many_light` integrand, `None` for other types.
+pub fn light_sampler(spec: &IntegrandSpec) -> Result<Option<SamplerKind>> {
+    match spec {
+        IntegrandSpec::ManyLight(m) => Ok(Some(m.sampler.parse()?)),
+        _ => Ok(None),
+    }
+}
+
+/// Command-line overrides of a scene's `[integrand]` table.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct IntegrandOverrides {
+    /// `--sampler`: the light sampler of a `many_light` integrand.
+    pub sampler: Option<SamplerKind>,
+}
+
+impl IntegrandOverrides {
+    /// Only the light sampler.
+    pub fn sampler(kind: SamplerKind) -> IntegrandOverrides {
+        IntegrandOverrides {
+            sampler: Some(kind),
+        }
+    }
+
+    /// `spec` with the overrides applied. A sampler override on an
+    /// integrand other than `many_light` is an error; `scene` names the
+    /// scene in messages.
+    pub fn apply(&self, spec: &IntegrandSpec, scene: &Path) -> Result<IntegrandSpec> {
+        let Some(kind) = self.sampler else {
+            return Ok(spec.clone());
+        };
+        match spec {
+            IntegrandSpec::ManyLight(m) => {
+                let mut m = m.clone();
+                m.sampler = kind.name().to_string();
+                Ok(IntegrandSpec::ManyLight(m))
+            }
+            other => bail!(
+                "--sampler {kind} applies only to the many_light integrand, but {} uses '{}' (light samplers: {})",
+                scene.display(),
+                integrand_type_name(other),
+                SamplerKind::names()
+            ),
+        }
+    }
+
+    /// What the overrides add to a reference's cache key: nothing when
+    /// they leave `spec` (the scene file's own table) as it is.
+    pub fn cache_key(&self, spec: &IntegrandSpec) -> Result<String> {
+        Ok(match (self.sampler, light_sampler(spec)?) {
+            (Some(kind), Some(own)) if kind != own => format!("|sampler={kind}"),
+            _ => String::new(),
+        })
+    }
+}
+
 /// A loaded scene with its integrand, ready to render at one film size.
 pub struct Prepared {
+    /// The scene, its `integrand` with the overrides applied.
     pub scene: Scene,
     pub film: Film,
     pub integrand: Box<dyn Integrand>,
 }
 
 pub fn prepare(gpu: &Gpu, scene_path: &Path, scale: f32) -> Result<Prepared> {
+    prepare_with(gpu, scene_path, scale, IntegrandOverrides::default())
+}
+
+/// [`prepare`] with `[integrand]` overrides (`--sampler`).
+pub fn prepare_with(
+    gpu: &Gpu,
+    scene_path: &Path,
+    scale: f32,
+    overrides: IntegrandOverrides,
+) -> Result<Prepared> {
     let scene = Scene::load(scene_path)?;
+    prepare_loaded(gpu, scene, scene_path, scale, overrides)
+}
+
+/// [`prepare_with`] for a scene already loaded from `scene_path`.
+pub fn prepare_loaded(
+    gpu: &Gpu,
+    mut scene: Scene,
+    scene_path: &Path,
+    scale: f32,
+    overrides: IntegrandOverrides,
+) -> Result<Prepared> {
+    scene.integrand = overrides.apply(&scene.integrand, scene_path)?;
     let film = scaled_film(scene.film, scale)?;
     let integrand = integrand_for(gpu, &scene, film)?;
     Ok(Prepared {
@@ -107,12 +210,23 @@ pub fn reference_cache_path(
     scene_path: &Path,
     spec: ReferenceSpec,
 ) -> Result<PathBuf> {
+    reference_cache_path_keyed(cache_dir, scene_path, spec, "")
+}
+
+/// [`reference_cache_path`] with `extra` (e.g.
+/// [`IntegrandOverrides::cache_key`]) hashed in too.
+fn reference_cache_path_keyed(
+    cache_dir: &Path,
+    scene_path: &Path,
+    spec: ReferenceSpec,
+    extra: &str,
+) -> Result<PathBuf> {
     let bytes = std::fs::read(scene_path)
         .with_context(|| format!("cannot read {}", scene_path.display()))?;
     let mut h = Sha256::new();
     h.update(&bytes);
     h.update(format!(
-        "|spp={}|scale={}|seed={}|halton|v{}",
+        "|spp={}|scale={}|seed={}|halton{extra}|v{}",
         spec.spp,
         spec.scale,
         spec.seed,
@@ -129,6 +243,9 @@ pub fn reference_cache_path(
 
 /// The reference image (Halton at `spec.spp`), from the cache or rendered
 /// and cached. Returns the image, its path and whether it was cached.
+/// References use the scene file's own `[integrand]` table (`mdas compare`
+/// always does, whatever `--sampler` its compared renders use: every light
+/// sampler estimates the same image).
 pub fn reference(
     gpu: &Gpu,
     scene_path: &Path,
@@ -136,8 +253,32 @@ pub fn reference(
     cache_dir: &Path,
     progress: Option<crate::integrator::halton::Progress>,
 ) -> Result<(Film, Vec<[f32; 3]>, PathBuf, bool)> {
-    let path = reference_cache_path(cache_dir, scene_path, spec)?;
-    let prepared = prepare(gpu, scene_path, spec.scale)?;
+    reference_with(
+        gpu,
+        scene_path,
+        spec,
+        IntegrandOverrides::default(),
+        cache_dir,
+        progress,
+    )
+}
+
+/// [`reference`] rendered with `[integrand]` overrides (`mdas reference
+/// --sampler`). An override that changes the scene's table is part of the
+/// cache key, so such a reference never replaces (or is mistaken for) the
+/// scene's own; one that changes nothing shares the scene's cache entry.
+pub fn reference_with(
+    gpu: &Gpu,
+    scene_path: &Path,
+    spec: ReferenceSpec,
+    overrides: IntegrandOverrides,
+    cache_dir: &Path,
+    progress: Option<crate::integrator::halton::Progress>,
+) -> Result<(Film, Vec<[f32; 3]>, PathBuf, bool)> {
+    let scene = Scene::load(scene_path)?;
+    let extra = overrides.cache_key(&scene.integrand)?;
+    let path = reference_cache_path_keyed(cache_dir, scene_path, spec, &extra)?;
+    let prepared = prepare_loaded(gpu, scene, scene_path, spec.scale, overrides)?;
     if path.exists() {
         let (w, h, image) = image_io::read_exr(&path)?;
         if (w, h) == (prepared.film.width, prepared.film.height) {
@@ -183,6 +324,37 @@ mod tests {
         assert_eq!(mdas_params_at_scale(p, 1.0 / 16.0).extra_image_bits, 4);
         assert_eq!(mdas_params_at_scale(p, 1.0 / 1024.0).extra_image_bits, 0);
         assert_eq!(mdas_params_at_scale(p, 2.0).extra_image_bits, 8);
+    }
+
+    #[test]
+    fn sampler_overrides_apply_to_many_light_only() {
+        use crate::scene::ManyLightSpec;
+        let scene = Path::new("s.toml");
+        let many = IntegrandSpec::ManyLight(ManyLightSpec::default());
+        let power = IntegrandOverrides::sampler(SamplerKind::Power);
+        let tree = IntegrandOverrides::sampler(SamplerKind::Tree);
+        let none = IntegrandOverrides::default();
+        match power.apply(&many, scene).unwrap() {
+            IntegrandSpec::ManyLight(m) => assert_eq!(m.sampler, "power"),
+            other => panic!("{other:?}"),
+        }
+        assert_eq!(none.apply(&many, scene).unwrap(), many);
+        let err = power
+            .apply(&IntegrandSpec::AreaLight, scene)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("many_light") && err.contains("area_light"),
+            "{err}"
+        );
+        assert_eq!(
+            none.apply(&IntegrandSpec::AreaLight, scene).unwrap(),
+            IntegrandSpec::AreaLight
+        );
+        // Only a sampler that changes the scene's adds to the cache key.
+        assert_eq!(power.cache_key(&many).unwrap(), "|sampler=power");
+        assert_eq!(tree.cache_key(&many).unwrap(), "");
+        assert_eq!(none.cache_key(&many).unwrap(), "");
     }
 
     #[test]
