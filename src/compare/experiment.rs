@@ -25,14 +25,14 @@
 use super::equal_time::{measure, search_equal_time, EqualTime, HaltonRun};
 use super::heatmap;
 use super::report::*;
-use crate::app::{self, ReferenceSpec};
+use crate::app::{self, IntegrandOverrides, ReferenceSpec};
 use crate::gpu::profiler::Clock;
 use crate::gpu::Gpu;
 use crate::image_io;
 use crate::integrand::Integrand;
 use crate::integrator::{Halton, Mdas};
 use crate::metrics;
-use crate::scene::MdasParams;
+use crate::scene::{MdasParams, Scene};
 use anyhow::{bail, Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::collections::BTreeMap;
@@ -199,7 +199,18 @@ fn run_mdas(
 /// failure an output directory this call created is removed again if it is
 /// still empty.
 pub fn compare(gpu: &Gpu, spec: &CompareSpec) -> Result<Report> {
-    cleaning_up(&spec.setup.out, || run_compare(gpu, spec))
+    compare_with(gpu, spec, IntegrandOverrides::default())
+}
+
+/// [`compare`] with the compared renders' `[integrand]` overridden
+/// (`mdas compare --sampler`); the reference keeps the scene's own table
+/// (`app::reference`).
+pub fn compare_with(
+    gpu: &Gpu,
+    spec: &CompareSpec,
+    overrides: IntegrandOverrides,
+) -> Result<Report> {
+    cleaning_up(&spec.setup.out, || run_compare(gpu, spec, overrides))
 }
 
 /// Runs `f`; if it fails and `out` did not exist before, removes `out`
@@ -213,20 +224,27 @@ pub(crate) fn cleaning_up<T>(out: &Path, f: impl FnOnce() -> Result<T>) -> Resul
     result
 }
 
-fn run_compare(gpu: &Gpu, spec: &CompareSpec) -> Result<Report> {
-    // 1. Validation, before any render or file.
-    spec.setup.check()?;
-    if let Budget::TimeMs(t) = spec.budget {
+/// A `--time-ms` budget must be a positive time.
+pub(crate) fn check_budget(budget: Budget) -> Result<()> {
+    if let Budget::TimeMs(t) = budget {
         if !(t.is_finite() && t > 0.0) {
             bail!("--time-ms must be a positive number of milliseconds, got {t}");
         }
     }
-    let prepared = app::prepare(gpu, &spec.setup.scene, spec.setup.scale)?;
-    let integrand = prepared.integrand.as_ref();
-    let film = prepared.film;
-    let params = (spec.setup.mdas_params)(prepared.scene.mdas);
+    Ok(())
+}
+
+/// Checks that MDAS with `params` can render `integrand` under `budget`
+/// (at its spp, or at the least spp its initial grid allows); returns that
+/// least spp.
+pub(crate) fn check_mdas(
+    params: MdasParams,
+    budget: Budget,
+    integrand: &dyn Integrand,
+    scene: &Path,
+) -> Result<u32> {
     let min_spp = mdas_min_spp(params, integrand)?;
-    let check_spp = match spec.budget {
+    let check_spp = match budget {
         Budget::MdasSpp => params.spp,
         Budget::TimeMs(_) => min_spp as f32,
     };
@@ -235,40 +253,56 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec) -> Result<Report> {
         ..params
     })?
     .config(integrand)
-    .with_context(|| {
-        format!(
-            "MDAS cannot render {} at spp {check_spp}",
-            spec.setup.scene.display()
-        )
-    })?;
-    check_out_dir(&spec.setup.out)?;
+    .with_context(|| format!("MDAS cannot render {} at spp {check_spp}", scene.display()))?;
+    Ok(min_spp)
+}
 
-    // 2. Reference.
-    let (reference, ref_path, cached) = spec.setup.reference(gpu)?;
+/// MDAS's timed run under a budget, and the equal-time target it sets.
+pub(crate) struct MdasTiming {
+    /// The run whose image is written (the nearer bracketing run when
+    /// searched).
+    pub run: HaltonRun,
+    /// Its spp (MDAS's own, may be fractional, when not searched).
+    pub spp: f64,
+    /// The budget search (`Budget::TimeMs` only).
+    pub search: Option<EqualTime>,
+    pub target_ms: f64,
+}
 
-    // 3. Timing and the equal-time searches.
-    let status = spinner(spec.setup.progress);
+/// Times MDAS under `budget`: at its spp (the target is its time), or
+/// searched at `--time-ms` from `min_spp` (an error if even that is slower).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn time_mdas(
+    gpu: &Gpu,
+    params: MdasParams,
+    min_spp: u32,
+    integrand: &dyn Integrand,
+    reference: &[[f32; 3]],
+    setup: &Setup,
+    budget: Budget,
+    max_spp: u32,
+    status: &ProgressBar,
+    label: &str,
+) -> Result<MdasTiming> {
     // One integrator for every budget, so its pipelines compile once.
     let mut mdas = Mdas::new(params)?;
     let mut mdas_run = |spp: f32| {
-        status.set_message(format!("mdas {spp} spp ({} repeats)", spec.setup.repeats));
-        run_mdas(
-            gpu,
-            &mut mdas,
-            spp,
-            integrand,
-            &reference,
-            spec.setup.repeats,
-        )
+        status.set_message(format!("{label} {spp} spp ({} repeats)", setup.repeats));
+        run_mdas(gpu, &mut mdas, spp, integrand, reference, setup.repeats)
     };
-    let (mdas_main, mdas_spp, mdas_search, target_ms) = match spec.budget {
+    Ok(match budget {
         Budget::MdasSpp => {
             let run = mdas_run(params.spp)?;
-            let t = run.measured.total_ms();
-            (run, params.spp as f64, None, t)
+            let target_ms = run.measured.total_ms();
+            MdasTiming {
+                run,
+                spp: params.spp as f64,
+                search: None,
+                target_ms,
+            }
         }
         Budget::TimeMs(t) => {
-            let eq = search_equal_time(t, min_spp, spec.max_spp, &mut |spp| mdas_run(spp as f32))?;
+            let eq = search_equal_time(t, min_spp, max_spp, &mut |spp| mdas_run(spp as f32))?;
             if eq.lo.measured.total_ms() > t {
                 bail!(
                     "--time-ms {t} is below the time MDAS needs for its initial samples ({:.3} ms at {} spp, the least its initial grid allows)",
@@ -277,24 +311,105 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec) -> Result<Report> {
                 );
             }
             let run = nearer(&eq).clone();
-            let spp = run.spp as f64;
-            (run, spp, Some(eq), t)
+            MdasTiming {
+                spp: run.spp as f64,
+                run,
+                search: Some(eq),
+                target_ms: t,
+            }
         }
-    };
-    // One integrator for every budget, so its pipelines compile once.
-    let mut halton = Halton::new(1, spec.setup.halton_seed);
-    let mut halton_run = |spp: u32| -> Result<HaltonRun> {
-        status.set_message(format!("halton {spp} spp ({} repeats)", spec.setup.repeats));
+    })
+}
+
+/// Halton's budget search at `target_ms` on `integrand` (one integrator
+/// for the whole search, so its pipelines compile once).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn halton_search(
+    gpu: &Gpu,
+    integrand: &dyn Integrand,
+    reference: &[[f32; 3]],
+    target_ms: f64,
+    setup: &Setup,
+    max_spp: u32,
+    status: &ProgressBar,
+    label: &str,
+) -> Result<EqualTime> {
+    let mut halton = Halton::new(1, setup.halton_seed);
+    search_equal_time(target_ms, 1, max_spp, &mut |spp| {
+        status.set_message(format!("{label} {spp} spp ({} repeats)", setup.repeats));
         halton.spp = spp;
-        let measured = measure(gpu, &mut halton, integrand, spec.setup.repeats)?;
-        let error = metrics::compare(&measured.render.image, &reference)?;
+        let measured = measure(gpu, &mut halton, integrand, setup.repeats)?;
+        let error = metrics::compare(&measured.render.image, reference)?;
         Ok(HaltonRun {
             spp,
             measured,
             error,
         })
-    };
-    let halton_eq = search_equal_time(target_ms, 1, spec.max_spp, &mut halton_run)?;
+    })
+}
+
+/// How the runs were timed, as reported.
+pub(crate) fn clock_name(clock: Clock) -> &'static str {
+    match clock {
+        Clock::GpuTimestamps => "gpu timestamps",
+        Clock::WallClock => "wall clock",
+    }
+}
+
+/// Writes `report.json` (atomically) into `out`.
+pub(crate) fn write_report(out: &Path, report: &Report) -> Result<()> {
+    let json = serde_json::to_string_pretty(report)?;
+    image_io::write_atomic(&out.join("report.json"), |temp| {
+        std::fs::write(temp, json.as_bytes()).map_err(Into::into)
+    })
+}
+
+fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> Result<Report> {
+    // 1. Validation, before any render or file.
+    spec.setup.check()?;
+    check_budget(spec.budget)?;
+    let scene = Scene::load(&spec.setup.scene)?;
+    let reference_sampler = app::light_sampler(&scene.integrand)?;
+    let prepared = app::prepare_loaded(gpu, scene, &spec.setup.scene, spec.setup.scale, overrides)?;
+    let sampler = app::light_sampler(&prepared.scene.integrand)?;
+    let integrand = prepared.integrand.as_ref();
+    let film = prepared.film;
+    let params = (spec.setup.mdas_params)(prepared.scene.mdas);
+    let min_spp = check_mdas(params, spec.budget, integrand, &spec.setup.scene)?;
+    check_out_dir(&spec.setup.out)?;
+
+    // 2. Reference.
+    let (reference, ref_path, cached) = spec.setup.reference(gpu)?;
+
+    // 3. Timing and the equal-time searches.
+    let status = spinner(spec.setup.progress);
+    let MdasTiming {
+        run: mdas_main,
+        spp: mdas_spp,
+        search: mdas_search,
+        target_ms,
+    } = time_mdas(
+        gpu,
+        params,
+        min_spp,
+        integrand,
+        &reference,
+        &spec.setup,
+        spec.budget,
+        spec.max_spp,
+        &status,
+        "mdas",
+    )?;
+    let halton_eq = halton_search(
+        gpu,
+        integrand,
+        &reference,
+        target_ms,
+        &spec.setup,
+        spec.max_spp,
+        &status,
+        "halton",
+    )?;
     let halton_main = nearer(&halton_eq).clone();
 
     // 4. Sample density of the MDAS run (untimed; same seed, same image).
@@ -351,6 +466,7 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec) -> Result<Report> {
     let report = Report {
         scene: spec.setup.scene.display().to_string(),
         scale: spec.setup.scale,
+        sampler: sampler.map(|k| k.to_string()),
         film: FilmReport {
             width: w,
             height: h,
@@ -362,17 +478,14 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec) -> Result<Report> {
         },
         adapter: gpu.info.name.clone(),
         backend: format!("{:?}", gpu.info.backend),
-        clock: match mdas_main.measured.render.clock {
-            Clock::GpuTimestamps => "gpu timestamps",
-            Clock::WallClock => "wall clock",
-        }
-        .into(),
+        clock: clock_name(mdas_main.measured.render.clock).into(),
         version: env!("CARGO_PKG_VERSION").into(),
         repeats: spec.setup.repeats,
         reference: ReferenceReport {
             spp: spec.setup.ref_spp,
             path: ref_path.display().to_string(),
             cached,
+            sampler: reference_sampler.map(|k| k.to_string()),
         },
         methods: vec![
             MethodReport::new("mdas", mdas_spp, &mdas_main, "mdas.exr"),
@@ -390,23 +503,22 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec) -> Result<Report> {
             relmse_ratio: mdas_relmse / halton_eq.relmse,
             halton: halton_report,
             mdas: mdas_report,
+            baseline: None,
+            samplers: None,
         },
         maps: MapsReport {
             colormap: "viridis, log scale",
             relmse_range: heatmap::RELMSE_RANGE,
-            density_range,
+            density_range: Some(density_range),
         },
         files,
     };
-    let json = serde_json::to_string_pretty(&report)?;
-    image_io::write_atomic(&spec.setup.out.join("report.json"), |temp| {
-        std::fs::write(temp, json.as_bytes()).map_err(Into::into)
-    })?;
+    write_report(&spec.setup.out, &report)?;
     Ok(report)
 }
 
 /// The bracketing run nearer to the target time.
-fn nearer(eq: &EqualTime) -> &HaltonRun {
+pub(crate) fn nearer(eq: &EqualTime) -> &HaltonRun {
     let t = eq.target_ms;
     if (t - eq.lo.measured.total_ms()).abs() <= (eq.hi.measured.total_ms() - t).abs() {
         &eq.lo

@@ -1,6 +1,7 @@
 //! Equal-time comparison of integrators (the experiment of the MDAS paper,
 //! §5): timing with warm-up and medians, budget matching, `mdas compare`
-//! ([`experiment`]) with its report, heat maps and density map, and
+//! ([`experiment`]) with its report, heat maps and density map, light
+//! samplers against each other (`mdas compare --samplers`, [`samplers`]), and
 //! `mdas sweep` ([`sweep`]) with its CSV and log–log plot.
 
 pub mod equal_time;
@@ -8,10 +9,12 @@ pub mod experiment;
 pub mod heatmap;
 pub mod plot;
 pub mod report;
+pub mod samplers;
 pub mod sweep;
 
 pub use equal_time::{
     halton_at_equal_time, measure, search_equal_time, EqualTime, HaltonRun, Measured,
 };
-pub use experiment::{check_out_dir, compare, Budget, CompareSpec, Setup};
+pub use experiment::{check_out_dir, compare, compare_with, Budget, CompareSpec, Setup};
 pub use report::Report;
+pub use samplers::{compare_samplers, SamplersSpec};

@@ -7,7 +7,7 @@
 //! phases. `relmse`/`mse` follow `metrics::compare`; `nonfinite` counts
 //! non-finite samples and `nonfinite_pixels` non-finite pixels.
 
-use super::equal_time::{EqualTime, HaltonRun};
+use super::equal_time::{interpolate_log_log, EqualTime, HaltonRun};
 use crate::gpu::profiler::PhaseTimes;
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -17,6 +17,11 @@ use std::collections::BTreeMap;
 pub struct Report {
     pub scene: String,
     pub scale: f32,
+    /// The light sampler of the compared renders (`many_light` scenes:
+    /// `--sampler` or the scene's own; absent for other integrands and in
+    /// `compare --samplers`, whose method names carry it).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sampler: Option<String>,
     pub film: FilmReport,
     pub seed: Seeds,
     pub adapter: String,
@@ -28,6 +33,8 @@ pub struct Report {
     pub repeats: u32,
     pub reference: ReferenceReport,
     /// MDAS first, then Halton (the bracketing run nearer to equal time).
+    /// `compare --samplers`: `mdas+tree`, then `halton+<sampler>` per
+    /// listed sampler, in the order listed.
     pub methods: Vec<MethodReport>,
     pub equal_time: EqualTimeReport,
     pub maps: MapsReport,
@@ -46,8 +53,10 @@ pub struct FilmReport {
 pub struct MapsReport {
     pub colormap: &'static str,
     pub relmse_range: (f32, f32),
-    /// Samples per pixel at the two ends of the density map.
-    pub density_range: (f32, f32),
+    /// Samples per pixel at the two ends of the density map (absent when
+    /// none is written: `compare --samplers`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub density_range: Option<(f32, f32)>,
 }
 
 #[derive(Clone, Copy, Debug, Serialize)]
@@ -63,6 +72,10 @@ pub struct ReferenceReport {
     /// The cached reference EXR this comparison used.
     pub path: String,
     pub cached: bool,
+    /// Its light sampler (`many_light` scenes): always the scene file's
+    /// own, whatever `--sampler`/`--samplers` the compared renders use.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sampler: Option<String>,
 }
 
 /// One method's measured run.
@@ -150,6 +163,8 @@ pub struct SearchReport {
     /// RelMSE at exactly the target time, interpolated log–log between lo
     /// and hi.
     pub relmse: f64,
+    /// MSE at exactly the target time, interpolated the same way.
+    pub mse: f64,
     /// `"lo"` or `"hi"`: the run nearer in time, whose image is written.
     pub image_run: String,
 }
@@ -163,6 +178,7 @@ impl SearchReport {
             hi: (&eq.hi).into(),
             bracketed: lo <= t && t <= hi,
             relmse: eq.relmse,
+            mse: interpolate_log_log(t, (lo, eq.lo.error.mse), (hi, eq.hi.error.mse)),
             image_run: if (t - lo).abs() <= (hi - t).abs() {
                 "lo"
             } else {
@@ -191,6 +207,38 @@ pub struct EqualTimeReport {
     /// MDAS's budget search (`"budget"` mode only).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub mdas: Option<SearchReport>,
+    /// `compare --samplers`: the Halton method that `halton`,
+    /// `halton_relmse` and `relmse_ratio` are about (`halton+tree` when
+    /// `tree` is listed, else the first listed sampler's).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub baseline: Option<String>,
+    /// `compare --samplers`: every listed sampler under Halton at the
+    /// target time, in the order listed.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub samplers: Option<Vec<SamplerReport>>,
+}
+
+/// One light sampler under Halton at the equal-time target
+/// (`compare --samplers`).
+#[derive(Clone, Debug, Serialize)]
+pub struct SamplerReport {
+    /// The sampler's name (`SamplerKind`).
+    pub sampler: String,
+    /// Its entry in `methods`: `halton+<sampler>`.
+    pub method: String,
+    /// RelMSE at exactly the target time (= `search.relmse`: log–log
+    /// interpolation between the bracketing runs).
+    pub relmse: f64,
+    /// MSE at exactly the target time (= `search.mse`, interpolated
+    /// log–log like RelMSE).
+    pub mse: f64,
+    /// `mse` / the `uniform` sampler's `mse` (present when `uniform` is
+    /// listed): below 1 means fewer squared errors than uniform light
+    /// selection at equal time.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mse_vs_uniform: Option<f64>,
+    /// Halton's budget search with this sampler.
+    pub search: SearchReport,
 }
 
 /// The table `mdas compare` prints.
@@ -214,7 +262,14 @@ pub fn table(report: &Report) -> String {
         report.adapter,
         report.backend
     );
-    out += &format!("{:<8} {:>9} {:>11}", "method", "spp", "samples");
+    let nw = report
+        .methods
+        .iter()
+        .map(|m| m.name.chars().count())
+        .max()
+        .unwrap_or(0)
+        .max(8);
+    out += &format!("{:<nw$} {:>9} {:>11}", "method", "spp", "samples");
     for p in &phases {
         out += &format!(" {:>18}", format!("{p} ms"));
     }
@@ -223,7 +278,7 @@ pub fn table(report: &Report) -> String {
         "total ms", "Msamples/s", "RelMSE", "MSE"
     );
     for m in &report.methods {
-        out += &format!("{:<8} {:>9.3} {:>11}", m.name, m.spp, m.samples);
+        out += &format!("{:<nw$} {:>9.3} {:>11}", m.name, m.spp, m.samples);
         for p in &phases {
             match m.time_ms.get(*p) {
                 Some(t) => out += &format!(" {t:>18.3}"),
@@ -240,8 +295,12 @@ pub fn table(report: &Report) -> String {
     }
     let e = &report.equal_time;
     let h = &e.halton;
+    let (mdas_name, halton_name) = match &e.baseline {
+        Some(b) => ("mdas+tree", b.as_str()),
+        None => ("MDAS", "Halton"),
+    };
     out += &format!(
-        "equal time {:.3} ms ({}): Halton brackets {} spp ({:.3} ms, RelMSE {:.4e}) and {} spp ({:.3} ms, RelMSE {:.4e}), interpolated RelMSE {:.4e}\n",
+        "equal time {:.3} ms ({}): {halton_name} brackets {} spp ({:.3} ms, RelMSE {:.4e}) and {} spp ({:.3} ms, RelMSE {:.4e}), interpolated RelMSE {:.4e}\n",
         e.target_ms,
         e.mode,
         h.lo.spp,
@@ -254,12 +313,37 @@ pub fn table(report: &Report) -> String {
     );
     if let Some(m) = &e.mdas {
         out += &format!(
-            "MDAS brackets {} spp ({:.3} ms) and {} spp ({:.3} ms), interpolated RelMSE {:.4e}\n",
+            "{mdas_name} brackets {} spp ({:.3} ms) and {} spp ({:.3} ms), interpolated RelMSE {:.4e}\n",
             m.lo.spp, m.lo.time_ms, m.hi.spp, m.hi.time_ms, m.relmse
         );
     }
+    if let Some(samplers) = &e.samplers {
+        let sw = samplers
+            .iter()
+            .map(|s| s.method.chars().count())
+            .max()
+            .unwrap_or(0)
+            .max(8);
+        out += &format!(
+            "{:<sw$} {:>11} {:>11} {:>11}  {}\n",
+            "at equal time", "RelMSE", "MSE", "MSE/uniform", "Halton brackets: spp (ms)"
+        );
+        for s in samplers {
+            let vs = s
+                .mse_vs_uniform
+                .map_or_else(|| "–".to_string(), |v| format!("{v:.4}"));
+            let brackets = format!(
+                "{} ({:.3}) – {} ({:.3})",
+                s.search.lo.spp, s.search.lo.time_ms, s.search.hi.spp, s.search.hi.time_ms
+            );
+            out += &format!(
+                "{:<sw$} {:>11.4e} {:>11.4e} {:>11}  {}\n",
+                s.method, s.relmse, s.mse, vs, brackets
+            );
+        }
+    }
     out += &format!(
-        "equal-time RelMSE ratio MDAS/Halton: {:.4} ({:+.1}%)\n",
+        "equal-time RelMSE ratio {mdas_name}/{halton_name}: {:.4} ({:+.1}%)\n",
         e.relmse_ratio,
         100.0 * (e.relmse_ratio - 1.0)
     );

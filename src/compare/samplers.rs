@@ -1,0 +1,328 @@
+//! `mdas compare --samplers`: light samplers of a `many_light` scene
+//! against each other at equal time under Halton, with MDAS (sampler
+//! `tree`) setting the target, in `mdas compare`'s report format.
+//!
+//! 1. Validate everything that needs no render: repeats, seeds, the time
+//!    budget, the sampler list (at least one, no repeats), the scene (its
+//!    integrand must be `many_light`), one integrand per sampler (all on
+//!    one uploaded scene), MDAS's parameters against the `tree` integrand,
+//!    then the output directory.
+//! 2. The reference: Halton at `ref_spp` with the scene's own sampler
+//!    (`app::reference`, cached; every sampler estimates the same image).
+//! 3. The target time: MDAS with `tree` at its spp ([`Budget::MdasSpp`]),
+//!    or `--time-ms` for all, MDAS+tree searched too ([`Budget::TimeMs`]).
+//! 4. Each listed sampler: Halton's budget search at the target
+//!    ([`super::experiment::halton_search`], one Halton integrator per
+//!    search).
+//! 5. Files, each atomically, `report.json` last: `reference`, `mdas-tree`
+//!    and `halton-<sampler>` images (EXR + PNG) with their RelMSE heat maps
+//!    `relmse-mdas-tree`, `relmse-halton-<sampler>` (no density map).
+//!
+//! In the report, `methods` holds `mdas+tree` then `halton+<sampler>` per
+//! sampler (the bracketing run nearer in time, as in `mdas compare`);
+//! `equal_time.relmse_ratio` is MDAS+tree over `halton+tree` when `tree`
+//! is listed, else over the first listed sampler (`equal_time.baseline`
+//! names it); `equal_time.samplers` gives each sampler's RelMSE and MSE
+//! interpolated log–log at exactly the target time, its search brackets
+//! and its MSE relative to `uniform`'s (when listed).
+
+use super::equal_time::EqualTime;
+use super::experiment::{
+    check_budget, check_mdas, check_out_dir, cleaning_up, clock_name, halton_search, nearer,
+    spinner, time_mdas, write_report, Budget, MdasTiming, Setup,
+};
+use super::heatmap;
+use super::report::*;
+use crate::accel::GpuScene;
+use crate::app;
+use crate::gpu::Gpu;
+use crate::integrand::Integrand;
+use crate::lights::sampler::SamplerKind;
+use crate::metrics;
+use crate::scene::{IntegrandSpec, Scene};
+use anyhow::{bail, Result};
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+/// The sampler MDAS runs with.
+pub const MDAS_SAMPLER: SamplerKind = SamplerKind::Tree;
+
+/// Inputs of [`compare_samplers`].
+pub struct SamplersSpec<'a> {
+    pub setup: Setup<'a>,
+    /// The target time: MDAS+tree at its spp, or a fixed budget for all.
+    pub budget: Budget,
+    /// Upper end of the spp searches.
+    pub max_spp: u32,
+    /// The samplers to compare under Halton, in report order.
+    pub samplers: Vec<SamplerKind>,
+}
+
+/// Checks a sampler list: not empty, no sampler twice.
+pub fn check_samplers(samplers: &[SamplerKind]) -> Result<()> {
+    if samplers.is_empty() {
+        bail!(
+            "--samplers needs at least one light sampler (of {})",
+            SamplerKind::names()
+        );
+    }
+    for (i, k) in samplers.iter().enumerate() {
+        if samplers[..i].contains(k) {
+            bail!("--samplers lists '{k}' twice");
+        }
+    }
+    Ok(())
+}
+
+/// The Halton method whose RelMSE `relmse_ratio` divides by: `tree` when
+/// listed, else the first sampler.
+pub fn baseline(samplers: &[SamplerKind]) -> SamplerKind {
+    if samplers.contains(&MDAS_SAMPLER) {
+        MDAS_SAMPLER
+    } else {
+        samplers[0]
+    }
+}
+
+/// Runs the comparison and writes everything (see the module docs). On
+/// failure an output directory this call created is removed again if it is
+/// still empty.
+pub fn compare_samplers(gpu: &Gpu, spec: &SamplersSpec) -> Result<Report> {
+    cleaning_up(&spec.setup.out, || run(gpu, spec))
+}
+
+fn run(gpu: &Gpu, spec: &SamplersSpec) -> Result<Report> {
+    let setup = &spec.setup;
+    // 1. Validation, before any render or file.
+    setup.check()?;
+    check_budget(spec.budget)?;
+    check_samplers(&spec.samplers)?;
+    let mut scene = Scene::load(&setup.scene)?;
+    let own = match &scene.integrand {
+        IntegrandSpec::ManyLight(m) => m.sampler.clone(),
+        other => bail!(
+            "--samplers compares light samplers of the many_light integrand, but {} uses '{}'",
+            setup.scene.display(),
+            app::integrand_type_name(other)
+        ),
+    };
+    let film = app::scaled_film(scene.film, setup.scale)?;
+    let gpu_scene = Arc::new(GpuScene::new(gpu, &scene, film)?);
+    // One integrand per sampler (plus MDAS's tree if not listed), sharing
+    // the uploaded scene.
+    let mut kinds = spec.samplers.clone();
+    if !kinds.contains(&MDAS_SAMPLER) {
+        kinds.push(MDAS_SAMPLER);
+    }
+    let original = scene.integrand.clone();
+    let mut integrands: Vec<(SamplerKind, Box<dyn Integrand>)> = Vec::new();
+    for &kind in &kinds {
+        scene.integrand = app::IntegrandOverrides::sampler(kind).apply(&original, &setup.scene)?;
+        integrands.push((
+            kind,
+            app::integrand_on(gpu, &scene, gpu_scene.clone(), film)?,
+        ));
+    }
+    scene.integrand = original;
+    let integrand_of = |kind: SamplerKind| -> &dyn Integrand {
+        integrands
+            .iter()
+            .find(|(k, _)| *k == kind)
+            .expect("an integrand per sampler")
+            .1
+            .as_ref()
+    };
+    let mdas_integrand = integrand_of(MDAS_SAMPLER);
+    let params = (setup.mdas_params)(scene.mdas);
+    let min_spp = check_mdas(params, spec.budget, mdas_integrand, &setup.scene)?;
+    check_out_dir(&setup.out)?;
+
+    // 2. Reference (the scene's own sampler).
+    let (reference, ref_path, cached) = setup.reference(gpu)?;
+
+    // 3. The target time.
+    let status = spinner(setup.progress);
+    let MdasTiming {
+        run: mdas_main,
+        spp: mdas_spp,
+        search: mdas_search,
+        target_ms,
+    } = time_mdas(
+        gpu,
+        params,
+        min_spp,
+        mdas_integrand,
+        &reference,
+        setup,
+        spec.budget,
+        spec.max_spp,
+        &status,
+        "mdas+tree",
+    )?;
+
+    // 4. Halton per sampler.
+    let mut searches: Vec<(SamplerKind, EqualTime)> = Vec::new();
+    for &kind in &spec.samplers {
+        let label = format!("halton+{kind}");
+        let eq = halton_search(
+            gpu,
+            integrand_of(kind),
+            &reference,
+            target_ms,
+            setup,
+            spec.max_spp,
+            &status,
+            &label,
+        )?;
+        searches.push((kind, eq));
+    }
+    status.finish_and_clear();
+
+    // 5. Files, report last.
+    let (w, h) = (film.width, film.height);
+    let mut files = BTreeMap::new();
+    let mut image = |key: &str, name: &str, pixels: &[[f32; 3]], map: bool| -> Result<()> {
+        app::write_outputs(&setup.out.join(format!("{name}.exr")), film, pixels)?;
+        files.insert(key.to_string(), format!("{name}.exr"));
+        files.insert(format!("{key}_png"), format!("{name}.png"));
+        if map {
+            let per_pixel = metrics::relmse_per_pixel(pixels, &reference)?;
+            let map_name = format!("relmse-{name}");
+            heatmap::write_map(
+                &setup.out.join(&map_name),
+                w,
+                h,
+                &per_pixel,
+                heatmap::RELMSE_RANGE,
+            )?;
+            files.insert(format!("relmse_{key}"), format!("{map_name}.exr"));
+            files.insert(format!("relmse_{key}_png"), format!("{map_name}.png"));
+        }
+        Ok(())
+    };
+    image("reference", "reference", &reference, false)?;
+    image(
+        "mdas_tree",
+        "mdas-tree",
+        &mdas_main.measured.render.image,
+        true,
+    )?;
+    let mut methods = vec![MethodReport::new(
+        "mdas+tree",
+        mdas_spp,
+        &mdas_main,
+        "mdas-tree.exr",
+    )];
+    for (kind, eq) in &searches {
+        let run = nearer(eq);
+        let name = format!("halton-{kind}");
+        image(
+            &format!("halton_{kind}"),
+            &name,
+            &run.measured.render.image,
+            true,
+        )?;
+        methods.push(MethodReport::new(
+            &format!("halton+{kind}"),
+            run.spp as f64,
+            run,
+            &format!("{name}.exr"),
+        ));
+    }
+    files.insert("report".into(), "report.json".into());
+
+    let reports: Vec<(SamplerKind, SearchReport)> = searches
+        .iter()
+        .map(|(k, eq)| (*k, SearchReport::new(eq)))
+        .collect();
+    let uniform_mse = reports
+        .iter()
+        .find(|(k, _)| *k == SamplerKind::Uniform)
+        .map(|(_, r)| r.mse);
+    let samplers: Vec<SamplerReport> = reports
+        .iter()
+        .map(|(k, r)| SamplerReport {
+            sampler: k.to_string(),
+            method: format!("halton+{k}"),
+            relmse: r.relmse,
+            mse: r.mse,
+            mse_vs_uniform: uniform_mse.map(|u| r.mse / u),
+            search: r.clone(),
+        })
+        .collect();
+    let base = baseline(&spec.samplers);
+    let halton_report = reports
+        .iter()
+        .find(|(k, _)| *k == base)
+        .expect("the baseline is listed")
+        .1
+        .clone();
+    let mdas_report = mdas_search.as_ref().map(SearchReport::new);
+    let mdas_relmse = mdas_report
+        .as_ref()
+        .map_or(mdas_main.error.relmse, |m| m.relmse);
+    let report = Report {
+        scene: setup.scene.display().to_string(),
+        scale: setup.scale,
+        sampler: None,
+        film: FilmReport {
+            width: w,
+            height: h,
+        },
+        seed: Seeds {
+            halton: setup.halton_seed,
+            mdas: params.seed,
+            reference: setup.ref_seed,
+        },
+        adapter: gpu.info.name.clone(),
+        backend: format!("{:?}", gpu.info.backend),
+        clock: clock_name(mdas_main.measured.render.clock).into(),
+        version: env!("CARGO_PKG_VERSION").into(),
+        repeats: setup.repeats,
+        reference: ReferenceReport {
+            spp: setup.ref_spp,
+            path: ref_path.display().to_string(),
+            cached,
+            sampler: Some(own),
+        },
+        methods,
+        equal_time: EqualTimeReport {
+            mode: match spec.budget {
+                Budget::MdasSpp => "mdas",
+                Budget::TimeMs(_) => "budget",
+            }
+            .into(),
+            target_ms,
+            mdas_relmse,
+            halton_relmse: halton_report.relmse,
+            relmse_ratio: mdas_relmse / halton_report.relmse,
+            halton: halton_report,
+            mdas: mdas_report,
+            baseline: Some(format!("halton+{base}")),
+            samplers: Some(samplers),
+        },
+        maps: MapsReport {
+            colormap: "viridis, log scale",
+            relmse_range: heatmap::RELMSE_RANGE,
+            density_range: None,
+        },
+        files,
+    };
+    write_report(&setup.out, &report)?;
+    Ok(report)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sampler_lists() {
+        use SamplerKind::*;
+        assert!(check_samplers(&[]).is_err());
+        assert!(check_samplers(&[Uniform, Tree, Uniform]).is_err());
+        assert!(check_samplers(&[Uniform, Power, Tree]).is_ok());
+        assert_eq!(baseline(&[Uniform, Power, Tree]), Tree);
+        assert_eq!(baseline(&[Power, Uniform]), Power);
+    }
+}
