@@ -3,9 +3,11 @@
 use anyhow::{bail, Result};
 use clap::{Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
+use mdas::app::IntegrandOverrides;
 use mdas::app::{self, ReferenceSpec};
 use mdas::gpu::Gpu;
 use mdas::integrator::{Halton, Integrator, Mdas, Render};
+use mdas::lights::sampler::SamplerKind;
 use mdas::scene::MdasParams;
 use mdas::{compare, image_io, metrics};
 use std::path::{Path, PathBuf};
@@ -125,6 +127,11 @@ enum Command {
         /// Reference EXR to measure RelMSE and MSE against (same size as the render).
         #[arg(long)]
         reference: Option<PathBuf>,
+        /// Light sampler of a many_light scene, overriding its [integrand]
+        /// sampler: uniform, power, tree_nocut, tree, unbalanced or
+        /// unbalanced_nocut (an error for other integrands).
+        #[arg(long, value_name = "NAME")]
+        sampler: Option<SamplerKind>,
         #[command(flatten)]
         mdas: MdasArgs,
     },
@@ -147,9 +154,18 @@ enum Command {
         /// Also copy the reference to this EXR path (and a PNG beside it).
         #[arg(short, long)]
         output: Option<PathBuf>,
+        /// Light sampler of a many_light scene, overriding its [integrand]
+        /// sampler (an error for other integrands). Every sampler converges
+        /// to the same image; a sampler other than the scene's is part of
+        /// the cache key. `mdas compare` always uses the scene's own.
+        #[arg(long, value_name = "NAME")]
+        sampler: Option<SamplerKind>,
     },
     /// MDAS against Halton at equal time: images, RelMSE heat maps, MDAS
     /// sample density and report.json in --out (DESIGN.md "Equal time").
+    /// With --samplers: light samplers of a many_light scene against each
+    /// other under Halton at MDAS+tree's time (halton-<sampler> and
+    /// mdas-tree images, RelMSE heat maps, report.json).
     Compare {
         /// Scene file (TOML).
         scene: PathBuf,
@@ -157,10 +173,22 @@ enum Command {
         /// scene's [mdas] spp). Its measured time is the equal-time target.
         #[arg(long, conflicts_with = "time_ms")]
         spp: Option<f32>,
-        /// Instead of MDAS's time at --spp, give both methods this budget
-        /// (milliseconds; both spp are searched).
+        /// Instead of MDAS's time at --spp, give both methods (with
+        /// --samplers: every method) this budget (milliseconds; every spp
+        /// is searched).
         #[arg(long)]
         time_ms: Option<f64>,
+        /// Light sampler of the compared renders of a many_light scene,
+        /// overriding its [integrand] sampler (an error for other
+        /// integrands); the reference keeps the scene's own.
+        #[arg(long, value_name = "NAME", conflicts_with = "samplers")]
+        sampler: Option<SamplerKind>,
+        /// Compare these light samplers (comma-separated: uniform, power,
+        /// tree_nocut, tree, unbalanced, unbalanced_nocut) under Halton at
+        /// equal time; MDAS with `tree` sets the target (or --time-ms). The
+        /// scene's integrand must be many_light.
+        #[arg(long, value_name = "NAMES", value_delimiter = ',')]
+        samplers: Option<Vec<SamplerKind>>,
         #[command(flatten)]
         common: CompareArgs,
         /// Also print report.json to stdout (the table goes to stderr).
@@ -277,6 +305,8 @@ fn run(cli: Cli) -> Result<()> {
             scene,
             spp,
             time_ms,
+            sampler,
+            samplers,
             common,
             json,
         } => {
@@ -285,12 +315,28 @@ fn run(cli: Cli) -> Result<()> {
                 .clone()
                 .unwrap_or_else(|| default_dir(&scene, "compare"));
             let mdas_params = |p: MdasParams| common.mdas.params(p, common.scale, spp, common.seed);
-            let spec = compare::CompareSpec {
-                setup: common.setup(scene, out.clone(), &mdas_params),
-                budget: time_ms.map_or(compare::Budget::MdasSpp, compare::Budget::TimeMs),
-                max_spp: common.max_spp,
+            let setup = common.setup(scene, out.clone(), &mdas_params);
+            let budget = time_ms.map_or(compare::Budget::MdasSpp, compare::Budget::TimeMs);
+            let report = match samplers {
+                Some(samplers) => compare::compare_samplers(
+                    Gpu::shared()?,
+                    &compare::SamplersSpec {
+                        setup,
+                        budget,
+                        max_spp: common.max_spp,
+                        samplers,
+                    },
+                )?,
+                None => compare::compare_with(
+                    Gpu::shared()?,
+                    &compare::CompareSpec {
+                        setup,
+                        budget,
+                        max_spp: common.max_spp,
+                    },
+                    IntegrandOverrides { sampler },
+                )?,
             };
-            let report = compare::compare(Gpu::shared()?, &spec)?;
             let table = compare::report::table(&report);
             if json {
                 eprint!("{table}");
@@ -345,6 +391,7 @@ fn run(cli: Cli) -> Result<()> {
             output,
             scale,
             reference,
+            sampler,
             mdas,
         } => {
             let output = output.unwrap_or_else(|| default_output(&scene, integrator.name()));
@@ -361,7 +408,7 @@ fn run(cli: Cli) -> Result<()> {
             }
             let reference = reference.map(|r| image_io::read_exr(&r)).transpose()?;
             let gpu = Gpu::shared()?;
-            let prepared = app::prepare(gpu, &scene, scale)?;
+            let prepared = app::prepare_with(gpu, &scene, scale, IntegrandOverrides { sampler })?;
             let film = prepared.film;
             let mut sampler: Box<dyn Integrator> = match integrator {
                 IntegratorKind::Halton => {
@@ -374,8 +421,10 @@ fn run(cli: Cli) -> Result<()> {
                     seed,
                 ))?),
             };
+            let light_sampler = app::light_sampler(&prepared.scene.integrand)?
+                .map_or_else(String::new, |k| format!(", sampler {k}"));
             println!(
-                "{}: {}×{} px, {} triangles, integrand {} ({}D), {}, adapter {}",
+                "{}: {}×{} px, {} triangles, integrand {} ({}D{light_sampler}), {}, adapter {}",
                 scene.display(),
                 film.width,
                 film.height,
@@ -412,6 +461,7 @@ fn run(cli: Cli) -> Result<()> {
             seed,
             cache,
             output,
+            sampler,
         } => {
             if let Some(out) = &output {
                 check_output(out)?;
@@ -426,10 +476,11 @@ fn run(cli: Cli) -> Result<()> {
             );
             let b = bar.clone();
             let spec = ReferenceSpec { spp, scale, seed };
-            let (film, image, path, cached) = app::reference(
+            let (film, image, path, cached) = app::reference_with(
                 gpu,
                 &scene,
                 spec,
+                IntegrandOverrides { sampler },
                 &cache,
                 Some(Box::new(move |done, _| b.set_position(done as u64))),
             )?;
