@@ -398,6 +398,8 @@ fn cut_layout() -> CutLayout {
         block_size: 8,
         blocks_per_row: BLOCKS,
         block_rows: 1,
+        interleave: 1,
+        frame: 0,
     }
 }
 

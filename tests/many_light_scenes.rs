@@ -458,6 +458,7 @@ fn many_light_integrand_parses_with_defaults() {
             sampler: "tree".into(),
             cut_size: 8,
             block: 8,
+            interleave: 1,
             time: 0.0,
             frame: 0
         }
@@ -465,14 +466,15 @@ fn many_light_integrand_parses_with_defaults() {
     for sampler in scene::MANY_LIGHT_SAMPLERS {
         let s = ok(
             &format!("ml-{sampler}"),
-            &format!("{BASE}[integrand]\ntype = \"many_light\"\nsampler = \"{sampler}\"\ncut_size = 64\nblock = 1\ntime = 2.5\nframe = 7\n"),
+            &format!("{BASE}[integrand]\ntype = \"many_light\"\nsampler = \"{sampler}\"\ncut_size = 64\nblock = 4\ninterleave = 2\ntime = 2.5\nframe = 7\n"),
         );
         assert_eq!(
             s.integrand,
             IntegrandSpec::ManyLight(ManyLightSpec {
                 sampler: sampler.into(),
                 cut_size: 64,
-                block: 1,
+                block: 4,
+                interleave: 2,
                 time: 2.5,
                 frame: 7
             })
@@ -505,6 +507,10 @@ fn bad_many_light_input_is_an_error_at_its_position() {
     assert!(m.contains("cut_size must be at most 64, found 65"), "{m}");
     let m = error_at("block0", &integrand("block = 0\n"), 14, 9);
     assert!(m.contains("block must be at least 1, found 0"), "{m}");
+    let m = error_at("interleave0", &integrand("interleave = 0\n"), 14, 14);
+    assert!(m.contains("interleave must be at least 1, found 0"), "{m}");
+    let m = error_at("interleave3", &integrand("interleave = 3\n"), 14, 14);
+    assert!(m.contains("interleave = 3 must divide block = 8"), "{m}");
     let m = error_at("frame", &integrand("frame = -1\n"), 14, 9);
     assert!(m.contains("frame must be at least 0"), "{m}");
     let m = error_at("time", &integrand("time = nan\n"), 14, 8);

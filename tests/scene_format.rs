@@ -649,6 +649,7 @@ fn many_light_scenes_parse_their_integrand_and_light_sets() {
             sampler: "tree".into(),
             cut_size: 8,
             block: 8,
+            interleave: 1,
             time: 0.5,
             frame: 0
         })

@@ -62,7 +62,7 @@ fn ml_direct(s: Surface, px: vec2<u32>, u: vec3<f32>, time: f32) -> vec3<f32> {
         return vec3<f32>(0.0);
     }
     // c / pmf with pmf = m·2^e: divide by the mantissa, then scale.
-    return s.rho * INV_PI * ldexp(c / pick.pmf_m, vec3<i32>(-pick.pmf_e));
+    return s.rho * INV_PI * ldexp(c / pick.pmf_m, vec3<i32>(-pick.pmf_e)) * light_interleave_scale();
 }
 
 fn integrand(p: ptr<function, IntegrandPoint>) -> vec3<f32> {

@@ -27,8 +27,13 @@
 //! the cut [root]. The set-up times are in [`ManyLight::setup_times`];
 //! integrators time only the evaluation.
 //!
-//! Interleaved sampling (paper §3.4) is not implemented: it is biased per
-//! pixel and relies on a denoiser.
+//! Interleaved sampling (paper §3.4, `interleave = m`, off by default):
+//! pixel i of each m×m sub-block samples only the cut nodes
+//! [⌊p·n/m²⌋, ⌊(p+1)·n/m²⌋) with p = (i + frame) mod m² (eq. 3 with the
+//! per-frame rotation), and its estimate is scaled by m². Per pixel this is
+//! biased (it estimates m² times its share of the lights); averaged over a
+//! sub-block of equal lighting it is the whole cut's — the paper filters
+//! the image afterwards, which mdas does not.
 
 use super::{scene_wgsl, Integrand};
 use crate::accel::GpuScene;
@@ -79,7 +84,8 @@ impl ManyLight {
         let prims = light_prims(scene, spec.time);
         let n = u32::try_from(prims.len()).context("more than 2^32 lights")?;
         let triangles = prims.iter().any(|l| l.kind == KIND_TRIANGLE);
-        let cuts = CutLayout::for_film(film.width, film.height, spec.block, spec.cut_size);
+        let cuts = CutLayout::for_film(film.width, film.height, spec.block, spec.cut_size)
+            .interleaved(spec.interleave, spec.frame);
         let mut profiler = Profiler::new(gpu);
         let mut cpu_build_ms = None;
 

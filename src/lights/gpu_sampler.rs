@@ -51,7 +51,11 @@ pub struct LightParams {
     pub blocks_per_row: u32,
     /// Power: N, or 0 when `Σ I = 0`.
     pub alias_count: u32,
-    pub _pad: [u32; 3],
+    /// Interleaved sampling (paper §3.4): sub-block side m (1 = off).
+    pub interleave: u32,
+    /// Frame number: rotates the sub-block assignment, p = (i + frame) mod m².
+    pub frame: u32,
+    pub _pad: u32,
 }
 
 /// How the film is tiled into cut-sharing blocks (§3.3).
@@ -63,6 +67,10 @@ pub struct CutLayout {
     pub block_size: u32,
     pub blocks_per_row: u32,
     pub block_rows: u32,
+    /// Interleaved sampling: m×m sub-blocks (1 = off); m divides k.
+    pub interleave: u32,
+    /// Frame number rotating the interleaved assignment.
+    pub frame: u32,
 }
 
 impl CutLayout {
@@ -74,6 +82,17 @@ impl CutLayout {
             block_size,
             blocks_per_row: width.div_ceil(block_size),
             block_rows: height.div_ceil(block_size),
+            interleave: 1,
+            frame: 0,
+        }
+    }
+
+    /// With interleaved sampling over `m`×`m` sub-blocks at `frame`.
+    pub fn interleaved(self, m: u32, frame: u32) -> Self {
+        CutLayout {
+            interleave: m.max(1),
+            frame,
+            ..self
         }
     }
 
@@ -130,6 +149,12 @@ impl GpuSamplerData {
             cut_size: if kind.uses_cut() { cuts.cut_size } else { 1 },
             block_size: cuts.block_size.max(1),
             blocks_per_row: cuts.blocks_per_row,
+            interleave: if kind.uses_cut() {
+                cuts.interleave.max(1)
+            } else {
+                1
+            },
+            frame: cuts.frame,
             ..Default::default()
         };
         let label = |s: &str| format!("lights.sampler.{s}");

@@ -21,7 +21,7 @@
 //!             intensity_jitter, color_jitter, orbit_radius, orbit_speed
 //! [integrand] type = area_light | depth_of_field | motion_blur
 //!             | path (max_bounces = 1) | ambient_occlusion (radius)
-//!             | many_light (sampler, cut_size, block, time, frame)
+//!             | many_light (sampler, cut_size, block, interleave, time, frame)
 //! [mdas]      bits_per_dim, extra_image_bits, initial_samples_per_cell,
 //!             scale_factor, alpha, candidates, max_samples_per_leaf, spp, seed
 //! ```
@@ -458,13 +458,14 @@ struct RawIntegrand {
     sampler: Option<S<String>>,
     cut_size: Option<S<i64>>,
     block: Option<S<i64>>,
+    interleave: Option<S<i64>>,
     time: Option<S<Num>>,
     frame: Option<S<i64>>,
 }
 
 impl RawIntegrand {
     fn type_keys(&self) -> Vec<(&'static str, Range<usize>)> {
-        present_keys!(self; max_bounces, radius, sampler, cut_size, block, time, frame)
+        present_keys!(self; max_bounces, radius, sampler, cut_size, block, interleave, time, frame)
     }
 }
 
@@ -476,7 +477,14 @@ const INTEGRAND_TYPES: [(&str, &[&str]); 6] = [
     ("ambient_occlusion", &["radius"]),
     (
         "many_light",
-        &["sampler", "cut_size", "block", "time", "frame"],
+        &[
+            "sampler",
+            "cut_size",
+            "block",
+            "interleave",
+            "time",
+            "frame",
+        ],
     ),
 ];
 
@@ -1365,6 +1373,15 @@ impl Ctx<'_> {
                         ))
                     }
                 };
+                let block = self.u32(&r.block, "block", 1, d.block)?;
+                let interleave = self.u32(&r.interleave, "interleave", 1, d.interleave)?;
+                if block % interleave != 0 {
+                    let span = r.interleave.as_ref().map_or(r.kind.span(), |v| v.span());
+                    return Err(self.error(
+                        span,
+                        format!("interleave = {interleave} must divide block = {block}"),
+                    ));
+                }
                 IntegrandSpec::ManyLight(ManyLightSpec {
                     sampler,
                     cut_size: self.opt_int(
@@ -1373,7 +1390,8 @@ impl Ctx<'_> {
                         1..=MAX_CUT_SIZE as i64,
                         d.cut_size as i64,
                     )? as u32,
-                    block: self.u32(&r.block, "block", 1, d.block)?,
+                    block,
+                    interleave,
                     time: r.time.as_ref().map_or(d.time, |v| v.get_ref().0),
                     frame: self.u32(&r.frame, "frame", 0, d.frame)?,
                 })

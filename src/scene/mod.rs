@@ -145,6 +145,11 @@ pub struct ManyLightSpec {
     pub cut_size: u32,
     /// Cut-sharing block size k: k × k pixels share one cut; ≥ 1.
     pub block: u32,
+    /// Interleaved sampling (stochastic lightcuts §3.4): each pixel of an
+    /// m × m sub-block samples 1/m² of the cut, scaled by m²; 1 = off
+    /// (the default). m divides `block`. Biased per pixel (unbiased over a
+    /// sub-block of equal lighting): the paper filters the result.
+    pub interleave: u32,
     /// Frame time in scene time units: mesh-light keyframes and animated
     /// light sets are evaluated at this time.
     pub time: f32,
@@ -158,6 +163,7 @@ impl Default for ManyLightSpec {
             sampler: "tree".into(),
             cut_size: 8,
             block: 8,
+            interleave: 1,
             time: 0.0,
             frame: 0,
         }

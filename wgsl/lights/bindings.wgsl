@@ -40,9 +40,10 @@ struct LightParams {
     blocks_per_row: u32,
     // Power: N, or 0 when Σ I = 0 (no light can be sampled).
     alias_count: u32,
+    // Interleaved sampling (§3.4): sub-block side m (1 = off), frame number.
+    interleave: u32,
+    frame: u32,
     _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
 }
 
 @group(1) @binding(16) var<storage, read> light_nodes: array<TreeNode>;
@@ -52,8 +53,33 @@ struct LightParams {
 @group(1) @binding(20) var<storage, read> light_cuts: array<u32>;
 @group(1) @binding(21) var<uniform> light_params: LightParams;
 
-// First light_cuts entry of the block holding pixel `px`.
+// The part [start, end) of the block's cut this pixel samples: the whole cut
+// unless interleaved sampling is on (light_cut_base sets it).
+var<private> light_subset: vec2<u32> = vec2<u32>(0u, 0xffffffffu);
+
+// First light_cuts entry of the block holding pixel `px`. With interleaved
+// sampling (paper §3.4, eq. 3) it also restricts the pixel to its share of
+// the cut: pixel i of its m×m sub-block (row-major) takes index
+// p = (i + frame) mod m² and the cut nodes [⌊p·n/m²⌋, ⌊(p+1)·n/m²⌋), n the
+// cut's length (light_cut_len applies it).
 fn light_cut_base(px: vec2<u32>) -> u32 {
     let block = px / light_params.block_size;
+    let m = max(light_params.interleave, 1u);
+    if (m > 1u) {
+        let q = px % vec2<u32>(m);
+        let p = (q.y * m + q.x + light_params.frame) % (m * m);
+        light_subset = vec2<u32>(p, p + 1u);
+    } else {
+        light_subset = vec2<u32>(0u, 0xffffffffu);
+    }
     return (block.y * light_params.blocks_per_row + block.x) * light_params.cut_size;
+}
+
+// The estimate's scale under interleaved sampling: a pixel samples 1/m² of
+// the cut, so its estimate is scaled by m² (the average over a sub-block is
+// then the whole cut's; per pixel it is biased, as in the paper, which
+// filters the result).
+fn light_interleave_scale() -> f32 {
+    let m = max(light_params.interleave, 1u);
+    return f32(m * m);
 }

@@ -166,25 +166,46 @@ fn light_descend(start: u32, x: vec3<f32>, n: vec3<f32>, u_in: f32, pmf_in: Ligh
     return LightPick(id, pmf.m, pmf.e);
 }
 
-// Number of nodes in the block's cut (1, the root, for the no-cut kinds).
+// Number of nodes of the block's cut this pixel samples (1, the root, for
+// the no-cut kinds): all of them, or under interleaved sampling its share
+// (light_subset, set by light_cut_base, holds p and p + 1 then).
 fn light_cut_len(cut_base: u32) -> u32 {
     if (!light_uses_cut()) {
         return 1u;
     }
     let size = min(light_params.cut_size, MAX_CUT);
+    var n = size;
     for (var j = 0u; j < size; j++) {
         if (light_cuts[cut_base + j] == NO_LIGHT) {
-            return j;
+            n = j;
+            break;
         }
     }
-    return size;
+    let m = max(light_params.interleave, 1u);
+    if (m == 1u) {
+        return n;
+    }
+    let mm = m * m;
+    return (light_subset.y * n) / mm - (light_subset.x * n) / mm;
 }
 
 fn light_cut_node(cut_base: u32, j: u32) -> u32 {
     if (!light_uses_cut()) {
         return 0u;
     }
-    return light_cuts[cut_base + j];
+    let m = max(light_params.interleave, 1u);
+    if (m == 1u) {
+        return light_cuts[cut_base + j];
+    }
+    let size = min(light_params.cut_size, MAX_CUT);
+    var n = size;
+    for (var i = 0u; i < size; i++) {
+        if (light_cuts[cut_base + i] == NO_LIGHT) {
+            n = i;
+            break;
+        }
+    }
+    return light_cuts[cut_base + (light_subset.x * n) / (m * m) + j];
 }
 
 // Cut node probabilities (eq. 2 over n nodes, docs "Cut node probabilities")
