@@ -5,13 +5,15 @@
 //! Each criterion sample is one full render; the bench reports the total
 //! and, per phase, the median of the `Render::times` figures (GPU
 //! timestamps where the adapter has them, else wall clock around a device
-//! sync), plus GPU bytes per sample. Run: `cargo bench --bench mdas`.
+//! sync), plus GPU bytes per sample. The same films are also rendered with
+//! Halton at the same 8 spp (group `halton_4d_*`: evaluate + accumulate),
+//! the baseline of the equal-time comparisons. Run: `cargo bench --bench mdas`.
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use mdas::gpu::shader::{bind_buffers, storage_entry, Wgsl};
 use mdas::gpu::Gpu;
 use mdas::integrand::{point_wgsl, Integrand};
-use mdas::integrator::{Integrator, Mdas, Render};
+use mdas::integrator::{Halton, Integrator, Mdas, Render};
 use mdas::scene::{Film, MdasParams};
 use std::time::Duration;
 
@@ -141,6 +143,30 @@ fn bench(c: &mut Criterion) {
             })
             .sum();
         eprintln!("  sampling total  {sampling:9.2} ms (median sum)");
+
+        let mut halton = Halton::new(8, 1);
+        let mut halton_renders: Vec<Render> = Vec::new();
+        halton.render(gpu, &integrand).unwrap();
+        let mut group = c.benchmark_group(format!("halton_4d_{label}"));
+        group
+            .sample_size(10)
+            .warm_up_time(Duration::from_millis(1))
+            .measurement_time(Duration::from_secs(1));
+        group.bench_function("render", |b| {
+            b.iter_custom(|iters| {
+                let start = std::time::Instant::now();
+                for _ in 0..iters {
+                    halton_renders.push(halton.render(gpu, &integrand).unwrap());
+                }
+                start.elapsed()
+            })
+        });
+        group.finish();
+        let total = median(halton_renders.iter().map(|r| r.times.total()).collect());
+        eprintln!(
+            "halton 4D {label}: {} samples, {total:.2} ms (median GPU total: evaluate + accumulate)",
+            halton_renders[0].samples
+        );
     }
 }
 
