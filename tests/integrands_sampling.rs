@@ -22,6 +22,7 @@
 //! random seed — with the fixed seeds, never.
 
 mod common;
+mod stats;
 
 use common::gpu;
 use glam::Vec3;
@@ -31,6 +32,7 @@ use mdas::integrand::scene_wgsl;
 use mdas::scene::{self, Scene};
 use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
+use stats::gamma_q;
 use std::f64::consts::PI;
 use std::path::Path;
 
@@ -143,77 +145,6 @@ fn run_warp(warp: u32, normal: Vec3, inputs: &[[f32; 2]]) -> Vec<[[f32; 4]; 2]> 
 }
 
 // ------------------------------------------------------------ statistics
-
-/// ln Γ(x), Lanczos (g = 7, n = 9), |error| < 1e-13 for x > 0.
-fn ln_gamma(x: f64) -> f64 {
-    const C: [f64; 9] = [
-        0.999_999_999_999_809_9,
-        676.520_368_121_885_1,
-        -1_259.139_216_722_402_8,
-        771.323_428_777_653_1,
-        -176.615_029_162_140_6,
-        12.507_343_278_686_905,
-        -0.138_571_095_265_720_12,
-        9.984_369_578_019_572e-6,
-        1.505_632_735_149_311_6e-7,
-    ];
-    if x < 0.5 {
-        return (PI / (PI * x).sin()).ln() - ln_gamma(1.0 - x);
-    }
-    let x = x - 1.0;
-    let mut a = C[0];
-    let t = x + 7.5;
-    for (i, c) in C.iter().enumerate().skip(1) {
-        a += c / (x + i as f64);
-    }
-    0.5 * (2.0 * PI).ln() + (x + 0.5) * t.ln() - t + a.ln()
-}
-
-/// Regularized upper incomplete gamma Q(a, x) (series for x < a + 1,
-/// Lentz continued fraction otherwise; Numerical Recipes §6.2).
-fn gamma_q(a: f64, x: f64) -> f64 {
-    if x <= 0.0 {
-        return 1.0;
-    }
-    let ln_pre = -x + a * x.ln() - ln_gamma(a);
-    if x < a + 1.0 {
-        let (mut sum, mut term, mut ap) = (1.0 / a, 1.0 / a, a);
-        for _ in 0..10_000 {
-            ap += 1.0;
-            term *= x / ap;
-            sum += term;
-            if term.abs() < sum.abs() * 1e-15 {
-                break;
-            }
-        }
-        1.0 - sum * ln_pre.exp()
-    } else {
-        let tiny = 1e-300;
-        let mut b = x + 1.0 - a;
-        let mut c = 1.0 / tiny;
-        let mut d = 1.0 / b;
-        let mut h = d;
-        for i in 1..10_000 {
-            let an = -(i as f64) * (i as f64 - a);
-            b += 2.0;
-            d = an * d + b;
-            if d.abs() < tiny {
-                d = tiny;
-            }
-            c = b + an / c;
-            if c.abs() < tiny {
-                c = tiny;
-            }
-            d = 1.0 / d;
-            let delta = d * c;
-            h *= delta;
-            if (delta - 1.0).abs() < 1e-15 {
-                break;
-            }
-        }
-        ln_pre.exp() * h
-    }
-}
 
 /// Chi-square test of observed counts against cell probabilities; cells
 /// with expected count < 5 are pooled into one. Asserts p ≥ α_i and

@@ -13,6 +13,8 @@
 //!   lights with `pmf > 0` (a `None` sample contributes 0), checked on
 //!   `65,536` stratified `u` to 6 standard errors.
 
+mod stats;
+
 use glam::Vec3;
 use mdas::lights::bvh::{self, LightBvh, INTERNAL_BIT, MAX_DEPTH};
 use mdas::lights::cut::{LightTree, MAX_CUT};
@@ -26,6 +28,7 @@ use mdas::lights::sampler::{
 use mdas::lights::{LightPrim, TreeNode, NO_LIGHT};
 use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
+use stats::gamma_q;
 
 // ---------------------------------------------------------------- helpers
 
@@ -113,68 +116,6 @@ fn samplers(
 /// `Σ_lights pmf`.
 fn pmf_sum(s: &dyn LightSampler, sh: &Shading, n: usize) -> f64 {
     (0..n as u32).map(|i| s.pmf(sh, i)).sum()
-}
-
-/// Regularized upper incomplete gamma Q(a, x) (Numerical Recipes 6.2).
-fn gamma_q(a: f64, x: f64) -> f64 {
-    fn ln_gamma(x: f64) -> f64 {
-        let c = [
-            76.18009172947146,
-            -86.50532032941677,
-            24.01409824083091,
-            -1.231739572450155,
-            0.1208650973866179e-2,
-            -0.5395239384953e-5,
-        ];
-        let t = x + 5.5 - (x + 0.5) * (x + 5.5).ln();
-        let s = c
-            .iter()
-            .enumerate()
-            .fold(1.000000000190015, |s, (j, c)| s + c / (x + 1.0 + j as f64));
-        -t + (2.5066282746310005 * s / x).ln()
-    }
-    if x <= 0.0 {
-        return 1.0;
-    }
-    let gln = ln_gamma(a);
-    if x < a + 1.0 {
-        let (mut ap, mut sum) = (a, 1.0 / a);
-        let mut del = sum;
-        for _ in 0..10_000 {
-            ap += 1.0;
-            del *= x / ap;
-            sum += del;
-            if del.abs() < sum.abs() * 1e-15 {
-                break;
-            }
-        }
-        1.0 - sum * (-x + a * x.ln() - gln).exp()
-    } else {
-        let tiny = 1e-300;
-        let mut b = x + 1.0 - a;
-        let mut c = 1.0 / tiny;
-        let mut d = 1.0 / b;
-        let mut h = d;
-        for i in 1..10_000 {
-            let an = -(i as f64) * (i as f64 - a);
-            b += 2.0;
-            d = an * d + b;
-            if d.abs() < tiny {
-                d = tiny;
-            }
-            c = b + an / c;
-            if c.abs() < tiny {
-                c = tiny;
-            }
-            d = 1.0 / d;
-            let del = d * c;
-            h *= del;
-            if (del - 1.0).abs() < 1e-15 {
-                break;
-            }
-        }
-        (-x + a * x.ln() - gln).exp() * h
-    }
 }
 
 /// Chi-square p-value of observed counts against expected counts, pooling

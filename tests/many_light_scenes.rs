@@ -7,59 +7,12 @@
 use glam::{Quat, Vec3};
 use mdas::lights::scene_lights::{light_count, light_counts, light_prims, LightCounts};
 use mdas::lights::{LightPrim, KIND_POINT, KIND_TRIANGLE};
-use mdas::scene::{self, IntegrandSpec, ManyLightSpec, Scene, SceneError};
-use std::path::{Path, PathBuf};
+use mdas::scene::{self, IntegrandSpec, ManyLightSpec};
+use std::path::Path;
 use std::time::Instant;
 
-fn scene_path(rel: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("scenes")
-        .join(rel)
-}
-
-fn load_text(test: &str, text: &str) -> (PathBuf, Result<Scene, SceneError>) {
-    let dir = std::env::temp_dir().join(format!("mdas-many-light-{}-{test}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join("scene.toml");
-    std::fs::write(&path, text).unwrap();
-    let result = scene::load(&path);
-    (path, result)
-}
-
-fn ok(test: &str, text: &str) -> Scene {
-    let (_, r) = load_text(test, text);
-    r.unwrap()
-}
-
-/// The message of a scene that must fail, checked to start with
-/// `file:line:column: `.
-fn error_at(test: &str, text: &str, line: usize, column: usize) -> String {
-    let (path, result) = load_text(test, text);
-    let e = result.expect_err("scene should be rejected");
-    let message = e.to_string();
-    let prefix = format!("{}:{line}:{column}: ", path.display());
-    assert!(
-        message.starts_with(&prefix),
-        "expected prefix {prefix:?}, got {message:?}"
-    );
-    assert_eq!(e.position(), Some((line, column)));
-    message[prefix.len()..].to_string()
-}
-
-/// A valid scene without shapes, 11 lines; tests append to it.
-const BASE: &str = "\
-[film]
-width = 8
-height = 6
-[camera]
-position = [0, 1, 5]
-look_at = [0, 0, 0]
-up = [0, 1, 0]
-fov_y = 40
-[[material]]
-name = \"white\"
-albedo = [0.5, 0.5, 0.5]
-";
+mod scene_text;
+use scene_text::*;
 
 /// BASE plus a 2 × 2 floor at y = 0 (normal +y), 16 lines.
 fn with_floor() -> String {

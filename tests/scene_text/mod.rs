@@ -1,0 +1,62 @@
+//! Writing scene text to a temporary file and loading it as the CLI does;
+//! asserting where a bad scene's error points. Shared by the scene-file
+//! tests.
+#![allow(dead_code)]
+
+use mdas::scene::{self, Scene, SceneError};
+use std::path::{Path, PathBuf};
+
+pub fn scene_path(rel: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes")
+        .join(rel)
+}
+
+/// Write `text` to a fresh file in a per-test temp directory and load it
+/// through the public `load`, as the CLI does.
+pub fn load_text(test: &str, text: &str) -> (PathBuf, Result<Scene, SceneError>) {
+    let exe = std::env::current_exe().unwrap();
+    let binary = exe.file_stem().unwrap().to_string_lossy();
+    let dir = std::env::temp_dir().join(format!("mdas-{binary}-{}-{test}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("scene.toml");
+    std::fs::write(&path, text).unwrap();
+    let result = scene::load(&path);
+    (path, result)
+}
+
+/// A scene that must load.
+pub fn ok(test: &str, text: &str) -> Scene {
+    let (_, r) = load_text(test, text);
+    r.unwrap()
+}
+
+/// The error message of a scene that must fail, checked to start with
+/// `file:line:column: `.
+pub fn error_at(test: &str, text: &str, line: usize, column: usize) -> String {
+    let (path, result) = load_text(test, text);
+    let e = result.expect_err("scene should be rejected");
+    let message = e.to_string();
+    let prefix = format!("{}:{line}:{column}: ", path.display());
+    assert!(
+        message.starts_with(&prefix),
+        "expected prefix {prefix:?}, got {message:?}"
+    );
+    assert_eq!(e.position(), Some((line, column)));
+    message[prefix.len()..].to_string()
+}
+
+/// A valid scene without shapes, 11 lines; tests append to it.
+pub const BASE: &str = "\
+[film]
+width = 8
+height = 6
+[camera]
+position = [0, 1, 5]
+look_at = [0, 0, 0]
+up = [0, 1, 0]
+fov_y = 40
+[[material]]
+name = \"white\"
+albedo = [0.5, 0.5, 0.5]
+";
