@@ -45,7 +45,7 @@ use crate::lights::gpu_build::GpuLightTree;
 use crate::lights::gpu_sampler::{CutLayout, GpuSamplerData, TreeSource, FIRST_BINDING};
 use crate::lights::sampler::SamplerKind;
 use crate::lights::scene_lights::light_prims;
-use crate::lights::{LightPrim, KIND_TRIANGLE};
+use crate::lights::KIND_TRIANGLE;
 use crate::scene::{Film, ManyLightSpec, Scene};
 use crate::wgsl_file;
 use anyhow::{Context, Result};
@@ -92,13 +92,9 @@ impl ManyLight {
         let (sampler, tree) = gpu.scoped("many_light set-up", || {
             let mut tree = None;
             let sampler = if kind.uses_perfect_tree() && n > 0 {
+                // The tree is built from the sampler's own copy of the
+                // lights (one upload), into the buffers the sampler binds.
                 let mut t = GpuLightTree::new(gpu, n)?;
-                let buffer = gpu.buffer_from(
-                    "many_light.prims",
-                    bytemuck::cast_slice::<LightPrim, u8>(&prims),
-                    STORAGE,
-                )?;
-                t.build(gpu, &buffer, n, &mut profiler)?;
                 let s = GpuSamplerData::new(
                     gpu,
                     kind,
@@ -109,6 +105,7 @@ impl ManyLight {
                     }),
                     cuts,
                 )?;
+                t.build(gpu, &s.prims, n, &mut profiler)?;
                 tree = Some(t);
                 s
             } else {
