@@ -75,6 +75,35 @@ fn median(mut v: Vec<f64>) -> f64 {
     v[v.len() / 2]
 }
 
+/// Criterion group `name` of whole renders (one warm-up first); returns
+/// every timed render, for the per-phase medians.
+fn timed_renders(
+    c: &mut Criterion,
+    name: &str,
+    gpu: &Gpu,
+    integrator: &mut dyn Integrator,
+    integrand: &dyn Integrand,
+) -> (Render, Vec<Render>) {
+    let warm = integrator.render(gpu, integrand).unwrap();
+    let mut renders = Vec::new();
+    let mut group = c.benchmark_group(name);
+    group
+        .sample_size(10)
+        .warm_up_time(Duration::from_millis(1))
+        .measurement_time(Duration::from_secs(1));
+    group.bench_function("render", |b| {
+        b.iter_custom(|iters| {
+            let start = std::time::Instant::now();
+            for _ in 0..iters {
+                renders.push(integrator.render(gpu, integrand).unwrap());
+            }
+            start.elapsed()
+        })
+    });
+    group.finish();
+    (warm, renders)
+}
+
 fn bench(c: &mut Criterion) {
     let gpu = Gpu::shared().expect("benches need a wgpu adapter");
     eprintln!("{}", gpu.describe());
@@ -94,23 +123,8 @@ fn bench(c: &mut Criterion) {
             seed: 1,
         };
         let mut mdas = Mdas::new(params).unwrap();
-        let warm: Render = mdas.render(gpu, &integrand).unwrap();
-        let mut renders: Vec<Render> = Vec::new();
-        let mut group = c.benchmark_group(format!("mdas_4d_{label}"));
-        group
-            .sample_size(10)
-            .warm_up_time(Duration::from_millis(1))
-            .measurement_time(Duration::from_secs(1));
-        group.bench_function("render", |b| {
-            b.iter_custom(|iters| {
-                let start = std::time::Instant::now();
-                for _ in 0..iters {
-                    renders.push(mdas.render(gpu, &integrand).unwrap());
-                }
-                start.elapsed()
-            })
-        });
-        group.finish();
+        let (warm, renders) =
+            timed_renders(c, &format!("mdas_4d_{label}"), gpu, &mut mdas, &integrand);
         let stats = mdas.last_stats().unwrap();
         eprintln!(
             "mdas 4D {label}: {} samples ({} initial), {} iterations, {} leaves, {:.1} GPU bytes/sample, clock {:?}, {} renders",
@@ -145,23 +159,13 @@ fn bench(c: &mut Criterion) {
         eprintln!("  sampling total  {sampling:9.2} ms (median sum)");
 
         let mut halton = Halton::new(8, 1);
-        let mut halton_renders: Vec<Render> = Vec::new();
-        halton.render(gpu, &integrand).unwrap();
-        let mut group = c.benchmark_group(format!("halton_4d_{label}"));
-        group
-            .sample_size(10)
-            .warm_up_time(Duration::from_millis(1))
-            .measurement_time(Duration::from_secs(1));
-        group.bench_function("render", |b| {
-            b.iter_custom(|iters| {
-                let start = std::time::Instant::now();
-                for _ in 0..iters {
-                    halton_renders.push(halton.render(gpu, &integrand).unwrap());
-                }
-                start.elapsed()
-            })
-        });
-        group.finish();
+        let (_, halton_renders) = timed_renders(
+            c,
+            &format!("halton_4d_{label}"),
+            gpu,
+            &mut halton,
+            &integrand,
+        );
         let total = median(halton_renders.iter().map(|r| r.times.total()).collect());
         eprintln!(
             "halton 4D {label}: {} samples, {total:.2} ms (median GPU total: evaluate + accumulate)",

@@ -5,13 +5,14 @@
 //! samples), and bad input fails before anything is written.
 
 mod common;
+mod report_checks;
 
 use common::gpu;
 use mdas::compare::sweep::{sweep, SweepSpec, CSV_HEADER};
 use mdas::compare::{compare, Budget, CompareSpec, Setup};
 use mdas::image_io::read_exr;
-use mdas::metrics;
 use mdas::scene::MdasParams;
+use report_checks::{check_method, close};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 
@@ -67,10 +68,6 @@ fn setup<'a>(
     }
 }
 
-fn close(a: f64, b: f64, rel: f64) -> bool {
-    (a - b).abs() <= rel * a.abs().max(b.abs()).max(1e-30)
-}
-
 /// Checks report.json in `out` against the files beside it.
 fn check_report(out: &Path) -> Value {
     let json: Value =
@@ -111,35 +108,9 @@ fn check_report(out: &Path) -> Value {
     assert_eq!(methods.len(), 2);
     for m in methods {
         let name = m["name"].as_str().unwrap();
-        // RelMSE and MSE recomputed from the written EXRs.
-        let (_, _, image) = read_exr(&out.join(m["image"].as_str().unwrap())).unwrap();
-        let e = metrics::compare(&image, &reference).unwrap();
-        let relmse = m["relmse"].as_f64().unwrap();
-        assert!(
-            close(e.relmse, relmse, 1e-9),
-            "{name}: {} vs {relmse}",
-            e.relmse
-        );
-        assert!(close(e.mse, m["mse"].as_f64().unwrap(), 1e-9), "{name} MSE");
-        // The heat map's raw values average to the same RelMSE.
-        let (_, _, map) = read_exr(&out.join(format!("relmse-{name}.exr"))).unwrap();
-        let mean = map.iter().map(|p| p[0] as f64).sum::<f64>() / map.len() as f64;
-        assert!(
-            close(mean, relmse, 1e-5),
-            "{name}: heat map mean {mean} vs {relmse}"
-        );
-        // Phase times add up to the total.
+        // RelMSE, MSE, heat map and phase sum against the written files.
+        let total = check_method(out, m, &reference);
         let t = m["time_ms"].as_object().unwrap();
-        let sum: f64 = t
-            .iter()
-            .filter(|(k, _)| k.as_str() != "total")
-            .map(|(_, v)| v.as_f64().unwrap())
-            .sum();
-        let total = t["total"].as_f64().unwrap();
-        assert!(
-            total > 0.0 && close(sum, total, 1e-9),
-            "{name}: Σ {sum} vs {total}"
-        );
         let phases: Vec<&str> = t.keys().map(String::as_str).collect();
         let expected: &[&str] = if name == "mdas" {
             &[

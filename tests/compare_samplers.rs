@@ -5,13 +5,14 @@
 //! anything is written.
 
 mod common;
+mod report_checks;
 
 use common::gpu;
 use mdas::compare::{compare_samplers, Budget, SamplersSpec, Setup};
 use mdas::image_io::read_exr;
 use mdas::lights::sampler::SamplerKind;
-use mdas::metrics;
 use mdas::scene::MdasParams;
+use report_checks::{check_method, close};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -56,10 +57,6 @@ fn spec<'a>(
         max_spp: 1 << 12,
         samplers,
     }
-}
-
-fn close(a: f64, b: f64, rel: f64) -> bool {
-    (a - b).abs() <= rel * a.abs().max(b.abs()).max(1e-30)
 }
 
 fn mdas_bin(args: &[&str]) -> Output {
@@ -131,35 +128,8 @@ fn compare_samplers_writes_a_consistent_report() {
         let name = m["name"].as_str().unwrap();
         let image_name = m["image"].as_str().unwrap();
         assert_eq!(image_name, format!("{}.exr", name.replace('+', "-")));
-        // RelMSE and MSE recomputed from the written EXRs.
-        let (_, _, image) = read_exr(&out.join(image_name)).unwrap();
-        let e = metrics::compare(&image, &reference).unwrap();
-        let relmse = m["relmse"].as_f64().unwrap();
-        assert!(
-            close(e.relmse, relmse, 1e-9),
-            "{name}: {} vs {relmse}",
-            e.relmse
-        );
-        assert!(close(e.mse, m["mse"].as_f64().unwrap(), 1e-9), "{name} MSE");
-        // The heat map's raw values average to the same RelMSE.
-        let (_, _, map) = read_exr(&out.join(format!("relmse-{image_name}"))).unwrap();
-        let mean = map.iter().map(|p| p[0] as f64).sum::<f64>() / map.len() as f64;
-        assert!(
-            close(mean, relmse, 1e-5),
-            "{name}: heat map {mean} vs {relmse}"
-        );
-        // Phase times add up to the total.
-        let t = m["time_ms"].as_object().unwrap();
-        let sum: f64 = t
-            .iter()
-            .filter(|(k, _)| k.as_str() != "total")
-            .map(|(_, v)| v.as_f64().unwrap())
-            .sum();
-        let total = t["total"].as_f64().unwrap();
-        assert!(
-            total > 0.0 && close(sum, total, 1e-9),
-            "{name}: Σ {sum} vs {total}"
-        );
+        // RelMSE, MSE, heat map and phase sum against the written files.
+        check_method(&out, m, &reference);
         assert!(
             m["nonfinite"].as_u64() == Some(0),
             "{name} non-finite samples"

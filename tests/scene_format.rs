@@ -569,27 +569,9 @@ fn camera_must_be_well_posed() {
 fn corrupted_scenes_never_panic() {
     let text = std::fs::read_to_string(scene_path("tests/shapes.toml")).unwrap();
     let file = scene_path("tests/shapes.toml");
-    for end in (0..text.len()).filter(|&i| text.is_char_boundary(i)) {
-        let _ = scene::parse(&text[..end], &file);
-    }
-    let mut state = 0x2545_F491_4F6C_DD1Du64;
-    let mut next = || {
-        state ^= state << 13;
-        state ^= state >> 7;
-        state ^= state << 17;
-        state
-    };
-    let replacements = b"0-9.e[]{}=\"\n #nai,";
-    for _ in 0..2000 {
-        let mut bytes = text.clone().into_bytes();
-        for _ in 0..1 + next() % 3 {
-            let at = (next() % bytes.len() as u64) as usize;
-            bytes[at] = replacements[(next() % replacements.len() as u64) as usize];
-        }
-        if let Ok(corrupt) = String::from_utf8(bytes) {
-            let _ = scene::parse(&corrupt, &file);
-        }
-    }
+    for_each_corruption(&text, 0x2545_F491_4F6C_DD1D, 2000, |t| {
+        let _ = scene::parse(t, &file);
+    });
 }
 
 /// The three many-light scenes carry the `many_light` integrand with their

@@ -60,3 +60,31 @@ fov_y = 40
 name = \"white\"
 albedo = [0.5, 0.5, 0.5]
 ";
+
+/// Hands `check` every truncation of `text` (at char boundaries) and
+/// `corruptions` copies with 1–3 bytes replaced by TOML-ish characters
+/// (xorshift stream from `seed`; copies that are no longer UTF-8 are
+/// skipped), for "no input may panic" tests.
+pub fn for_each_corruption(text: &str, seed: u64, corruptions: u32, mut check: impl FnMut(&str)) {
+    for end in (0..text.len()).filter(|&i| text.is_char_boundary(i)) {
+        check(&text[..end]);
+    }
+    let mut state = seed;
+    let mut next = || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        state
+    };
+    let replacements = b"0-9.e[]{}=\"\n #nai,";
+    for _ in 0..corruptions {
+        let mut bytes = text.as_bytes().to_vec();
+        for _ in 0..1 + next() % 3 {
+            let at = (next() % bytes.len() as u64) as usize;
+            bytes[at] = replacements[(next() % replacements.len() as u64) as usize];
+        }
+        if let Ok(corrupt) = String::from_utf8(bytes) {
+            check(&corrupt);
+        }
+    }
+}
