@@ -207,6 +207,27 @@ enum Command {
         #[command(flatten)]
         common: CompareArgs,
     },
+    /// Time MDAS against Halton at the same sample count, phase by phase:
+    /// one warm-up render each, then interleaved rounds; medians of GPU
+    /// time per phase and of the wall clock (a Markdown table on stdout).
+    Bench {
+        /// Scene files (TOML).
+        #[arg(required = true)]
+        scenes: Vec<PathBuf>,
+        /// Render at this fraction of each scene's film size.
+        #[arg(long, default_value_t = 0.25)]
+        scale: f32,
+        /// Samples per pixel for both methods (default: the scene's [mdas]
+        /// spp, which must then be a whole number).
+        #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+        spp: Option<u32>,
+        /// Timed rounds (one MDAS and one Halton render each) after the warm-up.
+        #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..))]
+        repeats: u32,
+        /// Also write the figures as JSON to this file.
+        #[arg(long)]
+        json: Option<PathBuf>,
+    },
     /// Print the GPU adapter, backend, features in use and key limits.
     Info,
 }
@@ -376,6 +397,36 @@ fn run(cli: Cli) -> Result<()> {
                 out.join("sweep.svg").display(),
                 out.join("sweep.png").display()
             );
+            Ok(())
+        }
+        Command::Bench {
+            scenes,
+            scale,
+            spp,
+            repeats,
+            json,
+        } => {
+            if let Some(path) = &json {
+                ensure_parent(path)?;
+            }
+            let gpu = Gpu::shared()?;
+            eprintln!("adapter {}", gpu.info.name);
+            let mut rows = Vec::new();
+            for scene in &scenes {
+                eprintln!(
+                    "{}: warm-up, then {repeats} interleaved rounds",
+                    scene.display()
+                );
+                rows.push(compare::phases::bench_scene(
+                    gpu, scene, scale, spp, repeats,
+                )?);
+            }
+            print!("{}", compare::phases::table(&rows));
+            if let Some(path) = &json {
+                let text = serde_json::to_string_pretty(&rows)?;
+                image_io::write_atomic(path, |tmp| Ok(std::fs::write(tmp, &text)?))?;
+                eprintln!("wrote {}", path.display());
+            }
             Ok(())
         }
         Command::Info => {

@@ -2,11 +2,13 @@
 //! §5): timing with warm-up and medians, budget matching, `mdas compare`
 //! ([`experiment`]) with its report, heat maps and density map, light
 //! samplers against each other (`mdas compare --samplers`, [`samplers`]), and
-//! `mdas sweep` ([`sweep`]) with its CSV and log–log plot.
+//! `mdas sweep` ([`sweep`]) with its CSV and log–log plot, and `mdas bench`
+//! ([`phases`]): MDAS's phases against Halton at equal samples.
 
 pub mod equal_time;
 pub mod experiment;
 pub mod heatmap;
+pub mod phases;
 pub mod plot;
 pub mod report;
 pub mod samplers;

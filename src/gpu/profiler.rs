@@ -92,39 +92,42 @@ impl<'g> Profiler<'g> {
         name: &str,
         record: impl FnOnce(&mut wgpu::CommandEncoder, Option<wgpu::ComputePassTimestampWrites<'_>>),
     ) -> Result<()> {
-        let gpu = self.gpu;
-        let mut encoder = gpu
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(name) });
-        if gpu.caps.timestamps {
-            let pair = self.pairs.len() as u32;
-            if pair % PAIRS_PER_SET == 0 {
-                self.sets
-                    .push(gpu.device.create_query_set(&wgpu::QuerySetDescriptor {
-                        label: Some("mdas.profiler.timestamps"),
-                        ty: wgpu::QueryType::Timestamp,
-                        count: 2 * PAIRS_PER_SET,
-                    }));
-            }
-            self.pairs.push(name.to_string());
-            let local = pair % PAIRS_PER_SET;
-            record(
-                &mut encoder,
-                Some(wgpu::ComputePassTimestampWrites {
-                    query_set: self.sets.last().expect("just pushed"),
-                    beginning_of_pass_write_index: Some(2 * local),
-                    end_of_pass_write_index: Some(2 * local + 1),
-                }),
-            );
-            gpu.queue.submit([encoder.finish()]);
-        } else {
-            let start = Instant::now();
-            record(&mut encoder, None);
-            gpu.queue.submit([encoder.finish()]);
-            gpu.wait()?;
-            self.wall.add(name, start.elapsed().as_secs_f64() * 1e3);
-        }
+        let mut batch = self.batch(name);
+        batch.phase(name, record)?;
+        batch.submit();
         Ok(())
+    }
+
+    /// Starts a batch of phases recorded into one command buffer and
+    /// submitted together ([`Batch::submit`]), so the GPU runs them back
+    /// to back with no host round trip between them.
+    pub fn batch(&mut self, label: &str) -> Batch<'_, 'g> {
+        let encoder = self.encoder(label);
+        Batch {
+            profiler: self,
+            encoder,
+        }
+    }
+
+    fn encoder(&self, label: &str) -> wgpu::CommandEncoder {
+        self.gpu
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) })
+    }
+
+    /// The query slots of a new timestamp pair for phase `name`.
+    fn next_pair(&mut self, name: &str) -> (&wgpu::QuerySet, u32) {
+        let pair = self.pairs.len() as u32;
+        if pair % PAIRS_PER_SET == 0 {
+            self.sets
+                .push(self.gpu.device.create_query_set(&wgpu::QuerySetDescriptor {
+                    label: Some("mdas.profiler.timestamps"),
+                    ty: wgpu::QueryType::Timestamp,
+                    count: 2 * PAIRS_PER_SET,
+                }));
+        }
+        self.pairs.push(name.to_string());
+        (self.sets.last().expect("just pushed"), pair % PAIRS_PER_SET)
     }
 
     /// Waits for all phases and returns their times.
@@ -160,5 +163,61 @@ impl<'g> Profiler<'g> {
             times.add(name, end.saturating_sub(begin) as f64 * ns_per_tick * 1e-6);
         }
         Ok(times)
+    }
+}
+
+/// Phases recorded into one command buffer ([`Profiler::batch`]).
+///
+/// With timestamps each phase's compute pass gets its own pair and nothing
+/// is submitted until [`Batch::submit`]. Without them a phase cannot be
+/// timed inside a longer submission, so each [`Batch::phase`] submits what
+/// the batch holds so far and waits (the wall clock then includes the
+/// submission overhead, as for [`Profiler::phase`]).
+pub struct Batch<'p, 'g> {
+    profiler: &'p mut Profiler<'g>,
+    encoder: wgpu::CommandEncoder,
+}
+
+impl Batch<'_, '_> {
+    /// Records one phase; `record` must pass the timestamp writes it is
+    /// given to the one compute pass it begins.
+    pub fn phase(
+        &mut self,
+        name: &str,
+        record: impl FnOnce(&mut wgpu::CommandEncoder, Option<wgpu::ComputePassTimestampWrites<'_>>),
+    ) -> Result<()> {
+        let gpu = self.profiler.gpu;
+        if gpu.caps.timestamps {
+            let (query_set, local) = self.profiler.next_pair(name);
+            record(
+                &mut self.encoder,
+                Some(wgpu::ComputePassTimestampWrites {
+                    query_set,
+                    beginning_of_pass_write_index: Some(2 * local),
+                    end_of_pass_write_index: Some(2 * local + 1),
+                }),
+            );
+        } else {
+            let start = Instant::now();
+            record(&mut self.encoder, None);
+            let encoder = std::mem::replace(&mut self.encoder, self.profiler.encoder(name));
+            gpu.queue.submit([encoder.finish()]);
+            gpu.wait()?;
+            self.profiler
+                .wall
+                .add(name, start.elapsed().as_secs_f64() * 1e3);
+        }
+        Ok(())
+    }
+
+    /// The batch's encoder, for commands outside any phase (copies,
+    /// clears): they run in order with the phases.
+    pub fn encoder(&mut self) -> &mut wgpu::CommandEncoder {
+        &mut self.encoder
+    }
+
+    /// Submits everything recorded since the last submission.
+    pub fn submit(self) {
+        self.profiler.gpu.queue.submit([self.encoder.finish()]);
     }
 }

@@ -68,7 +68,7 @@ fn decide(k: u32) -> Decision {
     d.collapse = false;
     d.axis = 0u;
     d.plane = 0u;
-    if (k >= params.leaf_count) {
+    if (k >= leaf_count()) {
         return d;
     }
     let base = leaf_base(k);
@@ -80,7 +80,7 @@ fn decide(k: u32) -> Decision {
     let emax_bits = atomicLoad(&counters[C_EMAX]);
     var selected = e_bits == emax_bits || params.select_all != 0u;
     if (!selected) {
-        let xi = draw_open(leaf_key(k, params.iteration), 0u);  // stream 0
+        let xi = draw_open(leaf_key(k, iteration()), 0u);  // stream 0
         selected = bitcast<f32>(e_bits) >= bitcast<f32>(emax_bits) * pow(xi, params.inv_alpha);
     }
     if (!selected) {
@@ -88,7 +88,7 @@ fn decide(k: u32) -> Decision {
     }
 
     // Best candidate among CANDIDATES uniform points of the box.
-    let key = leaf_key(k, params.iteration);
+    let key = leaf_key(k, iteration());
     let head = header_head(h);
     let count = header_count(h);
     var quantum: array<f32, DIMS>;
@@ -170,8 +170,9 @@ fn decide(k: u32) -> Decision {
 @compute @workgroup_size(WG)
 fn count(@builtin(global_invocation_id) gid: vec3<u32>,
          @builtin(local_invocation_index) lid: u32,
-         @builtin(workgroup_id) wid: vec3<u32>) {
-    let k = thread_index(gid);
+         @builtin(workgroup_id) wid: vec3<u32>,
+         @builtin(num_workgroups) groups: vec3<u32>) {
+    let k = thread_index(gid, groups, WG);
     let d = decide(k);
     if (d.collapse) {
         leaves[leaf_base(k) + 1u] |= COLLAPSED_BIT;
@@ -182,8 +183,8 @@ fn count(@builtin(global_invocation_id) gid: vec3<u32>,
     }
     let v = vec2<u32>(u32(d.selected), u32(d.split));
     let prefix = workgroup_scan(lid, v);
-    let g = workgroup_index(wid);
-    if (lid == WG - 1u && g < params.partial_count) {
+    let g = workgroup_index(wid, groups);
+    if (lid == WG - 1u && g < leaf_groups()) {
         let total = prefix + v;
         partials[2u * g] = total.x;
         partials[2u * g + 1u] = total.y;
@@ -226,10 +227,12 @@ fn mul_div(a: u32, b: u32, c: u32) -> u32 {
 @compute @workgroup_size(WG)
 fn apply(@builtin(global_invocation_id) gid: vec3<u32>,
          @builtin(local_invocation_index) lid: u32,
-         @builtin(workgroup_id) wid: vec3<u32>) {
-    let k = thread_index(gid);
+         @builtin(workgroup_id) wid: vec3<u32>,
+         @builtin(num_workgroups) groups: vec3<u32>) {
+    let k = thread_index(gid, groups, WG);
+    let leaf_total = leaf_count();
     var word = 0u;
-    if (k < params.leaf_count) {
+    if (k < leaf_total) {
         word = leaves[leaf_base(k) + 2u];
     }
     let selected = (word & DECISION_MASK) == DECISION_MARK;
@@ -253,9 +256,9 @@ fn apply(@builtin(global_invocation_id) gid: vec3<u32>,
         lo[axis] = box_lo(box);
         hi[axis] = box_hi(box);
     }
-    d.cand = candidate(leaf_key(k, params.iteration), (word >> 20u) & 63u, lo, hi);
-    let g = workgroup_index(wid);
-    let n = params.sample_count;
+    d.cand = candidate(leaf_key(k, iteration()), (word >> 20u) & 63u, lo, hi);
+    let g = workgroup_index(wid, groups);
+    let n = atomicLoad(&counters[C_SAMPLES]);
     let left_over = params.budget - n;
     let selected_total = atomicLoad(&counters[C_SELECTED]);
     let truncate = selected_total > left_over;
@@ -313,7 +316,7 @@ fn apply(@builtin(global_invocation_id) gid: vec3<u32>,
             next = sample_next(s);
         }
     }
-    let right = params.leaf_count + partials[2u * g + 1u] + local.y;
+    let right = leaf_total + partials[2u * g + 1u] + local.y;
     let rbase = leaf_base(right);
     let axis_word = boxes[box_base(k) + d.axis];
     for (var axis = 0u; axis < DIMS; axis++) {

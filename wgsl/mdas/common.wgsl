@@ -2,7 +2,14 @@
 // src/integrator/mdas/mod.rs documents the layout and generates the
 // constants used here: DIMS, BITS_PER_DIM, EXTRA_BITS, SAMPLES_PER_CELL,
 // MAX_PER_LEAF, CANDIDATES, COORD_WORDS, SAMPLE_STRIDE, LEAF_STRIDE, WG,
-// PIXELS_PER_PASS. Needs shared/rng.wgsl and shared/morton.wgsl.
+// EVAL_WG, EVAL_PER_INVOCATION, STATS_PER_INVOCATION, PIXELS_PER_PASS and
+// the counter indices C_*. Needs shared/rng.wgsl and shared/morton.wgsl.
+//
+// The iteration state (leaf and sample counts, iteration number, the
+// range to evaluate, the stop flag) lives in `counters` on the GPU, not in
+// `params`: plan.wgsl advances it after every iteration and writes the
+// next dispatches' indirect arguments, so the host records many
+// iterations in one submission and never waits inside the loop.
 //
 // leaves[k·LEAF_STRIDE + …] (LEAF_STRIDE = 3): 0 Morton cell, 1 header
 // (head sample | count << 27 | collapsed << 31), 2 error bits (DIRTY =
@@ -18,21 +25,22 @@
 
 struct Params {
     seed: u32,
-    iteration: u32,
-    leaf_count: u32,
-    sample_count: u32,
     budget: u32,
-    row_threads: u32,
-    partial_count: u32,
+    max_iterations: u32,
+    // Largest workgroup count per dispatch dimension (adapter limit).
+    max_groups: u32,
     pass_offset: u32,
     width: u32,
     height: u32,
-    fixed_exp: i32,
     select_all: u32,
     scale_factor: f32,
     inv_alpha: f32,
     epsilon: f32,
-    eval_count: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+    _pad3: u32,
+    _pad4: u32,
 }
 
 @group(0) @binding(0) var<uniform> params: Params;
@@ -50,21 +58,31 @@ const COUNT_SHIFT: u32 = 27u;
 const COLLAPSED_BIT: u32 = 0x80000000u;
 const QUANTUM_BITS: u32 = 16u;
 
-// counters[]
-const C_EMAX: u32 = 0u;
-const C_SELECTED: u32 = 1u;
-const C_SPLITS: u32 = 2u;
-const C_NONFINITE: u32 = 3u;
-const C_MAXABS: u32 = 4u;   // 3 words, f32 bits of max |f| per channel
-const C_COLLAPSED: u32 = 7u;
+// counters[]: the C_* indices are generated from `counter` in
+// src/integrator/mdas/mod.rs, which documents each word.
 
-// Linear thread index of a 2D dispatch.
-fn thread_index(gid: vec3<u32>) -> u32 {
-    return gid.x + gid.y * params.row_threads;
+fn leaf_count() -> u32 {
+    return atomicLoad(&counters[C_LEAVES]);
 }
 
-fn workgroup_index(wid: vec3<u32>) -> u32 {
-    return wid.x + wid.y * (params.row_threads / WG);
+fn iteration() -> u32 {
+    return atomicLoad(&counters[C_ITERATION]);
+}
+
+// Linear thread index of a 2D dispatch of `groups.x × groups.y`
+// workgroups of `size` invocations (direct or indirect: the width comes
+// from the num_workgroups built-in).
+fn thread_index(gid: vec3<u32>, groups: vec3<u32>, size: u32) -> u32 {
+    return gid.x + gid.y * groups.x * size;
+}
+
+fn workgroup_index(wid: vec3<u32>, groups: vec3<u32>) -> u32 {
+    return wid.x + wid.y * groups.x;
+}
+
+// Workgroups over the leaves (entries of `partials`).
+fn leaf_groups() -> u32 {
+    return (leaf_count() + WG - 1u) / WG;
 }
 
 // ---- random numbers keyed by (leaf, iteration, stream) and the seed ----

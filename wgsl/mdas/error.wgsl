@@ -57,10 +57,12 @@ fn leaf_error(k: u32) -> f32 {
 }
 
 @compute @workgroup_size(WG)
-fn error(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
-    let k = thread_index(gid);
+fn error(@builtin(global_invocation_id) gid: vec3<u32>,
+         @builtin(local_invocation_index) lid: u32,
+         @builtin(num_workgroups) groups: vec3<u32>) {
+    let k = thread_index(gid, groups, WG);
     var bits = 0u;
-    if (k < params.leaf_count) {
+    if (k < leaf_count()) {
         let base = leaf_base(k);
         if (!header_collapsed(leaves[base + 1u])) {
             bits = leaves[base + 2u];

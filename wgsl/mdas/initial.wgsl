@@ -6,9 +6,10 @@
 // uniform quantum inside it. Random numbers: draw(leaf_key(cell, 0), …).
 
 @compute @workgroup_size(WG)
-fn initial(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let cell = thread_index(gid);
-    if (cell >= params.leaf_count) {
+fn initial(@builtin(global_invocation_id) gid: vec3<u32>,
+           @builtin(num_workgroups) groups: vec3<u32>) {
+    let cell = thread_index(gid, groups, WG);
+    if (cell >= leaf_count()) {
         return;
     }
     let first = cell * SAMPLES_PER_CELL;

@@ -9,8 +9,9 @@
 // atomicAdd on the low word and the carry folded into the high word:
 // integer addition is associative, so the result does not depend on the
 // order of the atomics. Colour terms are scaled by 2^fixed_exp with
-// fixed_exp = 60 − ⌈log2 max|f|⌉ (so |Σ| < 2^61 for every pixel), weights by
-// 2^60. Each leaf covers at most PIXELS_PER_PASS pixels per dispatch;
+// fixed_exp = 60 − ⌈log2 max|f|⌉ (so |Σ| < 2^61 for every pixel; max|f|
+// from stats.wgsl, the exponent as reconstruct::fixed_exponent computes it
+// on the host to decode the sums), weights by 2^60. Each leaf covers at most PIXELS_PER_PASS pixels per dispatch;
 // the host dispatches pass_offset = 0, PIXELS_PER_PASS, … as needed, which
 // bounds every invocation's loop (lavapipe ends loops at 65,535).
 
@@ -42,12 +43,33 @@ fn add_fixed(word: u32, v: vec2<u32>) {
     }
 }
 
+// 60 − ⌈log2 max|f|⌉ over the channels, clamped to −100..=128; 60 when no
+// finite sample is non-zero. ⌈log2 x⌉ of a normal f32 is its exponent,
+// plus one unless the mantissa is zero; a subnormal maximum clamps to 128.
+fn fixed_exponent() -> i32 {
+    var bits = 0u;
+    for (var c = 0u; c < 3u; c++) {
+        bits = max(bits, atomicLoad(&counters[C_MAXABS + c]));
+    }
+    if (bits == 0u) {
+        return 60;
+    }
+    let biased = i32(bits >> 23u);
+    if (biased == 0) {
+        return 128;
+    }
+    let ceil_log2 = biased - 127 + select(1, 0, (bits & 0x7fffffu) == 0u);
+    return clamp(60 - ceil_log2, -100, 128);
+}
+
 @compute @workgroup_size(WG)
-fn reconstruct(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let k = thread_index(gid);
-    if (k >= params.leaf_count) {
+fn reconstruct(@builtin(global_invocation_id) gid: vec3<u32>,
+               @builtin(num_workgroups) groups: vec3<u32>) {
+    let k = thread_index(gid, groups, WG);
+    if (k >= leaf_count()) {
         return;
     }
+    let fixed_exp = fixed_exponent();
     let base = leaf_base(k);
     let h = leaves[base + 1u];
     let m = leaf_mean(header_head(h), header_count(h));
@@ -86,7 +108,7 @@ fn reconstruct(@builtin(global_invocation_id) gid: vec3<u32>) {
         let w = ox * oy * nonfilm;
         let word = 8u * (j * params.width + i);
         for (var c = 0u; c < 3u; c++) {
-            add_fixed(word + 2u * c, to_fixed(ldexp(m.mean[c] * w, params.fixed_exp)));
+            add_fixed(word + 2u * c, to_fixed(ldexp(m.mean[c] * w, fixed_exp)));
         }
         add_fixed(word + 6u, to_fixed(ldexp(w, 60)));
     }

@@ -3,11 +3,22 @@
 // (selected leaves, splits) written by adapt.wgsl `count` into exclusive
 // prefixes, in place, and stores the grand totals in counters. Each
 // invocation sums a contiguous chunk of ⌈G / WG⌉ totals, so its loops run
-// at most 2·⌈G / WG⌉ times (G ≤ 2^19: ≤ 4096).
+// at most 2·⌈G / WG⌉ times (G ≤ 2^19: ≤ 4096). Once the render is done
+// (C_DONE, plan.wgsl) it leaves everything as it is.
+
+var<workgroup> wg_done: u32;
 
 @compute @workgroup_size(WG)
 fn scan(@builtin(local_invocation_index) lid: u32) {
-    let g = params.partial_count;
+    if (lid == 0u) {
+        wg_done = atomicLoad(&counters[C_DONE]);
+    }
+    // A workgroup-uniform value: workgroup_scan below needs uniform
+    // control flow.
+    if (workgroupUniformLoad(&wg_done) != 0u) {
+        return;
+    }
+    let g = leaf_groups();
     let chunk = (g + WG - 1u) / WG;
     let start = lid * chunk;
     let end = min(start + chunk, g);

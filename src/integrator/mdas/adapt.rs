@@ -10,7 +10,7 @@
 //! search and split test run once (halving the adaptive phase compared
 //! with recomputing the decisions in `apply`).
 
-use super::{gpu_params::Grid, Kernels};
+use super::{plan, Kernels};
 use crate::gpu::shader::Wgsl;
 use crate::wgsl_file;
 
@@ -18,12 +18,14 @@ pub fn source(base: &Wgsl) -> Wgsl {
     base.clone().part(wgsl_file!("mdas/adapt.wgsl"))
 }
 
-/// count → scan → apply, in one compute pass (wgpu orders the dispatches).
-pub fn record(pass: &mut wgpu::ComputePass<'_>, k: &Kernels, grid: Grid) {
+/// count → scan → apply, in one compute pass (wgpu orders the
+/// dispatches); count and apply cover the leaves by indirect dispatch
+/// ([`plan`]).
+pub fn record(pass: &mut wgpu::ComputePass<'_>, k: &Kernels) {
     pass.set_bind_group(0, &k.group0, &[]);
     pass.set_pipeline(&k.pipes.count);
-    pass.dispatch_workgroups(grid.x, grid.y, 1);
+    pass.dispatch_workgroups_indirect(&k.args, plan::ARGS_LEAVES);
     super::scan::record(pass, k);
     pass.set_pipeline(&k.pipes.apply);
-    pass.dispatch_workgroups(grid.x, grid.y, 1);
+    pass.dispatch_workgroups_indirect(&k.args, plan::ARGS_LEAVES);
 }

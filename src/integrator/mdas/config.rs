@@ -17,7 +17,8 @@
 //! L ≤ C + (N − C·min(l, h)) / h. Both bounds are theorems of the
 //! algorithm, so the kernels need no overflow checks.
 
-use super::{gpu_params::WG, MAX_ITERATIONS_DEFAULT};
+use super::gpu_params::{EVAL_PER_INVOCATION, EVAL_WG, STATS_PER_INVOCATION, WG};
+use super::MAX_ITERATIONS_DEFAULT;
 use crate::gpu::shader::Wgsl;
 use crate::gpu::Gpu;
 use crate::integrand::MAX_DIMS;
@@ -206,6 +207,8 @@ impl Config {
     }
 
     pub const COUNTERS_BYTES: u64 = 64;
+    /// Indirect arguments: two dispatches of three words (plan.wgsl).
+    pub const ARGS_BYTES: u64 = 24;
 
     /// Every buffer the render allocates (the figure in `Render::gpu_bytes`).
     pub fn gpu_bytes(&self) -> u64 {
@@ -221,6 +224,7 @@ impl Config {
             + self.partials_bytes()
             + accum
             + Self::COUNTERS_BYTES
+            + Self::ARGS_BYTES
             + std::mem::size_of::<super::gpu_params::GpuParams>() as u64
     }
 
@@ -254,7 +258,12 @@ impl Config {
 
     /// The generated WGSL constants every MDAS kernel is compiled with.
     pub fn constants(&self) -> Wgsl {
-        Wgsl::new()
+        let counters = super::counter::ALL
+            .iter()
+            .fold(Wgsl::new(), |w, &(name, index)| {
+                w.constant(name, index as u32)
+            });
+        counters
             .constant("DIMS", self.dims)
             .constant("BITS_PER_DIM", self.params.bits_per_dim)
             .constant("EXTRA_BITS", self.params.extra_image_bits)
@@ -265,6 +274,9 @@ impl Config {
             .constant("SAMPLE_STRIDE", self.sample_stride)
             .constant("LEAF_STRIDE", self.leaf_stride)
             .constant("WG", WG)
+            .constant("EVAL_WG", EVAL_WG)
+            .constant("EVAL_PER_INVOCATION", EVAL_PER_INVOCATION)
+            .constant("STATS_PER_INVOCATION", STATS_PER_INVOCATION)
             .constant("PIXELS_PER_PASS", PIXELS_PER_PASS)
     }
 }

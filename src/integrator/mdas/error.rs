@@ -5,7 +5,7 @@
 //! `atomicMax` per workgroup on the bits of finite non-negative floats.
 //! The f̄ = 0 convention is in the WGSL file's header.
 
-use super::{gpu_params::Grid, Kernels};
+use super::{plan, Kernels};
 use crate::gpu::shader::Wgsl;
 use crate::wgsl_file;
 
@@ -13,8 +13,9 @@ pub fn source(base: &Wgsl) -> Wgsl {
     base.clone().part(wgsl_file!("mdas/error.wgsl"))
 }
 
-pub fn record(pass: &mut wgpu::ComputePass<'_>, k: &Kernels, grid: Grid) {
+/// One invocation per leaf; the leaf count is on the GPU ([`plan`]).
+pub fn record(pass: &mut wgpu::ComputePass<'_>, k: &Kernels) {
     pass.set_pipeline(&k.pipes.error);
     pass.set_bind_group(0, &k.group0, &[]);
-    pass.dispatch_workgroups(grid.x, grid.y, 1);
+    pass.dispatch_workgroups_indirect(&k.args, plan::ARGS_LEAVES);
 }

@@ -1,10 +1,14 @@
 //! Integrand evaluation of the new samples only: `wgsl/mdas/evaluate.wgsl`.
 //!
 //! Samples are appended, so each iteration's new samples are one index
-//! range. Non-finite results are counted (`Render::nonfinite`) and
-//! excluded by every later kernel on their bits.
+//! range, which [`plan`] leaves in the counters together with the
+//! dispatch size. Each invocation evaluates up to
+//! [`EVAL_PER_INVOCATION`](super::gpu_params::EVAL_PER_INVOCATION)
+//! samples, with no barrier or atomic around the integrand. Non-finite
+//! results are counted once at the end ([`super::stats`],
+//! `Render::nonfinite`) and excluded by every later kernel on their bits.
 
-use super::{gpu_params::Grid, Kernels};
+use super::{plan, Kernels};
 use crate::gpu::shader::Wgsl;
 use crate::integrand::Integrand;
 use crate::wgsl_file;
@@ -16,14 +20,9 @@ pub fn source(base: &Wgsl, integrand: &dyn Integrand) -> Wgsl {
         .part(wgsl_file!("mdas/evaluate.wgsl"))
 }
 
-pub fn record(
-    pass: &mut wgpu::ComputePass<'_>,
-    k: &Kernels,
-    integrand: &dyn Integrand,
-    grid: Grid,
-) {
+pub fn record(pass: &mut wgpu::ComputePass<'_>, k: &Kernels, integrand: &dyn Integrand) {
     pass.set_pipeline(&k.pipes.evaluate);
     pass.set_bind_group(0, &k.group0, &[]);
     pass.set_bind_group(1, integrand.bind_group(), &[]);
-    pass.dispatch_workgroups(grid.x, grid.y, 1);
+    pass.dispatch_workgroups_indirect(&k.args, plan::ARGS_EVALUATE);
 }

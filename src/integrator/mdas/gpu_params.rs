@@ -6,52 +6,49 @@ use crate::gpu::Gpu;
 /// Invocations per workgroup of every MDAS kernel.
 pub const WG: u32 = 256;
 
+/// Invocations per workgroup of the evaluate kernel.
+pub const EVAL_WG: u32 = 64;
+/// Samples one evaluate invocation takes (as Halton's 8 per invocation,
+/// this bounds the integrand loops one invocation runs: lavapipe ends a
+/// shader's loops after 65,535 iterations).
+pub const EVAL_PER_INVOCATION: u32 = 4;
+/// Samples one invocation of the statistics kernel reads.
+pub const STATS_PER_INVOCATION: u32 = 16;
+
 /// Mirror of `Params` in `wgsl/mdas/common.wgsl` (16 scalars, 64 bytes).
+/// Only what is fixed for a render (and the reconstruction's pass offset):
+/// the iteration state lives in the counters buffer on the GPU.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct GpuParams {
     pub seed: u32,
-    pub iteration: u32,
-    pub leaf_count: u32,
-    pub sample_count: u32,
     pub budget: u32,
-    /// Invocations per row of the 2D dispatch grid.
-    pub row_threads: u32,
-    /// Workgroups of the leaf dispatch (entries of `partials`).
-    pub partial_count: u32,
+    pub max_iterations: u32,
+    /// Largest workgroup count per dispatch dimension.
+    pub max_groups: u32,
     pub pass_offset: u32,
     pub width: u32,
     pub height: u32,
-    /// Colour terms are scaled by 2^fixed_exp before the fixed-point sum.
-    pub fixed_exp: i32,
     /// α = 0: every leaf is selected.
     pub select_all: u32,
     pub scale_factor: f32,
     pub inv_alpha: f32,
     pub epsilon: f32,
-    pub eval_count: u32,
+    pub _pad: [u32; 5],
 }
 
-/// A 2D grid of workgroups covering `threads` invocations.
+/// A 2D grid of workgroups covering some invocations.
 #[derive(Clone, Copy, Debug)]
 pub struct Grid {
     pub x: u32,
     pub y: u32,
-    /// Workgroups in the grid's first row times [`WG`].
-    pub row_threads: u32,
-    /// Workgroups needed (≤ x·y).
-    pub groups: u32,
 }
 
 impl Grid {
+    /// Workgroups of [`WG`] invocations covering `threads` (the kernels
+    /// read the row width from the num_workgroups built-in).
     pub fn new(gpu: &Gpu, threads: u32) -> Grid {
-        let groups = threads.div_ceil(WG).max(1);
-        let (x, y) = gpu.dispatch_dims(groups);
-        Grid {
-            x,
-            y,
-            row_threads: x * WG,
-            groups,
-        }
+        let (x, y) = gpu.dispatch_dims(threads.div_ceil(WG).max(1));
+        Grid { x, y }
     }
 }

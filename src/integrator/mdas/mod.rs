@@ -82,8 +82,10 @@ pub mod error;
 pub mod evaluate;
 pub mod gpu_params;
 pub mod initial;
+pub mod plan;
 pub mod reconstruct;
 pub mod scan;
+pub mod stats;
 
 use super::{Integrator, Render};
 use crate::gpu::buffer::STORAGE;
@@ -102,15 +104,55 @@ use std::collections::HashMap;
 /// Iterations after which a render stops even below its budget.
 pub const MAX_ITERATIONS_DEFAULT: u32 = 1024;
 
-/// Indices into the counters buffer (`C_*` in `wgsl/mdas/common.wgsl`).
+/// Iterations recorded into the first submission of the loop; each later
+/// submission records twice as many, up to [`MAX_BATCH`]. Iterations
+/// recorded past the end dispatch zero workgroups ([`plan`]).
+const FIRST_BATCH: u32 = 2;
+const MAX_BATCH: u32 = 32;
+
+/// Indices into the counters buffer: the one definition, generated into
+/// every kernel as `C_<NAME>` constants ([`config::Config::constants`]).
 pub(crate) mod counter {
+    /// E_max of the current error pass (f32 bits).
     pub const EMAX: usize = 0;
+    /// Leaves selected in the current iteration (scan.wgsl).
     pub const SELECTED: usize = 1;
+    /// Of those, the ones that split.
     pub const SPLITS: usize = 2;
+    /// Non-finite samples (stats.wgsl).
     pub const NONFINITE: usize = 3;
+    /// Three words: largest finite |f| per channel (f32 bits, stats.wgsl).
     pub const MAXABS: usize = 4;
+    /// Leaves marked collapsed.
     pub const COLLAPSED: usize = 7;
+    /// Leaves in use.
+    pub const LEAVES: usize = 8;
+    /// Samples placed (evaluated by the end of the iteration).
+    pub const SAMPLES: usize = 9;
+    /// The current iteration, from 1; the iterations run once done.
+    pub const ITERATION: usize = 10;
+    /// First sample and count of the pending evaluate dispatch.
+    pub const EVAL_FIRST: usize = 11;
+    pub const EVAL_COUNT: usize = 12;
+    /// 1 once no further iteration runs (plan.wgsl).
+    pub const DONE: usize = 13;
     pub const LEN: usize = 16;
+
+    /// WGSL names and indices.
+    pub const ALL: [(&str, usize); 12] = [
+        ("C_EMAX", EMAX),
+        ("C_SELECTED", SELECTED),
+        ("C_SPLITS", SPLITS),
+        ("C_NONFINITE", NONFINITE),
+        ("C_MAXABS", MAXABS),
+        ("C_COLLAPSED", COLLAPSED),
+        ("C_LEAVES", LEAVES),
+        ("C_SAMPLES", SAMPLES),
+        ("C_ITERATION", ITERATION),
+        ("C_EVAL_FIRST", EVAL_FIRST),
+        ("C_EVAL_COUNT", EVAL_COUNT),
+        ("C_DONE", DONE),
+    ];
 }
 
 /// The MDAS integrator.
@@ -118,6 +160,7 @@ pub struct Mdas {
     params: MdasParams,
     max_iterations: u32,
     layout: Option<wgpu::BindGroupLayout>,
+    args_layout: Option<wgpu::BindGroupLayout>,
     pipelines: HashMap<(String, wgpu::BindGroupLayout), Pipelines>,
     /// Statistics of the last render.
     last: Option<RunStats>,
@@ -125,7 +168,7 @@ pub struct Mdas {
 }
 
 /// Progress callback: (samples taken, budget), called after every
-/// iteration (the driver reads the counters then anyway).
+/// submission of iterations (the driver reads the counters then anyway).
 pub type Progress = Box<dyn FnMut(u64, u64)>;
 
 /// What a render did besides its image.
@@ -145,14 +188,22 @@ struct Pipelines {
     count: wgpu::ComputePipeline,
     scan: wgpu::ComputePipeline,
     apply: wgpu::ComputePipeline,
+    prime: wgpu::ComputePipeline,
+    plan: wgpu::ComputePipeline,
     evaluate: wgpu::ComputePipeline,
+    stats: wgpu::ComputePipeline,
     reconstruct: wgpu::ComputePipeline,
 }
 
-/// Pipelines and bind group 0 of one render.
+/// Pipelines, bind group 0 and the indirect arguments of one render.
 pub struct Kernels {
     pipes: Pipelines,
     group0: wgpu::BindGroup,
+    /// Indirect dispatch arguments ([`plan`]): workgroups over the leaves,
+    /// then over the samples to evaluate.
+    args: wgpu::Buffer,
+    /// `args` as storage, for plan.wgsl (bind group 1).
+    args_group: wgpu::BindGroup,
 }
 
 /// The buffers of one render.
@@ -174,6 +225,7 @@ impl Mdas {
             params,
             max_iterations: MAX_ITERATIONS_DEFAULT,
             layout: None,
+            args_layout: None,
             pipelines: HashMap::new(),
             last: None,
             progress: None,
@@ -242,6 +294,18 @@ impl Mdas {
             .clone()
     }
 
+    fn args_layout(&mut self, gpu: &Gpu) -> wgpu::BindGroupLayout {
+        self.args_layout
+            .get_or_insert_with(|| {
+                gpu.device
+                    .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                        label: Some("mdas.mdas.args.layout"),
+                        entries: &[storage_entry(0, false)],
+                    })
+            })
+            .clone()
+    }
+
     fn pipelines(
         &mut self,
         gpu: &Gpu,
@@ -249,6 +313,7 @@ impl Mdas {
         integrand: &dyn Integrand,
     ) -> Result<Pipelines> {
         let layout = self.layout(gpu);
+        let args_layout = self.args_layout(gpu);
         let base = point_wgsl()
             .include(&cfg.constants())
             .part(wgsl_file!("shared/rng.wgsl"))
@@ -264,12 +329,19 @@ impl Mdas {
             gpu.compute_pipeline(label, source, entry, &[&layout])
         };
         let adapt_source = adapt::source(&base);
+        let plan_source = plan::source(&base);
+        let with_args = |label: &str, entry: &str| {
+            gpu.compute_pipeline(label, &plan_source, entry, &[&layout, &args_layout])
+        };
         let p = Pipelines {
             initial: own("mdas.mdas.initial", &initial::source(&base), "initial")?,
             error: own("mdas.mdas.error", &error::source(&base), "error")?,
             count: own("mdas.mdas.adapt.count", &adapt_source, "count")?,
             scan: own("mdas.mdas.scan", &scan::source(&base), "scan")?,
             apply: own("mdas.mdas.adapt.apply", &adapt_source, "apply")?,
+            prime: with_args("mdas.mdas.plan.prime", "prime")?,
+            plan: with_args("mdas.mdas.plan", "plan")?,
+            stats: own("mdas.mdas.stats", &stats::source(&base), "stats")?,
             evaluate: gpu.compute_pipeline(
                 &format!("mdas.mdas.evaluate[{}]", integrand.name()),
                 &eval_source,
@@ -327,12 +399,26 @@ impl Mdas {
         cfg.check_device(gpu)?;
         let pipes = self.pipelines(gpu, &cfg, integrand)?;
         let layout = self.layout(gpu);
+        let args_layout = self.args_layout(gpu);
         let p = self.params;
 
         let mut progress = self.progress.take();
         let result = gpu.scoped("MDAS render", || {
+            let gp = GpuParams {
+                seed: p.seed,
+                budget: cfg.budget,
+                max_iterations: cfg.max_iterations,
+                max_groups: gpu.limits.max_compute_workgroups_per_dimension.max(1),
+                width: cfg.film.width,
+                height: cfg.film.height,
+                select_all: (p.alpha == 0.0) as u32,
+                scale_factor: p.scale_factor,
+                inv_alpha: if p.alpha > 0.0 { 1.0 / p.alpha } else { 0.0 },
+                epsilon: config::EPSILON,
+                ..Default::default()
+            };
             let bufs = Buffers {
-                params: gpu.uniform("mdas.params", &GpuParams::default()),
+                params: gpu.uniform("mdas.params", &gp),
                 leaves: gpu.buffer_zeroed("mdas.leaves", cfg.leaves_bytes(), STORAGE)?,
                 boxes: gpu.buffer_zeroed("mdas.boxes", cfg.boxes_bytes(), STORAGE)?,
                 samples: gpu.buffer_zeroed("mdas.samples", cfg.samples_bytes(), STORAGE)?,
@@ -345,6 +431,11 @@ impl Mdas {
                 },
             };
             let partials = gpu.buffer_zeroed("mdas.partials", cfg.partials_bytes(), STORAGE)?;
+            let args = gpu.buffer_zeroed(
+                "mdas.args",
+                Config::ARGS_BYTES,
+                STORAGE | wgpu::BufferUsages::INDIRECT,
+            )?;
             let group0 = crate::gpu::shader::bind_buffers(
                 gpu,
                 "mdas.group0",
@@ -388,70 +479,49 @@ impl Mdas {
                     &bufs.boxes,
                 ],
             );
-            let mut k = Kernels { pipes, group0 };
-            let mut gp = GpuParams {
-                seed: p.seed,
-                budget: cfg.budget,
-                width: cfg.film.width,
-                height: cfg.film.height,
-                fixed_exp: 60,
-                select_all: (p.alpha == 0.0) as u32,
-                scale_factor: p.scale_factor,
-                inv_alpha: if p.alpha > 0.0 { 1.0 / p.alpha } else { 0.0 },
-                epsilon: config::EPSILON,
-                ..Default::default()
+            let args_group =
+                crate::gpu::shader::bind_buffers(gpu, "mdas.args", &args_layout, &[&args]);
+            let mut k = Kernels {
+                pipes,
+                group0,
+                args,
+                args_group,
             };
             let mut profiler = Profiler::new(gpu);
             let clock = profiler.clock();
-            let set = |gp: &GpuParams| {
-                gpu.queue
-                    .write_buffer(&bufs.params, 0, bytemuck::bytes_of(gp))
-            };
+            let read_state =
+                || -> Result<State> { Ok(State(gpu.read_buffer(&bufs.counters, counter::LEN)?)) };
+
+            // The iteration state before the first iteration: the grid's
+            // cells are the leaves, its samples are to be evaluated.
+            let mut initial_state = [0u32; counter::LEN];
+            initial_state[counter::LEAVES] = cfg.cells;
+            initial_state[counter::SAMPLES] = cfg.initial_samples;
+            initial_state[counter::ITERATION] = 1;
+            initial_state[counter::EVAL_COUNT] = cfg.initial_samples;
+            initial_state[counter::DONE] = (cfg.initial_samples >= cfg.budget) as u32;
+            gpu.queue
+                .write_buffer(&bufs.counters, 0, bytemuck::cast_slice(&initial_state));
 
             // Initial grid and its samples.
-            let grid = Grid::new(gpu, cfg.cells);
-            gp.leaf_count = cfg.cells;
-            gp.row_threads = grid.row_threads;
-            set(&gp);
-            profiler.phase("initial", |e, ts| {
-                initial::record(
-                    &mut e.begin_compute_pass(&pass("mdas.initial", ts)),
+            let mut batch = profiler.batch("mdas.initial");
+            batch.phase("initial", |e, ts| {
+                let mut pass = e.begin_compute_pass(&pass("mdas.initial", ts));
+                initial::record(&mut pass, &k, Grid::new(gpu, cfg.cells));
+                plan::record_prime(&mut pass, &k);
+            })?;
+            batch.phase("evaluate", |e, ts| {
+                evaluate::record(
+                    &mut e.begin_compute_pass(&pass("mdas.evaluate", ts)),
                     &k,
-                    grid,
+                    integrand,
                 )
             })?;
-            let mut n = cfg.initial_samples;
-            let mut leaves = cfg.cells;
-            let evaluate_range = |profiler: &mut Profiler,
-                                  gp: &mut GpuParams,
-                                  first: u32,
-                                  count: u32|
-             -> Result<()> {
-                let grid = Grid::new(gpu, count);
-                gp.sample_count = first;
-                gp.eval_count = count;
-                gp.row_threads = grid.row_threads;
-                set(gp);
-                profiler.phase("evaluate", |e, ts| {
-                    evaluate::record(
-                        &mut e.begin_compute_pass(&pass("mdas.evaluate", ts)),
-                        &k,
-                        integrand,
-                        grid,
-                    )
-                })
-            };
-            evaluate_range(&mut profiler, &mut gp, 0, n)?;
 
-            let snapshot = |iteration: u32,
-                            is_final: bool,
-                            n: u32,
-                            leaves: u32,
-                            gp: &GpuParams|
-             -> Result<Snapshot> {
-                let c: Vec<u32> = gpu.read_buffer(&bufs.counters, counter::LEN)?;
+            let snapshot = |is_final: bool, state: &State| -> Result<Snapshot> {
+                let (n, leaves) = (state.samples(), state.leaves());
                 Ok(Snapshot {
-                    iteration,
+                    iteration: state.iteration(),
                     is_final,
                     params: p,
                     dims: cfg.dims,
@@ -459,7 +529,7 @@ impl Mdas {
                     budget: cfg.budget,
                     leaf_count: leaves,
                     sample_count: n,
-                    emax_bits: c[counter::EMAX],
+                    emax_bits: state.0[counter::EMAX],
                     inv_alpha: gp.inv_alpha,
                     select_all: gp.select_all != 0,
                     epsilon: gp.epsilon,
@@ -479,60 +549,74 @@ impl Mdas {
                 })
             };
 
-            let mut iteration = 0;
-            while n < cfg.budget && iteration < cfg.max_iterations {
-                iteration += 1;
-                gpu.queue
-                    .write_buffer(&bufs.counters, 0, bytemuck::cast_slice(&[0u32; 3]));
-                let grid = Grid::new(gpu, leaves);
-                gp.iteration = iteration;
-                gp.leaf_count = leaves;
-                gp.sample_count = n;
-                gp.row_threads = grid.row_threads;
-                gp.partial_count = grid.groups;
-                set(&gp);
-                profiler.phase("error", |e, ts| {
-                    error::record(&mut e.begin_compute_pass(&pass("mdas.error", ts)), &k, grid)
-                })?;
-                if let Some(observe) = observe.as_mut().filter(|_| !final_only) {
-                    observe(&snapshot(iteration, false, n, leaves, &gp)?);
+            // Iterations error → adaptive → evaluate, recorded in batches
+            // that grow from FIRST_BATCH to MAX_BATCH; the host reads the
+            // counters once per batch (progress and the stop test). An
+            // observer needs the state after each error pass, so it gets
+            // one iteration per batch and a submission after the error pass.
+            let observing = observe.is_some() && !final_only;
+            let mut batch_size = if observing { 1 } else { FIRST_BATCH };
+            let mut state = State(initial_state.to_vec());
+            while !state.done() {
+                for _ in 0..batch_size {
+                    batch.phase("error", |e, ts| {
+                        error::record(&mut e.begin_compute_pass(&pass("mdas.error", ts)), &k)
+                    })?;
+                    if observing {
+                        batch.submit();
+                        let state = read_state()?;
+                        if let Some(observe) = observe.as_mut() {
+                            observe(&snapshot(false, &state)?);
+                        }
+                        batch = profiler.batch("mdas.iteration");
+                    }
+                    batch.phase("adaptive", |e, ts| {
+                        let mut pass = e.begin_compute_pass(&pass("mdas.adapt", ts));
+                        adapt::record(&mut pass, &k);
+                        plan::record(&mut pass, &k);
+                    })?;
+                    batch.phase("evaluate", |e, ts| {
+                        evaluate::record(
+                            &mut e.begin_compute_pass(&pass("mdas.evaluate", ts)),
+                            &k,
+                            integrand,
+                        )
+                    })?;
                 }
-                profiler.phase("adaptive", |e, ts| {
-                    adapt::record(&mut e.begin_compute_pass(&pass("mdas.adapt", ts)), &k, grid)
-                })?;
-                let c: Vec<u32> = gpu.read_buffer(&bufs.counters, counter::LEN)?;
-                let (selected, splits) = (c[counter::SELECTED], c[counter::SPLITS]);
-                let left = cfg.budget - n;
-                let added = selected.min(left);
-                if added == 0 {
-                    break;
-                }
-                evaluate_range(&mut profiler, &mut gp, n, added)?;
-                n += added;
-                if selected <= left {
-                    leaves += splits;
-                }
+                batch.submit();
+                state = read_state()?;
                 if let Some(report) = progress.as_mut() {
-                    report(n as u64, cfg.budget as u64);
+                    report(state.samples() as u64, cfg.budget as u64);
                 }
+                batch = profiler.batch("mdas.iteration");
+                batch_size = if observing {
+                    1
+                } else {
+                    (batch_size * 2).min(MAX_BATCH)
+                };
             }
             if let Some(observe) = observe.as_mut() {
-                observe(&snapshot(iteration, true, n, leaves, &gp)?);
+                observe(&snapshot(true, &state)?);
             }
 
-            // Reconstruction.
-            let c: Vec<u32> = gpu.read_buffer(&bufs.counters, counter::LEN)?;
-            let max_abs = (0..3)
-                .map(|i| f32::from_bits(c[counter::MAXABS + i]))
-                .fold(0.0f32, f32::max);
-            let grid = Grid::new(gpu, leaves);
-            gp.leaf_count = leaves;
-            gp.row_threads = grid.row_threads;
-            gp.fixed_exp = reconstruct::fixed_exponent(max_abs);
+            // Statistics of the samples, then reconstruction.
+            let (n, leaves) = (state.samples(), state.leaves());
+            batch.phase("reconstruction", |e, ts| {
+                stats::record(
+                    &mut e.begin_compute_pass(&pass("mdas.stats", ts)),
+                    &k,
+                    gpu,
+                    n,
+                )
+            })?;
+            batch.submit();
             k.group0 = group_reconstruct;
+            let grid = Grid::new(gpu, leaves);
+            let mut gp = gp;
             for pass_index in 0..cfg.reconstruct_passes {
                 gp.pass_offset = pass_index * config::PIXELS_PER_PASS;
-                set(&gp);
+                gpu.queue
+                    .write_buffer(&bufs.params, 0, bytemuck::bytes_of(&gp));
                 profiler.phase("reconstruction", |e, ts| {
                     if pass_index == 0 {
                         e.clear_buffer(accum, 0, Some(cfg.accum_bytes()));
@@ -545,12 +629,18 @@ impl Mdas {
                 })?;
             }
             let times = profiler.finish()?;
+            let state = read_state()?;
             let words: Vec<u32> = gpu.read_buffer(accum, 8 * cfg.pixels() as usize)?;
-            let image = reconstruct::resolve(&words, gp.fixed_exp);
+            let image = reconstruct::resolve(&words, reconstruct::fixed_exponent(state.max_abs()));
             let stats = RunStats {
-                iterations: iteration,
+                // No iteration runs when the initial samples are the budget.
+                iterations: if cfg.initial_samples < cfg.budget {
+                    state.iteration()
+                } else {
+                    0
+                },
                 leaves,
-                collapsed: c[counter::COLLAPSED],
+                collapsed: state.0[counter::COLLAPSED],
                 budget: cfg.budget,
                 initial_samples: cfg.initial_samples,
             };
@@ -558,7 +648,7 @@ impl Mdas {
                 film: cfg.film,
                 image,
                 samples: n as u64,
-                nonfinite: c[counter::NONFINITE] as u64,
+                nonfinite: state.0[counter::NONFINITE] as u64,
                 times,
                 clock,
                 gpu_bytes: cfg.gpu_bytes(),
@@ -569,6 +659,34 @@ impl Mdas {
         let (render, stats) = result?;
         self.last = Some(stats);
         Ok(render)
+    }
+}
+
+/// The counters buffer as read back.
+struct State(Vec<u32>);
+
+impl State {
+    fn leaves(&self) -> u32 {
+        self.0[counter::LEAVES]
+    }
+
+    fn samples(&self) -> u32 {
+        self.0[counter::SAMPLES]
+    }
+
+    fn iteration(&self) -> u32 {
+        self.0[counter::ITERATION]
+    }
+
+    fn done(&self) -> bool {
+        self.0[counter::DONE] != 0
+    }
+
+    /// Largest finite |f| over the channels (stats.wgsl).
+    fn max_abs(&self) -> f32 {
+        (0..3)
+            .map(|i| f32::from_bits(self.0[counter::MAXABS + i]))
+            .fold(0.0f32, f32::max)
     }
 }
 

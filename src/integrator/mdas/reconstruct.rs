@@ -33,12 +33,21 @@ pub fn record(pass: &mut wgpu::ComputePass<'_>, k: &Kernels, grid: Grid) {
     pass.dispatch_workgroups(grid.x, grid.y, 1);
 }
 
-/// The fixed-point exponent for colour terms given the largest finite |f|.
+/// The fixed-point exponent for colour terms given the largest finite |f|:
+/// 60 − ⌈log2 max|f|⌉, clamped to −100..=128. The kernel computes the
+/// same from the bits (`fixed_exponent` in the WGSL): ⌈log2 x⌉ of a normal
+/// f32 is its exponent, plus one unless the mantissa is zero.
 pub fn fixed_exponent(max_abs: f32) -> i32 {
     if !(max_abs.is_finite() && max_abs > 0.0) {
         return 60;
     }
-    (60 - (max_abs as f64).log2().ceil() as i32).clamp(-100, 128)
+    let bits = max_abs.to_bits();
+    let biased = (bits >> 23) as i32;
+    if biased == 0 {
+        return 128; // subnormal: 60 − ⌈log2⌉ ≥ 186
+    }
+    let ceil_log2 = biased - 127 + ((bits & 0x7f_ffff) != 0) as i32;
+    (60 - ceil_log2).clamp(-100, 128)
 }
 
 /// Pixel values from the 8 words per pixel (3 colours + weight, lo/hi).

@@ -1,0 +1,63 @@
+#!/usr/bin/env bash
+# Every GPU benchmark of the MDAS kernels in one command (issue 10), for a
+# machine with a real GPU (it runs on lavapipe too, slowly):
+#   1. `mdas bench` at 1/4 scale on cornell_pt, pool and cornell: MDAS's
+#      phases against Halton at equal samples (warm, interleaved, medians);
+#   2. the same on the paper's seven scenes at their full film size and
+#      spp (Table 1 of the MDAS paper sits beside them in BENCHMARKS.md);
+#   3. `mdas compare` (equal time) on cornell_pt and pool at 1/4 scale.
+# With a baseline binary (another build of mdas that has `bench`), steps 1
+# and 2 also run it, right after the same step of this build.
+#
+#   benches/gpu.sh [OUT] [MDAS_BINARY] [BASELINE_BINARY]
+#
+# OUT: out/gpu-bench by default; its *.md tables and *.json figures are
+# what BENCHMARKS.md records. MDAS_BINARY: target/release/mdas, built when
+# missing. Environment: REPEATS (default 5), REF_SPP (compare's reference,
+# default 16384), QUICK=1 (lavapipe smoke run: 1/16 scale, 1 repeat,
+# REF_SPP 256).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+OUT=${1:-out/gpu-bench}
+BIN=${2:-target/release/mdas}
+BASE=${3:-}
+[ -x "$BIN" ] || cargo build --release
+mkdir -p "$OUT"
+
+QUARTER="scenes/cornell_pt.toml scenes/pool.toml scenes/cornell.toml"
+PAPER="scenes/pool.toml scenes/chess.toml scenes/street.toml scenes/dragon.toml scenes/cobblestone.toml scenes/cornell_pt.toml scenes/breakfast.toml"
+REPEATS=${REPEATS:-5}
+REF_SPP=${REF_SPP:-16384}
+QUARTER_SCALE=0.25
+FULL_SCALE=1
+if [ "${QUICK:-0}" = 1 ]; then
+    REPEATS=1 REF_SPP=256 QUARTER_SCALE=0.0625 FULL_SCALE=0.0625
+fi
+
+step() {
+    local name=$1
+    shift
+    echo "== $name: $*" >&2
+    local start=$SECONDS
+    "$@" >"$OUT/$name.md"
+    echo "   $((SECONDS - start)) s" >&2
+    cat "$OUT/$name.md"
+}
+
+"$BIN" info | tee "$OUT/info.txt"
+bench() {
+    local name=$1 scale=$2
+    shift 2
+    step "$name" "$BIN" bench "$@" --scale "$scale" --repeats "$REPEATS" --json "$OUT/$name.json"
+    if [ -n "$BASE" ]; then
+        step "$name-baseline" "$BASE" bench "$@" --scale "$scale" --repeats "$REPEATS" --json "$OUT/$name-baseline.json"
+    fi
+}
+# shellcheck disable=SC2086 # the scene lists are word lists
+bench quarter "$QUARTER_SCALE" $QUARTER
+# shellcheck disable=SC2086
+bench paper-full "$FULL_SCALE" $PAPER
+for scene in cornell_pt pool; do
+    step "compare-$scene" "$BIN" compare "scenes/$scene.toml" --scale "$QUARTER_SCALE" \
+        --ref-spp "$REF_SPP" --repeats "$REPEATS" --out "$OUT/compare-$scene"
+done

@@ -1,0 +1,202 @@
+//! `mdas bench`: the cost of MDAS against Halton at the same sample count,
+//! phase by phase (issue 10's table).
+//!
+//! Per scene: one warm-up render of each method (lavapipe compiles a
+//! pipeline at its first dispatch, inside the timestamps), then `repeats`
+//! rounds of MDAS and Halton renders, interleaved so that a change of
+//! machine load hits both. Each figure is the median over the rounds: GPU
+//! time per phase (`Render::times`) and the wall-clock time of the whole
+//! `render` call (submissions, read-backs and host waits included). Both
+//! methods take N = spp × pixels samples: MDAS with the scene's `[mdas]`
+//! parameters (at `--scale`, [`crate::app::mdas_params_at_scale`]), Halton
+//! with the same whole spp.
+
+use crate::app;
+use crate::gpu::Gpu;
+use crate::integrator::{Halton, Integrator, Mdas, Render};
+use anyhow::{bail, Result};
+use serde::Serialize;
+use std::path::Path;
+use std::time::Instant;
+
+/// MDAS phases in the order the table prints them.
+pub const MDAS_PHASES: [&str; 5] = ["initial", "evaluate", "error", "adaptive", "reconstruction"];
+
+/// One scene's medians.
+#[derive(Clone, Debug, Serialize)]
+pub struct PhaseBench {
+    pub scene: String,
+    pub width: u32,
+    pub height: u32,
+    pub spp: u32,
+    /// Samples each method took (MDAS may stop below its budget; Halton
+    /// takes exactly spp × pixels).
+    pub mdas_samples: u64,
+    pub halton_samples: u64,
+    /// Median GPU milliseconds per MDAS phase ([`MDAS_PHASES`]).
+    pub mdas_phases_ms: Vec<(String, f64)>,
+    /// Median of each render's summed GPU phase times.
+    pub mdas_ms: f64,
+    pub halton_ms: f64,
+    /// Median wall-clock milliseconds of the `render` call.
+    pub mdas_wall_ms: f64,
+    pub halton_wall_ms: f64,
+    pub mdas_iterations: u32,
+    pub mdas_gpu_bytes_per_sample: f64,
+    pub repeats: u32,
+    pub adapter: String,
+}
+
+impl PhaseBench {
+    pub fn mdas_phase_ms(&self, name: &str) -> f64 {
+        self.mdas_phases_ms
+            .iter()
+            .find(|(n, _)| n == name)
+            .map_or(0.0, |(_, t)| *t)
+    }
+
+    /// MDAS whole render over Halton's, GPU time.
+    pub fn ratio(&self) -> f64 {
+        self.mdas_ms / self.halton_ms
+    }
+
+    /// ns per sample of MDAS's evaluate phase over Halton's whole render.
+    pub fn evaluate_ratio(&self) -> f64 {
+        ns_per_sample(self.mdas_phase_ms("evaluate"), self.mdas_samples)
+            / ns_per_sample(self.halton_ms, self.halton_samples)
+    }
+
+    /// Every MDAS phase but evaluate, over Halton's whole render.
+    pub fn overhead_ratio(&self) -> f64 {
+        (self.mdas_ms - self.mdas_phase_ms("evaluate")) / self.halton_ms
+    }
+}
+
+pub fn ns_per_sample(ms: f64, samples: u64) -> f64 {
+    ms * 1e6 / samples.max(1) as f64
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+fn timed(
+    gpu: &Gpu,
+    integrator: &mut dyn Integrator,
+    integrand: &dyn crate::integrand::Integrand,
+) -> Result<(Render, f64)> {
+    let start = Instant::now();
+    let render = integrator.render(gpu, integrand)?;
+    Ok((render, start.elapsed().as_secs_f64() * 1e3))
+}
+
+/// Benchmarks one scene at `scale` (`spp`: the scene's `[mdas]` spp when
+/// `None`; it must be a whole number, as Halton's is).
+pub fn bench_scene(
+    gpu: &Gpu,
+    scene: &Path,
+    scale: f32,
+    spp: Option<u32>,
+    repeats: u32,
+) -> Result<PhaseBench> {
+    if repeats == 0 {
+        bail!("--repeats must be at least 1");
+    }
+    let prepared = app::prepare(gpu, scene, scale)?;
+    let mut params = app::mdas_params_at_scale(prepared.scene.mdas, scale);
+    let spp = match spp {
+        Some(s) => s,
+        None if params.spp.fract() == 0.0 && params.spp >= 1.0 => params.spp as u32,
+        None => bail!(
+            "{}: the scene's [mdas] spp {} is not a whole number; pass --spp",
+            scene.display(),
+            params.spp
+        ),
+    };
+    params.spp = spp as f32;
+    let integrand = prepared.integrand.as_ref();
+    let mut mdas = Mdas::new(params)?;
+    let mut halton = Halton::new(spp, 0);
+    // Warm-up: pipelines compiled and first dispatches done.
+    timed(gpu, &mut mdas, integrand)?;
+    timed(gpu, &mut halton, integrand)?;
+
+    let mut phases: Vec<Vec<f64>> = vec![Vec::new(); MDAS_PHASES.len()];
+    let (mut mdas_ms, mut halton_ms, mut mdas_wall, mut halton_wall) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let (mut mdas_samples, mut halton_samples, mut bytes) = (0, 0, 0);
+    for _ in 0..repeats {
+        let (m, wall) = timed(gpu, &mut mdas, integrand)?;
+        for (i, name) in MDAS_PHASES.iter().enumerate() {
+            phases[i].push(m.times.get(name).unwrap_or(0.0));
+        }
+        mdas_ms.push(m.times.total());
+        mdas_wall.push(wall);
+        (mdas_samples, bytes) = (m.samples, m.gpu_bytes);
+        let (h, wall) = timed(gpu, &mut halton, integrand)?;
+        halton_ms.push(h.times.total());
+        halton_wall.push(wall);
+        halton_samples = h.samples;
+    }
+    Ok(PhaseBench {
+        scene: scene.display().to_string(),
+        width: prepared.film.width,
+        height: prepared.film.height,
+        spp,
+        mdas_samples,
+        halton_samples,
+        mdas_phases_ms: MDAS_PHASES
+            .iter()
+            .zip(phases)
+            .map(|(n, v)| (n.to_string(), median(v)))
+            .collect(),
+        mdas_ms: median(mdas_ms),
+        halton_ms: median(halton_ms),
+        mdas_wall_ms: median(mdas_wall),
+        halton_wall_ms: median(halton_wall),
+        mdas_iterations: mdas.last_stats().map_or(0, |s| s.iterations),
+        mdas_gpu_bytes_per_sample: bytes as f64 / mdas_samples.max(1) as f64,
+        repeats,
+        adapter: gpu.info.name.clone(),
+    })
+}
+
+/// The Markdown table of [`bench_scene`] results.
+pub fn table(rows: &[PhaseBench]) -> String {
+    let mut out = String::from(
+        "| scene | film | spp | MDAS GPU ms (initial / evaluate / error / adaptive / reconstruction) | Halton GPU ms | MDAS/Halton | evaluate ns/sample: MDAS, Halton (ratio) | overhead / Halton | wall ms MDAS, Halton | iterations | B/sample |\n\
+         |---|---|---:|---|---:|---:|---|---:|---|---:|---:|\n",
+    );
+    for r in rows {
+        let phases: Vec<String> = MDAS_PHASES
+            .iter()
+            .map(|n| format!("{:.1}", r.mdas_phase_ms(n)))
+            .collect();
+        out += &format!(
+            "| `{}` | {}×{} | {} | {:.1} ({}) | {:.1} | {:.2} | {:.0}, {:.0} ({:.2}) | {:.2} | {:.1}, {:.1} | {} | {:.1} |\n",
+            r.scene,
+            r.width,
+            r.height,
+            r.spp,
+            r.mdas_ms,
+            phases.join(" / "),
+            r.halton_ms,
+            r.ratio(),
+            ns_per_sample(r.mdas_phase_ms("evaluate"), r.mdas_samples),
+            ns_per_sample(r.halton_ms, r.halton_samples),
+            r.evaluate_ratio(),
+            r.overhead_ratio(),
+            r.mdas_wall_ms,
+            r.halton_wall_ms,
+            r.mdas_iterations,
+            r.mdas_gpu_bytes_per_sample,
+        );
+    }
+    out
+}
