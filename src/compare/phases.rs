@@ -21,6 +21,8 @@ use std::time::Instant;
 
 /// MDAS phases in the order the table prints them.
 pub const MDAS_PHASES: [&str; 5] = ["initial", "evaluate", "error", "adaptive", "reconstruction"];
+/// The parts of the adaptive phase ([`Mdas::last_pass_times`]).
+pub const ADAPTIVE_PARTS: [&str; 3] = ["adaptive/count", "adaptive/scan", "adaptive/apply"];
 
 /// One scene's medians.
 #[derive(Clone, Debug, Serialize)]
@@ -35,6 +37,9 @@ pub struct PhaseBench {
     pub halton_samples: u64,
     /// Median GPU milliseconds per MDAS phase ([`MDAS_PHASES`]).
     pub mdas_phases_ms: Vec<(String, f64)>,
+    /// Median GPU milliseconds of each part of the adaptive phase
+    /// ([`ADAPTIVE_PARTS`]).
+    pub mdas_adaptive_parts_ms: Vec<(String, f64)>,
     /// Median of each render's summed GPU phase times.
     pub mdas_ms: f64,
     pub halton_ms: f64,
@@ -77,6 +82,9 @@ pub fn ns_per_sample(ms: f64, samples: u64) -> f64 {
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
+    if v.is_empty() {
+        return 0.0;
+    }
     v.sort_by(f64::total_cmp);
     let n = v.len();
     if n % 2 == 1 {
@@ -128,6 +136,7 @@ pub fn bench_scene(
     timed(gpu, &mut halton, integrand)?;
 
     let mut phases: Vec<Vec<f64>> = vec![Vec::new(); MDAS_PHASES.len()];
+    let mut parts: Vec<Vec<f64>> = vec![Vec::new(); ADAPTIVE_PARTS.len()];
     let (mut mdas_ms, mut halton_ms, mut mdas_wall, mut halton_wall) =
         (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let (mut mdas_samples, mut halton_samples, mut bytes) = (0, 0, 0);
@@ -135,6 +144,11 @@ pub fn bench_scene(
         let (m, wall) = timed(gpu, &mut mdas, integrand)?;
         for (i, name) in MDAS_PHASES.iter().enumerate() {
             phases[i].push(m.times.get(name).unwrap_or(0.0));
+        }
+        if let Some(passes) = mdas.last_pass_times() {
+            for (i, name) in ADAPTIVE_PARTS.iter().enumerate() {
+                parts[i].push(passes.get(name).unwrap_or(0.0));
+            }
         }
         mdas_ms.push(m.times.total());
         mdas_wall.push(wall);
@@ -156,6 +170,11 @@ pub fn bench_scene(
             .zip(phases)
             .map(|(n, v)| (n.to_string(), median(v)))
             .collect(),
+        mdas_adaptive_parts_ms: ADAPTIVE_PARTS
+            .iter()
+            .zip(parts)
+            .map(|(n, v)| (n.to_string(), median(v)))
+            .collect(),
         mdas_ms: median(mdas_ms),
         halton_ms: median(halton_ms),
         mdas_wall_ms: median(mdas_wall),
@@ -170,22 +189,28 @@ pub fn bench_scene(
 /// The Markdown table of [`bench_scene`] results.
 pub fn table(rows: &[PhaseBench]) -> String {
     let mut out = String::from(
-        "| scene | film | spp | MDAS GPU ms (initial / evaluate / error / adaptive / reconstruction) | Halton GPU ms | MDAS/Halton | evaluate ns/sample: MDAS, Halton (ratio) | overhead / Halton | wall ms MDAS, Halton | iterations | B/sample |\n\
-         |---|---|---:|---|---:|---:|---|---:|---|---:|---:|\n",
+        "| scene | film | spp | MDAS GPU ms (initial / evaluate / error / adaptive / reconstruction) | adaptive: count / scan / apply | Halton GPU ms | MDAS/Halton | evaluate ns/sample: MDAS, Halton (ratio) | overhead / Halton | wall ms MDAS, Halton | iterations | B/sample |\n\
+         |---|---|---:|---|---|---:|---:|---|---:|---|---:|---:|\n",
     );
     for r in rows {
         let phases: Vec<String> = MDAS_PHASES
             .iter()
             .map(|n| format!("{:.1}", r.mdas_phase_ms(n)))
             .collect();
+        let parts: Vec<String> = r
+            .mdas_adaptive_parts_ms
+            .iter()
+            .map(|(_, t)| format!("{t:.2}"))
+            .collect();
         out += &format!(
-            "| `{}` | {}×{} | {} | {:.1} ({}) | {:.1} | {:.2} | {:.0}, {:.0} ({:.2}) | {:.2} | {:.1}, {:.1} | {} | {:.1} |\n",
+            "| `{}` | {}×{} | {} | {:.1} ({}) | {} | {:.1} | {:.2} | {:.0}, {:.0} ({:.2}) | {:.2} | {:.1}, {:.1} | {} | {:.1} |\n",
             r.scene,
             r.width,
             r.height,
             r.spp,
             r.mdas_ms,
             phases.join(" / "),
+            parts.join(" / "),
             r.halton_ms,
             r.ratio(),
             ns_per_sample(r.mdas_phase_ms("evaluate"), r.mdas_samples),

@@ -16,6 +16,11 @@
 //! })?;
 //! let times = profiler.finish()?;
 //! ```
+//!
+//! A name with a slash, "adaptive/count", is a part of phase "adaptive":
+//! [`Profiler::finish`] folds the parts into their phase,
+//! [`Profiler::finish_detailed`] keeps them apart too. Several phases can
+//! share one submission ([`Profiler::batch`]).
 
 use super::{Gpu, Readback};
 use anyhow::Result;
@@ -42,6 +47,16 @@ impl PhaseTimes {
 
     pub fn total(&self) -> f64 {
         self.0.iter().map(|(_, t)| t).sum()
+    }
+
+    /// The times with every part ("adaptive/count") added into its phase
+    /// ("adaptive").
+    pub fn folded(&self) -> PhaseTimes {
+        let mut out = PhaseTimes::default();
+        for (n, t) in &self.0 {
+            out.add(n.split('/').next().unwrap_or(n), *t);
+        }
+        out
     }
 
     /// Adds every phase of `other` into `self`.
@@ -130,8 +145,15 @@ impl<'g> Profiler<'g> {
         (self.sets.last().expect("just pushed"), pair % PAIRS_PER_SET)
     }
 
-    /// Waits for all phases and returns their times.
+    /// Waits for all phases and returns their times, parts folded into
+    /// their phases.
     pub fn finish(self) -> Result<PhaseTimes> {
+        Ok(self.finish_detailed()?.folded())
+    }
+
+    /// Waits for all phases and returns their times as recorded, parts
+    /// ("adaptive/count") apart.
+    pub fn finish_detailed(self) -> Result<PhaseTimes> {
         let gpu = self.gpu;
         let mut times = self.wall;
         if self.pairs.is_empty() {

@@ -76,21 +76,32 @@ fn decide(k: u32) -> Decision {
     if (header_collapsed(h)) {
         return d;
     }
+    let key = leaf_key(k, iteration());
     let e_bits = leaves[base + 2u];
     let emax_bits = atomicLoad(&counters[C_EMAX]);
     var selected = e_bits == emax_bits || params.select_all != 0u;
     if (!selected) {
-        let xi = draw_open(leaf_key(k, iteration()), 0u);  // stream 0
+        let xi = draw_open(key, 0u);  // stream 0
         selected = bitcast<f32>(e_bits) >= bitcast<f32>(emax_bits) * pow(xi, params.inv_alpha);
     }
     if (!selected) {
         return d;
     }
 
-    // Best candidate among CANDIDATES uniform points of the box.
-    let key = leaf_key(k, iteration());
+    // The leaf's samples' coordinates, read once (a selectable leaf holds
+    // at most MAX_PER_LEAF: a full one splits when the next arrives).
     let head = header_head(h);
-    let count = header_count(h);
+    let count = min(header_count(h), MAX_PER_LEAF);
+    var coords: array<u32, MAX_PER_LEAF * COORD_WORDS>;
+    var s = head;
+    for (var i = 0u; i < count; i++) {
+        for (var w = 0u; w < COORD_WORDS; w++) {
+            coords[i * COORD_WORDS + w] = samples[s * SAMPLE_STRIDE + w];
+        }
+        s = sample_next(s);
+    }
+
+    // Best candidate among CANDIDATES uniform points of the box.
     var quantum: array<f32, DIMS>;
     var lo: array<u32, DIMS>;
     var hi: array<u32, DIMS>;
@@ -104,15 +115,14 @@ fn decide(k: u32) -> Decision {
     for (var c = 0u; c < CANDIDATES; c++) {
         let q = candidate(key, c, lo, hi);
         var nearest = 3.0e38;
-        var s = head;
         for (var i = 0u; i < count; i++) {
             var dist = 0.0;
             for (var axis = 0u; axis < DIMS; axis++) {
-                let t = (f32(q[axis]) - f32(sample_q(s, axis))) * quantum[axis];
+                let sq = (coords[i * COORD_WORDS + axis / 2u] >> (16u * (axis % 2u))) & 0xffffu;
+                let t = (f32(q[axis]) - f32(sq)) * quantum[axis];
                 dist += t * t;
             }
             nearest = min(nearest, dist);
-            s = sample_next(s);
         }
         if (nearest > best) {
             best = nearest;
@@ -123,19 +133,13 @@ fn decide(k: u32) -> Decision {
 
     // Split test on the m existing samples plus the candidate.
     if (count >= MAX_PER_LEAF) {
-        var list: array<u32, 16>;
-        var s = head;
-        for (var i = 0u; i < count; i++) {
-            list[i] = s;
-            s = sample_next(s);
-        }
         let n = count + 1u;
         let half = n / 2u;
         var best_extent = -1.0;
         for (var axis = 0u; axis < DIMS; axis++) {
             var v: array<u32, 16>;
             for (var i = 0u; i < count; i++) {
-                v[i] = sample_q(list[i], axis);
+                v[i] = (coords[i * COORD_WORDS + axis / 2u] >> (16u * (axis % 2u))) & 0xffffu;
             }
             v[count] = d.cand[axis];
             // Insertion sort of n ≤ 15 values.

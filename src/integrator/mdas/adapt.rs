@@ -18,14 +18,17 @@ pub fn source(base: &Wgsl) -> Wgsl {
     base.clone().part(wgsl_file!("mdas/adapt.wgsl"))
 }
 
-/// count → scan → apply, in one compute pass (wgpu orders the
-/// dispatches); count and apply cover the leaves by indirect dispatch
-/// ([`plan`]).
-pub fn record(pass: &mut wgpu::ComputePass<'_>, k: &Kernels) {
+/// `count`: every leaf's decision and the per-workgroup totals
+/// (indirect, over the leaves: [`plan`]).
+pub fn record_count(pass: &mut wgpu::ComputePass<'_>, k: &Kernels) {
     pass.set_bind_group(0, &k.group0, &[]);
     pass.set_pipeline(&k.pipes.count);
     pass.dispatch_workgroups_indirect(&k.args, plan::ARGS_LEAVES);
-    super::scan::record(pass, k);
+}
+
+/// `apply`, after [`super::scan`]: places the samples and splits.
+pub fn record_apply(pass: &mut wgpu::ComputePass<'_>, k: &Kernels) {
+    pass.set_bind_group(0, &k.group0, &[]);
     pass.set_pipeline(&k.pipes.apply);
     pass.dispatch_workgroups_indirect(&k.args, plan::ARGS_LEAVES);
 }

@@ -89,7 +89,7 @@ pub mod stats;
 
 use super::{Integrator, Render};
 use crate::gpu::buffer::STORAGE;
-use crate::gpu::profiler::Profiler;
+use crate::gpu::profiler::{PhaseTimes, Profiler};
 use crate::gpu::shader::{storage_entry, uniform_entry, Wgsl};
 use crate::gpu::Gpu;
 use crate::integrand::{point_wgsl, Integrand};
@@ -164,6 +164,8 @@ pub struct Mdas {
     pipelines: HashMap<(String, wgpu::BindGroupLayout), Pipelines>,
     /// Statistics of the last render.
     last: Option<RunStats>,
+    /// Its GPU times with the parts of phases apart ("adaptive/count").
+    last_passes: Option<PhaseTimes>,
     progress: Option<Progress>,
 }
 
@@ -228,6 +230,7 @@ impl Mdas {
             args_layout: None,
             pipelines: HashMap::new(),
             last: None,
+            last_passes: None,
             progress: None,
         })
     }
@@ -267,6 +270,14 @@ impl Mdas {
     /// Iterations, leaves and collapsed leaves of the last render.
     pub fn last_stats(&self) -> Option<RunStats> {
         self.last
+    }
+
+    /// The last render's GPU times with the parts of the adaptive phase
+    /// apart: "adaptive/count", "adaptive/scan", "adaptive/apply" (apply
+    /// and the GPU loop's bookkeeping); `Render::times` folds them into
+    /// "adaptive".
+    pub fn last_pass_times(&self) -> Option<&PhaseTimes> {
+        self.last_passes.as_ref()
     }
 
     /// The derived sizes a render of `integrand` would use, or the error
@@ -570,9 +581,20 @@ impl Mdas {
                         }
                         batch = profiler.batch("mdas.iteration");
                     }
-                    batch.phase("adaptive", |e, ts| {
-                        let mut pass = e.begin_compute_pass(&pass("mdas.adapt", ts));
-                        adapt::record(&mut pass, &k);
+                    // The adaptive phase in three timed parts (BENCHMARKS.md
+                    // splits them): count → scan → apply + plan.
+                    batch.phase("adaptive/count", |e, ts| {
+                        adapt::record_count(
+                            &mut e.begin_compute_pass(&pass("mdas.adapt.count", ts)),
+                            &k,
+                        )
+                    })?;
+                    batch.phase("adaptive/scan", |e, ts| {
+                        scan::record(&mut e.begin_compute_pass(&pass("mdas.scan", ts)), &k)
+                    })?;
+                    batch.phase("adaptive/apply", |e, ts| {
+                        let mut pass = e.begin_compute_pass(&pass("mdas.adapt.apply", ts));
+                        adapt::record_apply(&mut pass, &k);
                         plan::record(&mut pass, &k);
                     })?;
                     batch.phase("evaluate", |e, ts| {
@@ -628,7 +650,7 @@ impl Mdas {
                     )
                 })?;
             }
-            let times = profiler.finish()?;
+            let passes = profiler.finish_detailed()?;
             let state = read_state()?;
             let words: Vec<u32> = gpu.read_buffer(accum, 8 * cfg.pixels() as usize)?;
             let image = reconstruct::resolve(&words, reconstruct::fixed_exponent(state.max_abs()));
@@ -649,15 +671,16 @@ impl Mdas {
                 image,
                 samples: n as u64,
                 nonfinite: state.0[counter::NONFINITE] as u64,
-                times,
+                times: passes.folded(),
                 clock,
                 gpu_bytes: cfg.gpu_bytes(),
             };
-            Ok((render, stats))
+            Ok((render, stats, passes))
         });
         self.progress = progress;
-        let (render, stats) = result?;
+        let (render, stats, passes) = result?;
         self.last = Some(stats);
+        self.last_passes = Some(passes);
         Ok(render)
     }
 }
