@@ -5,7 +5,8 @@
 #      phases against Halton at equal samples (warm, interleaved, medians);
 #   2. the same on the paper's seven scenes at their full film size and
 #      spp (Table 1 of the MDAS paper sits beside them in BENCHMARKS.md);
-#   3. `mdas compare` (equal time) on cornell_pt and pool at 1/4 scale.
+#   3. `mdas compare` (equal time) on cornell_pt and pool at 1/4 scale,
+#      and at full film size with a REF_SPP_FULL reference.
 # With a baseline binary (another build of mdas that has `bench`), steps 1
 # and 2 also run it, right after the same step of this build.
 #
@@ -13,9 +14,9 @@
 #
 # OUT: out/gpu-bench by default; its *.md tables and *.json figures are
 # what BENCHMARKS.md records. MDAS_BINARY: target/release/mdas, built when
-# missing. Environment: REPEATS (default 5), REF_SPP (compare's reference,
-# default 16384), QUICK=1 (lavapipe smoke run: 1/16 scale, 1 repeat,
-# REF_SPP 256).
+# missing. Environment: REPEATS (default 5), REF_SPP (compare's reference
+# at 1/4 scale, default 16384), REF_SPP_FULL (at full size, default 4096),
+# QUICK=1 (lavapipe smoke run: 1/16 scale, 1 repeat, references of 256 spp).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 OUT=${1:-out/gpu-bench}
@@ -28,10 +29,11 @@ QUARTER="scenes/cornell_pt.toml scenes/pool.toml scenes/cornell.toml"
 PAPER="scenes/pool.toml scenes/chess.toml scenes/street.toml scenes/dragon.toml scenes/cobblestone.toml scenes/cornell_pt.toml scenes/breakfast.toml"
 REPEATS=${REPEATS:-5}
 REF_SPP=${REF_SPP:-16384}
+REF_SPP_FULL=${REF_SPP_FULL:-4096}
 QUARTER_SCALE=0.25
 FULL_SCALE=1
 if [ "${QUICK:-0}" = 1 ]; then
-    REPEATS=1 REF_SPP=256 QUARTER_SCALE=0.0625 FULL_SCALE=0.0625
+    REPEATS=1 REF_SPP=256 REF_SPP_FULL=256 QUARTER_SCALE=0.0625 FULL_SCALE=0.0625
 fi
 
 step() {
@@ -60,4 +62,6 @@ bench paper-full "$FULL_SCALE" $PAPER
 for scene in cornell_pt pool; do
     step "compare-$scene" "$BIN" compare "scenes/$scene.toml" --scale "$QUARTER_SCALE" \
         --ref-spp "$REF_SPP" --repeats "$REPEATS" --out "$OUT/compare-$scene"
+    step "compare-$scene-full" "$BIN" compare "scenes/$scene.toml" --scale "$FULL_SCALE" \
+        --ref-spp "$REF_SPP_FULL" --repeats "$REPEATS" --out "$OUT/compare-$scene-full"
 done

@@ -61,7 +61,10 @@ fn candidate(key: u32, c: u32, lo: array<u32, DIMS>, hi: array<u32, DIMS>) -> ar
     return q;
 }
 
-fn decide(k: u32) -> Decision {
+// E_max, read once per workgroup (count) and broadcast.
+var<workgroup> wg_emax: u32;
+
+fn decide(k: u32, emax_bits: u32) -> Decision {
     var d: Decision;
     d.selected = false;
     d.split = false;
@@ -78,7 +81,6 @@ fn decide(k: u32) -> Decision {
     }
     let key = leaf_key(k, iteration());
     let e_bits = leaves[base + 2u];
-    let emax_bits = atomicLoad(&counters[C_EMAX]);
     var selected = e_bits == emax_bits || params.select_all != 0u;
     if (!selected) {
         let xi = draw_open(key, 0u);  // stream 0
@@ -177,7 +179,10 @@ fn count(@builtin(global_invocation_id) gid: vec3<u32>,
          @builtin(workgroup_id) wid: vec3<u32>,
          @builtin(num_workgroups) groups: vec3<u32>) {
     let k = thread_index(gid, groups, WG);
-    let d = decide(k);
+    if (lid == 0u) {
+        wg_emax = atomicLoad(&counters[C_EMAX]);
+    }
+    let d = decide(k, workgroupUniformLoad(&wg_emax));
     if (d.collapse) {
         leaves[leaf_base(k) + 1u] |= COLLAPSED_BIT;
         atomicAdd(&counters[C_COLLAPSED], 1u);
@@ -262,9 +267,9 @@ fn apply(@builtin(global_invocation_id) gid: vec3<u32>,
     }
     d.cand = candidate(leaf_key(k, iteration()), (word >> 20u) & 63u, lo, hi);
     let g = workgroup_index(wid, groups);
-    let n = atomicLoad(&counters[C_SAMPLES]);
+    let n = state[S_SAMPLES];
     let left_over = params.budget - n;
-    let selected_total = atomicLoad(&counters[C_SELECTED]);
+    let selected_total = state[S_SELECTED];
     let truncate = selected_total > left_over;
     let rank = partials[2u * g] + local.x;
     var slot = n + rank;

@@ -2,11 +2,11 @@
 // src/integrator/mdas/mod.rs documents the layout and generates the
 // constants used here: DIMS, BITS_PER_DIM, EXTRA_BITS, SAMPLES_PER_CELL,
 // MAX_PER_LEAF, CANDIDATES, COORD_WORDS, SAMPLE_STRIDE, LEAF_STRIDE, WG,
-// EVAL_WG, EVAL_PER_INVOCATION, STATS_PER_INVOCATION, PIXELS_PER_PASS and
-// the counter indices C_*. Needs shared/rng.wgsl and shared/morton.wgsl.
+// STATS_PER_INVOCATION, PIXELS_PER_PASS and
+// the indices C_* (counters) and S_* (state). Needs shared/rng.wgsl and shared/morton.wgsl.
 //
 // The iteration state (leaf and sample counts, iteration number, the
-// range to evaluate, the stop flag) lives in `counters` on the GPU, not in
+// range to evaluate, the stop flag) lives in `state` on the GPU, not in
 // `params`: plan.wgsl advances it after every iteration and writes the
 // next dispatches' indirect arguments, so the host records many
 // iterations in one submission and never waits inside the loop.
@@ -51,6 +51,7 @@ struct Params {
 @group(0) @binding(5) var<storage, read_write> counters: array<atomic<u32>>;
 @group(0) @binding(6) var<storage, read_write> accum: array<atomic<u32>>;
 @group(0) @binding(7) var<storage, read_write> boxes: array<u32>;
+@group(0) @binding(8) var<storage, read_write> state: array<u32>;
 
 const NIL: u32 = 0x7ffffffu;
 const DIRTY: u32 = 0xffffffffu;
@@ -58,15 +59,17 @@ const COUNT_SHIFT: u32 = 27u;
 const COLLAPSED_BIT: u32 = 0x80000000u;
 const QUANTUM_BITS: u32 = 16u;
 
-// counters[]: the C_* indices are generated from `counter` in
+// counters[C_*]: words updated with atomics by many invocations;
+// state[S_*]: written by one invocation at a time, read by all with plain
+// loads. The indices are generated from `counter` and `state` in
 // src/integrator/mdas/mod.rs, which documents each word.
 
 fn leaf_count() -> u32 {
-    return atomicLoad(&counters[C_LEAVES]);
+    return state[S_LEAVES];
 }
 
 fn iteration() -> u32 {
-    return atomicLoad(&counters[C_ITERATION]);
+    return state[S_ITERATION];
 }
 
 // Linear thread index of a 2D dispatch of `groups.x × groups.y`

@@ -1,17 +1,17 @@
 // Integrand evaluation of the samples placed since the last evaluation:
-// C_EVAL_FIRST .. C_EVAL_FIRST + C_EVAL_COUNT − 1 in counters (written by
+// S_EVAL_FIRST .. S_EVAL_FIRST + S_EVAL_COUNT − 1 in state (written by
 // the host for the initial samples and by plan.wgsl after every
 // iteration; only new samples are ever evaluated). A sample's point is the
 // centre of its quantum; its Morton cell was left in values[4s] by the
 // kernel that placed it.
 //
-// Invocation i of T = ⌈count / EVAL_PER_INVOCATION⌉ evaluates samples
-// first + i + j·T, j < EVAL_PER_INVOCATION: neighbouring invocations take
+// Invocation i evaluates sample first + i: neighbouring invocations take
 // neighbouring samples (one leaf's, or neighbouring leaves': coherent
-// rays), and each invocation amortises its set-up over several samples as
-// Halton's does. No barrier and no atomic: the results are stored as they
-// are, and stats.wgsl counts non-finite ones and finds max |f| once,
-// before the reconstruction.
+// rays), and every sample is in flight at once (on a GPU the integrand's
+// ray tracing is latency-bound: 4 samples per invocation halved the
+// H200's throughput, BENCHMARKS.md). No barrier and no atomic: the results
+// are stored as they are, and stats.wgsl counts non-finite ones and finds
+// max |f| once, before the reconstruction.
 
 // The largest f32 strictly below x > 0.
 fn below(x: f32) -> f32 {
@@ -37,21 +37,11 @@ fn evaluate_sample(s: u32) {
     values[4u * s + 2u] = bits.z;
 }
 
-@compute @workgroup_size(EVAL_WG)
+@compute @workgroup_size(WG)
 fn evaluate(@builtin(global_invocation_id) gid: vec3<u32>,
             @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = thread_index(gid, groups, EVAL_WG);
-    let first = atomicLoad(&counters[C_EVAL_FIRST]);
-    let count = atomicLoad(&counters[C_EVAL_COUNT]);
-    let threads = (count + EVAL_PER_INVOCATION - 1u) / EVAL_PER_INVOCATION;
-    if (i >= threads) {
-        return;
-    }
-    for (var j = 0u; j < EVAL_PER_INVOCATION; j++) {
-        let t = i + j * threads;
-        if (t >= count) {
-            break;
-        }
-        evaluate_sample(first + t);
+    let i = thread_index(gid, groups, WG);
+    if (i < state[S_EVAL_COUNT]) {
+        evaluate_sample(state[S_EVAL_FIRST] + i);
     }
 }

@@ -1,5 +1,5 @@
 // The iteration loop on the GPU. `plan` runs as one invocation after an
-// iteration's count → scan → apply and advances the state in counters:
+// iteration's count → scan → apply and advances the state (`state`):
 //   * added = min(selected, budget − n) new samples (the trimmed last
 //     iteration places exactly the rest of the budget, adapt.wgsl); they
 //     are the next evaluate dispatch's range; n += added;
@@ -12,7 +12,7 @@
 // It writes the indirect arguments of the next evaluate dispatch and of
 // the next iteration's leaf dispatches (error, count, apply): zero
 // workgroups once done, so iterations recorded past the end do nothing
-// (scan.wgsl and `plan` itself check C_DONE). `prime` writes both from
+// (scan.wgsl and `plan` itself check S_DONE). `prime` writes both from
 // the state the host set before the first iteration.
 
 @group(1) @binding(0) var<storage, read_write> args: array<u32>;
@@ -34,50 +34,49 @@ fn write_args(at: u32, groups: u32) {
     args[at + 2u] = 1u;
 }
 
-// Workgroups of the evaluate dispatch for `count` samples.
+// Workgroups of the evaluate dispatch for `count` samples (one each).
 fn evaluate_groups(count: u32) -> u32 {
-    let threads = (count + EVAL_PER_INVOCATION - 1u) / EVAL_PER_INVOCATION;
-    return (threads + EVAL_WG - 1u) / EVAL_WG;
+    return (count + WG - 1u) / WG;
 }
 
 @compute @workgroup_size(1)
 fn prime() {
-    let done = atomicLoad(&counters[C_DONE]) != 0u;
+    let done = state[S_DONE] != 0u;
     write_args(ARGS_LEAVES, select(leaf_groups(), 0u, done));
-    write_args(ARGS_EVALUATE, evaluate_groups(atomicLoad(&counters[C_EVAL_COUNT])));
+    write_args(ARGS_EVALUATE, evaluate_groups(state[S_EVAL_COUNT]));
 }
 
 @compute @workgroup_size(1)
 fn plan() {
-    if (atomicLoad(&counters[C_DONE]) != 0u) {
+    if (state[S_DONE] != 0u) {
         write_args(ARGS_EVALUATE, 0u);
         return;
     }
-    var n = atomicLoad(&counters[C_SAMPLES]);
-    let selected = atomicLoad(&counters[C_SELECTED]);
+    var n = state[S_SAMPLES];
+    let selected = state[S_SELECTED];
     let left = params.budget - n;
     let added = min(selected, left);
     if (added == 0u) {
-        atomicStore(&counters[C_DONE], 1u);
-        atomicStore(&counters[C_EVAL_COUNT], 0u);
+        state[S_DONE] = 1u;
+        state[S_EVAL_COUNT] = 0u;
         write_args(ARGS_LEAVES, 0u);
         write_args(ARGS_EVALUATE, 0u);
         return;
     }
-    atomicStore(&counters[C_EVAL_FIRST], n);
-    atomicStore(&counters[C_EVAL_COUNT], added);
+    state[S_EVAL_FIRST] = n;
+    state[S_EVAL_COUNT] = added;
     write_args(ARGS_EVALUATE, evaluate_groups(added));
     n += added;
-    atomicStore(&counters[C_SAMPLES], n);
+    state[S_SAMPLES] = n;
     if (selected <= left) {
-        atomicAdd(&counters[C_LEAVES], atomicLoad(&counters[C_SPLITS]));
+        state[S_LEAVES] += state[S_SPLITS];
     }
     let it = iteration();
     if (n == params.budget || it >= params.max_iterations) {
-        atomicStore(&counters[C_DONE], 1u);
+        state[S_DONE] = 1u;
         write_args(ARGS_LEAVES, 0u);
     } else {
-        atomicStore(&counters[C_ITERATION], it + 1u);
+        state[S_ITERATION] = it + 1u;
         write_args(ARGS_LEAVES, leaf_groups());
     }
     atomicStore(&counters[C_EMAX], 0u);

@@ -10,8 +10,8 @@
 // integer addition is associative, so the result does not depend on the
 // order of the atomics. Colour terms are scaled by 2^fixed_exp with
 // fixed_exp = 60 − ⌈log2 max|f|⌉ (so |Σ| < 2^61 for every pixel; max|f|
-// from stats.wgsl, the exponent as reconstruct::fixed_exponent computes it
-// on the host to decode the sums), weights by 2^60. Each leaf covers at most PIXELS_PER_PASS pixels per dispatch;
+// and the exponent from stats.wgsl, which the host reads back to decode
+// the sums), weights by 2^60. Each leaf covers at most PIXELS_PER_PASS pixels per dispatch;
 // the host dispatches pass_offset = 0, PIXELS_PER_PASS, … as needed, which
 // bounds every invocation's loop (lavapipe ends loops at 65,535).
 
@@ -43,25 +43,6 @@ fn add_fixed(word: u32, v: vec2<u32>) {
     }
 }
 
-// 60 − ⌈log2 max|f|⌉ over the channels, clamped to −100..=128; 60 when no
-// finite sample is non-zero. ⌈log2 x⌉ of a normal f32 is its exponent,
-// plus one unless the mantissa is zero; a subnormal maximum clamps to 128.
-fn fixed_exponent() -> i32 {
-    var bits = 0u;
-    for (var c = 0u; c < 3u; c++) {
-        bits = max(bits, atomicLoad(&counters[C_MAXABS + c]));
-    }
-    if (bits == 0u) {
-        return 60;
-    }
-    let biased = i32(bits >> 23u);
-    if (biased == 0) {
-        return 128;
-    }
-    let ceil_log2 = biased - 127 + select(1, 0, (bits & 0x7fffffu) == 0u);
-    return clamp(60 - ceil_log2, -100, 128);
-}
-
 @compute @workgroup_size(WG)
 fn reconstruct(@builtin(global_invocation_id) gid: vec3<u32>,
                @builtin(num_workgroups) groups: vec3<u32>) {
@@ -69,7 +50,7 @@ fn reconstruct(@builtin(global_invocation_id) gid: vec3<u32>,
     if (k >= leaf_count()) {
         return;
     }
-    let fixed_exp = fixed_exponent();
+    let fixed_exp = bitcast<i32>(state[S_FIXED_EXP]);
     let base = leaf_base(k);
     let h = leaves[base + 1u];
     let m = leaf_mean(header_head(h), header_count(h));

@@ -1,17 +1,17 @@
 // Middle pass of the reduce-then-scan allocation (DESIGN.md: no
 // decoupled look-back): one workgroup turns the per-workgroup totals
 // (selected leaves, splits) written by adapt.wgsl `count` into exclusive
-// prefixes, in place, and stores the grand totals in counters. Each
+// prefixes, in place, and stores the grand totals in state. Each
 // invocation sums a contiguous chunk of ⌈G / WG⌉ totals, so its loops run
 // at most 2·⌈G / WG⌉ times (G ≤ 2^19: ≤ 4096). Once the render is done
-// (C_DONE, plan.wgsl) it leaves everything as it is.
+// (S_DONE, plan.wgsl) it leaves everything as it is.
 
 var<workgroup> wg_done: u32;
 
 @compute @workgroup_size(WG)
 fn scan(@builtin(local_invocation_index) lid: u32) {
     if (lid == 0u) {
-        wg_done = atomicLoad(&counters[C_DONE]);
+        wg_done = state[S_DONE];
     }
     // A workgroup-uniform value: workgroup_scan below needs uniform
     // control flow.
@@ -35,7 +35,7 @@ fn scan(@builtin(local_invocation_index) lid: u32) {
         run += v;
     }
     if (lid == 0u) {
-        atomicStore(&counters[C_SELECTED], total.x);
-        atomicStore(&counters[C_SPLITS], total.y);
+        state[S_SELECTED] = total.x;
+        state[S_SPLITS] = total.y;
     }
 }

@@ -17,7 +17,7 @@
 //! L ≤ C + (N − C·min(l, h)) / h. Both bounds are theorems of the
 //! algorithm, so the kernels need no overflow checks.
 
-use super::gpu_params::{EVAL_PER_INVOCATION, EVAL_WG, STATS_PER_INVOCATION, WG};
+use super::gpu_params::{STATS_PER_INVOCATION, WG};
 use super::MAX_ITERATIONS_DEFAULT;
 use crate::gpu::shader::Wgsl;
 use crate::gpu::Gpu;
@@ -206,7 +206,8 @@ impl Config {
         self.samples_bytes() >= self.accum_bytes()
     }
 
-    pub const COUNTERS_BYTES: u64 = 64;
+    pub const COUNTERS_BYTES: u64 = 4 * super::counter::LEN as u64;
+    pub const STATE_BYTES: u64 = 4 * super::state::LEN as u64;
     /// Indirect arguments: two dispatches of three words (plan.wgsl).
     pub const ARGS_BYTES: u64 = 24;
 
@@ -224,6 +225,7 @@ impl Config {
             + self.partials_bytes()
             + accum
             + Self::COUNTERS_BYTES
+            + Self::STATE_BYTES
             + Self::ARGS_BYTES
             + std::mem::size_of::<super::gpu_params::GpuParams>() as u64
     }
@@ -258,11 +260,10 @@ impl Config {
 
     /// The generated WGSL constants every MDAS kernel is compiled with.
     pub fn constants(&self) -> Wgsl {
-        let counters = super::counter::ALL
-            .iter()
-            .fold(Wgsl::new(), |w, &(name, index)| {
-                w.constant(name, index as u32)
-            });
+        let indices = super::counter::ALL.iter().chain(&super::state::ALL);
+        let counters = indices.fold(Wgsl::new(), |w, &(name, index)| {
+            w.constant(name, index as u32)
+        });
         counters
             .constant("DIMS", self.dims)
             .constant("BITS_PER_DIM", self.params.bits_per_dim)
@@ -274,8 +275,6 @@ impl Config {
             .constant("SAMPLE_STRIDE", self.sample_stride)
             .constant("LEAF_STRIDE", self.leaf_stride)
             .constant("WG", WG)
-            .constant("EVAL_WG", EVAL_WG)
-            .constant("EVAL_PER_INVOCATION", EVAL_PER_INVOCATION)
             .constant("STATS_PER_INVOCATION", STATS_PER_INVOCATION)
             .constant("PIXELS_PER_PASS", PIXELS_PER_PASS)
     }

@@ -1,10 +1,9 @@
 //! Integrand evaluation of the new samples only: `wgsl/mdas/evaluate.wgsl`.
 //!
 //! Samples are appended, so each iteration's new samples are one index
-//! range, which [`plan`] leaves in the counters together with the
-//! dispatch size. Each invocation evaluates up to
-//! [`EVAL_PER_INVOCATION`](super::gpu_params::EVAL_PER_INVOCATION)
-//! samples, with no barrier or atomic around the integrand. Non-finite
+//! range, which [`plan`] leaves in the state together with the dispatch
+//! size. One invocation per sample, with no barrier or atomic around the
+//! integrand. Non-finite
 //! results are counted once at the end ([`super::stats`],
 //! `Render::nonfinite`) and excluded by every later kernel on their bits.
 

@@ -6,14 +6,6 @@ use crate::gpu::Gpu;
 /// Invocations per workgroup of every MDAS kernel.
 pub const WG: u32 = 256;
 
-/// Invocations per workgroup of the evaluate kernel.
-pub const EVAL_WG: u32 = 256;
-/// Samples one evaluate invocation takes. One: on a GPU the integrand's
-/// ray tracing is latency-bound and wants every sample in flight (on the
-/// H200, 4 per invocation in workgroups of 64 doubled MDAS's evaluate time
-/// at 1/4 scale: 2–3.7×, BENCHMARKS.md); on lavapipe it made no difference
-/// beyond the noise. The kernel keeps the loop, so this stays a tuning knob.
-pub const EVAL_PER_INVOCATION: u32 = 1;
 /// Samples one invocation of the statistics kernel reads.
 pub const STATS_PER_INVOCATION: u32 = 16;
 

@@ -58,7 +58,8 @@
 //! * per pixel 32 B of fixed-point accumulators, placed in the coordinate
 //!   buffer (dead once the last sample is placed) when it is large enough
 //!   (spp·⌈d/2⌉ ≥ 8), else allocated; plus 8 B per 256 leaves of scan
-//!   totals and 128 B of counters and parameters.
+//!   totals and 184 B of counters, state, indirect arguments and
+//!   parameters.
 //!
 //! `Render::gpu_bytes` reports the total actually allocated.
 //!
@@ -110,48 +111,65 @@ pub const MAX_ITERATIONS_DEFAULT: u32 = 1024;
 const FIRST_BATCH: u32 = 2;
 const MAX_BATCH: u32 = 32;
 
-/// Indices into the counters buffer: the one definition, generated into
-/// every kernel as `C_<NAME>` constants ([`config::Config::constants`]).
+/// Indices into the counters buffer, the words kernels update with
+/// atomics (reductions over many invocations): the one definition,
+/// generated into every kernel as `C_<NAME>` ([`config::Config::constants`]).
 pub(crate) mod counter {
     /// E_max of the current error pass (f32 bits).
     pub const EMAX: usize = 0;
-    /// Leaves selected in the current iteration (scan.wgsl).
-    pub const SELECTED: usize = 1;
-    /// Of those, the ones that split.
-    pub const SPLITS: usize = 2;
     /// Non-finite samples (stats.wgsl).
-    pub const NONFINITE: usize = 3;
+    pub const NONFINITE: usize = 1;
     /// Three words: largest finite |f| per channel (f32 bits, stats.wgsl).
-    pub const MAXABS: usize = 4;
+    pub const MAXABS: usize = 2;
     /// Leaves marked collapsed.
-    pub const COLLAPSED: usize = 7;
-    /// Leaves in use.
-    pub const LEAVES: usize = 8;
-    /// Samples placed (evaluated by the end of the iteration).
-    pub const SAMPLES: usize = 9;
-    /// The current iteration, from 1; the iterations run once done.
-    pub const ITERATION: usize = 10;
-    /// First sample and count of the pending evaluate dispatch.
-    pub const EVAL_FIRST: usize = 11;
-    pub const EVAL_COUNT: usize = 12;
-    /// 1 once no further iteration runs (plan.wgsl).
-    pub const DONE: usize = 13;
-    pub const LEN: usize = 16;
+    pub const COLLAPSED: usize = 5;
+    pub const LEN: usize = 8;
 
     /// WGSL names and indices.
-    pub const ALL: [(&str, usize); 12] = [
+    pub const ALL: [(&str, usize); 4] = [
         ("C_EMAX", EMAX),
-        ("C_SELECTED", SELECTED),
-        ("C_SPLITS", SPLITS),
         ("C_NONFINITE", NONFINITE),
         ("C_MAXABS", MAXABS),
         ("C_COLLAPSED", COLLAPSED),
-        ("C_LEAVES", LEAVES),
-        ("C_SAMPLES", SAMPLES),
-        ("C_ITERATION", ITERATION),
-        ("C_EVAL_FIRST", EVAL_FIRST),
-        ("C_EVAL_COUNT", EVAL_COUNT),
-        ("C_DONE", DONE),
+    ];
+}
+
+/// Indices into the state buffer: the iteration state, written by one
+/// invocation at a time (scan.wgsl, plan.wgsl, stats.wgsl) and read by
+/// every invocation with plain loads (an atomic load of one word by
+/// millions of invocations serialises on a GPU). Generated into the
+/// kernels as `S_<NAME>`.
+pub(crate) mod state {
+    /// Leaves selected in the current iteration, and of those the ones that
+    /// split (scan.wgsl).
+    pub const SELECTED: usize = 0;
+    pub const SPLITS: usize = 1;
+    /// Leaves in use.
+    pub const LEAVES: usize = 2;
+    /// Samples placed (evaluated by the end of the iteration).
+    pub const SAMPLES: usize = 3;
+    /// The current iteration, from 1; the iterations run once done.
+    pub const ITERATION: usize = 4;
+    /// First sample and count of the pending evaluate dispatch.
+    pub const EVAL_FIRST: usize = 5;
+    pub const EVAL_COUNT: usize = 6;
+    /// 1 once no further iteration runs (plan.wgsl).
+    pub const DONE: usize = 7;
+    /// The reconstruction's fixed-point exponent (i32 bits, stats.wgsl).
+    pub const FIXED_EXP: usize = 8;
+    pub const LEN: usize = 16;
+
+    /// WGSL names and indices.
+    pub const ALL: [(&str, usize); 9] = [
+        ("S_SELECTED", SELECTED),
+        ("S_SPLITS", SPLITS),
+        ("S_LEAVES", LEAVES),
+        ("S_SAMPLES", SAMPLES),
+        ("S_ITERATION", ITERATION),
+        ("S_EVAL_FIRST", EVAL_FIRST),
+        ("S_EVAL_COUNT", EVAL_COUNT),
+        ("S_DONE", DONE),
+        ("S_FIXED_EXP", FIXED_EXP),
     ];
 }
 
@@ -194,6 +212,7 @@ struct Pipelines {
     plan: wgpu::ComputePipeline,
     evaluate: wgpu::ComputePipeline,
     stats: wgpu::ComputePipeline,
+    fixed_scale: wgpu::ComputePipeline,
     reconstruct: wgpu::ComputePipeline,
 }
 
@@ -216,6 +235,7 @@ struct Buffers {
     samples: wgpu::Buffer,
     values: wgpu::Buffer,
     counters: wgpu::Buffer,
+    state: wgpu::Buffer,
     accum: wgpu::Buffer,
 }
 
@@ -295,7 +315,7 @@ impl Mdas {
         self.layout
             .get_or_insert_with(|| {
                 let mut entries = vec![uniform_entry(0)];
-                entries.extend((1..=7).map(|b| storage_entry(b, false)));
+                entries.extend((1..=8).map(|b| storage_entry(b, false)));
                 gpu.device
                     .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                         label: Some("mdas.mdas.layout"),
@@ -341,6 +361,7 @@ impl Mdas {
         };
         let adapt_source = adapt::source(&base);
         let plan_source = plan::source(&base);
+        let stats_source = stats::source(&base);
         let with_args = |label: &str, entry: &str| {
             gpu.compute_pipeline(label, &plan_source, entry, &[&layout, &args_layout])
         };
@@ -352,7 +373,8 @@ impl Mdas {
             apply: own("mdas.mdas.adapt.apply", &adapt_source, "apply")?,
             prime: with_args("mdas.mdas.plan.prime", "prime")?,
             plan: with_args("mdas.mdas.plan", "plan")?,
-            stats: own("mdas.mdas.stats", &stats::source(&base), "stats")?,
+            stats: own("mdas.mdas.stats", &stats_source, "stats")?,
+            fixed_scale: own("mdas.mdas.stats.fixed_scale", &stats_source, "fixed_scale")?,
             evaluate: gpu.compute_pipeline(
                 &format!("mdas.mdas.evaluate[{}]", integrand.name()),
                 &eval_source,
@@ -435,6 +457,7 @@ impl Mdas {
                 samples: gpu.buffer_zeroed("mdas.samples", cfg.samples_bytes(), STORAGE)?,
                 values: gpu.buffer_zeroed("mdas.values", cfg.values_bytes(), STORAGE)?,
                 counters: gpu.buffer_zeroed("mdas.counters", Config::COUNTERS_BYTES, STORAGE)?,
+                state: gpu.buffer_zeroed("mdas.state", Config::STATE_BYTES, STORAGE)?,
                 accum: if cfg.accum_in_samples() {
                     gpu.buffer_zeroed("mdas.placeholder", 16, STORAGE)?
                 } else {
@@ -460,6 +483,7 @@ impl Mdas {
                     &bufs.counters,
                     &bufs.accum,
                     &bufs.boxes,
+                    &bufs.state,
                 ],
             );
             // Reconstruction binds the accumulators in place of the samples'
@@ -488,6 +512,7 @@ impl Mdas {
                     &bufs.counters,
                     accum,
                     &bufs.boxes,
+                    &bufs.state,
                 ],
             );
             let args_group =
@@ -501,18 +526,20 @@ impl Mdas {
             let mut profiler = Profiler::new(gpu);
             let clock = profiler.clock();
             let read_state =
-                || -> Result<State> { Ok(State(gpu.read_buffer(&bufs.counters, counter::LEN)?)) };
+                || -> Result<State> { Ok(State(gpu.read_buffer(&bufs.state, state::LEN)?)) };
+            let read_counters =
+                || -> Result<Vec<u32>> { gpu.read_buffer(&bufs.counters, counter::LEN) };
 
             // The iteration state before the first iteration: the grid's
             // cells are the leaves, its samples are to be evaluated.
-            let mut initial_state = [0u32; counter::LEN];
-            initial_state[counter::LEAVES] = cfg.cells;
-            initial_state[counter::SAMPLES] = cfg.initial_samples;
-            initial_state[counter::ITERATION] = 1;
-            initial_state[counter::EVAL_COUNT] = cfg.initial_samples;
-            initial_state[counter::DONE] = (cfg.initial_samples >= cfg.budget) as u32;
+            let mut initial_state = [0u32; state::LEN];
+            initial_state[state::LEAVES] = cfg.cells;
+            initial_state[state::SAMPLES] = cfg.initial_samples;
+            initial_state[state::ITERATION] = 1;
+            initial_state[state::EVAL_COUNT] = cfg.initial_samples;
+            initial_state[state::DONE] = (cfg.initial_samples >= cfg.budget) as u32;
             gpu.queue
-                .write_buffer(&bufs.counters, 0, bytemuck::cast_slice(&initial_state));
+                .write_buffer(&bufs.state, 0, bytemuck::cast_slice(&initial_state));
 
             // Initial grid and its samples.
             let mut batch = profiler.batch("mdas.initial");
@@ -540,7 +567,7 @@ impl Mdas {
                     budget: cfg.budget,
                     leaf_count: leaves,
                     sample_count: n,
-                    emax_bits: state.0[counter::EMAX],
+                    emax_bits: read_counters()?[counter::EMAX],
                     inv_alpha: gp.inv_alpha,
                     select_all: gp.select_all != 0,
                     epsilon: gp.epsilon,
@@ -652,8 +679,9 @@ impl Mdas {
             }
             let passes = profiler.finish_detailed()?;
             let state = read_state()?;
+            let counters = read_counters()?;
             let words: Vec<u32> = gpu.read_buffer(accum, 8 * cfg.pixels() as usize)?;
-            let image = reconstruct::resolve(&words, reconstruct::fixed_exponent(state.max_abs()));
+            let image = reconstruct::resolve(&words, state.fixed_exp());
             let stats = RunStats {
                 // No iteration runs when the initial samples are the budget.
                 iterations: if cfg.initial_samples < cfg.budget {
@@ -662,7 +690,7 @@ impl Mdas {
                     0
                 },
                 leaves,
-                collapsed: state.0[counter::COLLAPSED],
+                collapsed: counters[counter::COLLAPSED],
                 budget: cfg.budget,
                 initial_samples: cfg.initial_samples,
             };
@@ -670,7 +698,7 @@ impl Mdas {
                 film: cfg.film,
                 image,
                 samples: n as u64,
-                nonfinite: state.0[counter::NONFINITE] as u64,
+                nonfinite: counters[counter::NONFINITE] as u64,
                 times: passes.folded(),
                 clock,
                 gpu_bytes: cfg.gpu_bytes(),
@@ -685,31 +713,29 @@ impl Mdas {
     }
 }
 
-/// The counters buffer as read back.
+/// The state buffer as read back.
 struct State(Vec<u32>);
 
 impl State {
     fn leaves(&self) -> u32 {
-        self.0[counter::LEAVES]
+        self.0[state::LEAVES]
     }
 
     fn samples(&self) -> u32 {
-        self.0[counter::SAMPLES]
+        self.0[state::SAMPLES]
     }
 
     fn iteration(&self) -> u32 {
-        self.0[counter::ITERATION]
+        self.0[state::ITERATION]
     }
 
     fn done(&self) -> bool {
-        self.0[counter::DONE] != 0
+        self.0[state::DONE] != 0
     }
 
-    /// Largest finite |f| over the channels (stats.wgsl).
-    fn max_abs(&self) -> f32 {
-        (0..3)
-            .map(|i| f32::from_bits(self.0[counter::MAXABS + i]))
-            .fold(0.0f32, f32::max)
+    /// The exponent the reconstruction scaled colours by (stats.wgsl).
+    fn fixed_exp(&self) -> i32 {
+        self.0[state::FIXED_EXP] as i32
     }
 }
 

@@ -9,7 +9,9 @@
 //! addition is associative, so the sum is the same for every order of the
 //! atomics: the image is a function of the leaves alone. The colour scale
 //! is 2^(60 − ⌈log2 max|f|⌉): a pixel's |Σ w f̄| ≤ max|f|·Σw ≈ max|f| stays
-//! below 2^61 of the 2^63 range, and each term loses at most one unit of
+//! below 2^61 of the 2^63 range (the exponent is computed on the GPU,
+//! `fixed_scale` in `wgsl/mdas/stats.wgsl`, and read back with the state
+//! for [`resolve`]), and each term loses at most one unit of
 //! 2^−60·max|f| to truncation. With n terms per pixel the fixed-point error
 //! is below n·2⁻⁶⁰·max|f|: for values spanning 1e-6…1e6 (max|f| = 1e6), a
 //! pixel of mean 1e-6 is still exact to ~1e-18·n absolute, far below f32
@@ -31,23 +33,6 @@ pub fn record(pass: &mut wgpu::ComputePass<'_>, k: &Kernels, grid: Grid) {
     pass.set_pipeline(&k.pipes.reconstruct);
     pass.set_bind_group(0, &k.group0, &[]);
     pass.dispatch_workgroups(grid.x, grid.y, 1);
-}
-
-/// The fixed-point exponent for colour terms given the largest finite |f|:
-/// 60 − ⌈log2 max|f|⌉, clamped to −100..=128. The kernel computes the
-/// same from the bits (`fixed_exponent` in the WGSL): ⌈log2 x⌉ of a normal
-/// f32 is its exponent, plus one unless the mantissa is zero.
-pub fn fixed_exponent(max_abs: f32) -> i32 {
-    if !(max_abs.is_finite() && max_abs > 0.0) {
-        return 60;
-    }
-    let bits = max_abs.to_bits();
-    let biased = (bits >> 23) as i32;
-    if biased == 0 {
-        return 128; // subnormal: 60 − ⌈log2⌉ ≥ 186
-    }
-    let ceil_log2 = biased - 127 + ((bits & 0x7f_ffff) != 0) as i32;
-    (60 - ceil_log2).clamp(-100, 128)
 }
 
 /// Pixel values from the 8 words per pixel (3 colours + weight, lo/hi).
