@@ -132,6 +132,11 @@ enum Command {
         /// unbalanced_nocut (an error for other integrands).
         #[arg(long, value_name = "NAME")]
         sampler: Option<SamplerKind>,
+        /// Render once untimed first, so that the printed times are warm:
+        /// CPU drivers (lavapipe) compile a pipeline at its first dispatch,
+        /// inside the GPU timestamps of a cold render.
+        #[arg(long)]
+        warmup: bool,
         #[command(flatten)]
         mdas: MdasArgs,
     },
@@ -443,6 +448,7 @@ fn run(cli: Cli) -> Result<()> {
             scale,
             reference,
             sampler,
+            warmup,
             mdas,
         } => {
             let output = output.unwrap_or_else(|| default_output(&scene, integrator.name()));
@@ -485,8 +491,16 @@ fn run(cli: Cli) -> Result<()> {
                 integrator.name(),
                 gpu.info.name
             );
+            if warmup {
+                sampler.render(gpu, prepared.integrand.as_ref())?;
+            }
             let render = sampler.render(gpu, prepared.integrand.as_ref())?;
             print_render(&render);
+            if !warmup && gpu.info.device_type == wgpu::DeviceType::Cpu {
+                println!(
+                    "(cold: this CPU driver compiles pipelines at their first dispatch, inside these times; --warmup or `mdas bench` time warm renders)"
+                );
+            }
             if let Some((w, h, ref_image)) = reference {
                 if (w, h) != (film.width, film.height) {
                     bail!(

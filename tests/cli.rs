@@ -342,3 +342,68 @@ fn compare_bad_input_fails_without_a_report() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn bench_prints_a_table_and_writes_json() {
+    let dir = temp_dir("bench");
+    let json = dir.join("bench.json");
+    let o = mdas(&[
+        "bench",
+        "scenes/area_light_plane.toml",
+        "--scale",
+        "0.125",
+        "--repeats",
+        "1",
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "stderr: {}", stderr(&o));
+    let table = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        table.contains("| `scenes/area_light_plane.toml` | 16×12 | 16 |"),
+        "{table}"
+    );
+    let rows: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let row = &rows[0];
+    // Both methods take spp × pixels samples.
+    assert_eq!(row["mdas_samples"], 16 * 12 * 16);
+    assert_eq!(row["halton_samples"], 16 * 12 * 16);
+    let phases = row["mdas_phases_ms"].as_array().unwrap();
+    let names: Vec<&str> = phases.iter().map(|p| p[0].as_str().unwrap()).collect();
+    assert_eq!(
+        names,
+        ["initial", "evaluate", "error", "adaptive", "reconstruction"]
+    );
+    assert!(phases.iter().all(|p| p[1].as_f64().unwrap() >= 0.0));
+    assert!(
+        phases[1][1].as_f64().unwrap() > 0.0,
+        "evaluate took no time"
+    );
+    // The adaptive phase's parts add up to it (medians of one render).
+    let parts: f64 = row["mdas_adaptive_parts_ms"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| p[1].as_f64().unwrap())
+        .sum();
+    let adaptive = phases[3][1].as_f64().unwrap();
+    assert!(
+        (parts - adaptive).abs() <= 1e-9 * adaptive.max(1.0),
+        "{parts} vs {adaptive}"
+    );
+    assert!(row["mdas_iterations"].as_u64().unwrap() >= 1);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn bench_refuses_a_fractional_spp() {
+    let dir = temp_dir("bench-bad");
+    let scene = scene_variant(&dir, "frac.toml", |t| t.replace("spp = 16", "spp = 2.5"));
+    let o = mdas(&["bench", scene.to_str().unwrap(), "--scale", "0.125"]);
+    let err = stderr(&o);
+    assert!(!o.status.success());
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(err.contains("not a whole number; pass --spp"), "{err}");
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -243,3 +243,25 @@ impl Batch<'_, '_> {
         self.profiler.gpu.queue.submit([self.encoder.finish()]);
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::PhaseTimes;
+
+    #[test]
+    fn parts_fold_into_their_phase() {
+        let mut t = PhaseTimes::default();
+        t.add("evaluate", 1.0);
+        t.add("adaptive/count", 2.0);
+        t.add("adaptive/scan", 0.5);
+        t.add("evaluate", 1.0);
+        t.add("adaptive/count", 1.0);
+        assert_eq!(t.get("adaptive/count"), Some(3.0));
+        let f = t.folded();
+        assert_eq!(
+            f.0,
+            vec![("evaluate".to_string(), 2.0), ("adaptive".to_string(), 3.5)]
+        );
+        assert_eq!(f.total(), t.total());
+    }
+}

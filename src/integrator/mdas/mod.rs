@@ -12,14 +12,23 @@
 //! | `initial` | [`initial`]: Morton grid, l stratified samples per cell | §4.1 |
 //! | `evaluate` | [`evaluate`]: the integrand at new samples only | — |
 //! | `error` | [`error`]: contrast error of changed leaves, E_max | eq. 4, §4.2 |
-//! | `adaptive` | [`adapt`] + [`scan`]: selection, best candidate, median split | §4.2 |
-//! | `reconstruction` | [`reconstruct`]: exact-overlap splatting, fixed point | eq. 7, §4.3 |
+//! | `adaptive` | [`adapt`] + [`scan`] + [`plan`]: selection, best candidate, median split; the loop's bookkeeping | §4.2 |
+//! | `reconstruction` | [`stats`] + [`reconstruct`]: max \|f\| and non-finite count, exact-overlap splatting, fixed point | eq. 7, §4.3 |
 //!
 //! The driver ([`Mdas::render`]) runs initial + evaluate, then iterations of
 //! error → adaptive → evaluate until the budget N = round(spp × pixels) is
 //! reached (the last iteration is trimmed to exactly N), no leaf can be
 //! selected (all collapsed), or [`Mdas::max_iterations`] have run; then
 //! reconstruction. `Render::samples` is the achieved count.
+//!
+//! The loop runs on the GPU: the leaf and sample counts, the iteration and
+//! the range to evaluate live in a state buffer that [`plan`] advances after
+//! every iteration, writing the next dispatches' indirect arguments (zero
+//! once done). The host records iterations in submissions of 2, 4, 8, …
+//! up to 32 and reads the state once per submission (progress and the stop
+//! test), never inside an iteration; with an observer
+//! ([`Mdas::render_observed`]) it submits after every error pass instead.
+//! [`Mdas::last_pass_times`] splits the adaptive phase into its passes.
 //! [`Mdas::render_with_density`] also returns the samples per pixel of the
 //! final leaves (each leaf's samples spread over the pixels its film box
 //! overlaps, by overlap area; [`debug::Snapshot::sample_density`]), for the
