@@ -22,7 +22,8 @@ fn invalid_parameters_are_rejected_by_new() {
     let ok = params(1, 2, 1, 8.0, 0);
     assert!(Mdas::new(ok).is_ok());
     assert!(Mdas::new(MdasParams::default()).is_ok());
-    let cases: Vec<(&str, Box<dyn Fn(&mut MdasParams)>)> = vec![
+    type Edit = Box<dyn Fn(&mut MdasParams)>;
+    let cases: Vec<(&str, Edit)> = vec![
         (
             "max_samples_per_leaf",
             Box::new(|p| p.max_samples_per_leaf = 1),
@@ -66,8 +67,7 @@ fn render_err(p: MdasParams, dims: u32, film: Film) -> String {
     let e = Mdas::new(p)
         .unwrap()
         .render(gpu, &integrand)
-        .err()
-        .expect("render should fail");
+        .expect_err("render should fail");
     format!("{e:#}")
 }
 

@@ -142,7 +142,7 @@ impl Config {
             bail!("the budget of {budget} samples exceeds the {SAMPLE_LIMIT} MDAS can index; lower spp or the resolution");
         }
         let m = params.max_samples_per_leaf as u64;
-        let h = (m + 1) / 2;
+        let h = m.div_ceil(2);
         let leaf_capacity = cells + (budget - cells * l.min(h)) / h;
         let coord_words = dims.div_ceil(2);
         // Widest leaf: an initial cell, misaligned with the pixel grid.

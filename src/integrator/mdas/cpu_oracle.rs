@@ -200,7 +200,7 @@ pub fn decide(s: &Snapshot, k: u32) -> Decision {
                 if extent > best_extent {
                     best_extent = extent;
                     d.axis = a;
-                    d.plane = (v[half - 1] + v[half] + 1) / 2;
+                    d.plane = (v[half - 1] + v[half]).div_ceil(2);
                 }
             }
         }
