@@ -152,7 +152,9 @@ impl Gpu {
 
     /// Largest single storage buffer binding, in bytes.
     pub fn max_binding_bytes(&self) -> u64 {
-        self.limits.max_storage_buffer_binding_size.min(self.limits.max_buffer_size)
+        self.limits
+            .max_storage_buffer_binding_size
+            .min(self.limits.max_buffer_size)
     }
 
     /// Splits `n` workgroups into a 2D dispatch within the per-dimension
