@@ -260,7 +260,7 @@ impl Config {
 
     /// The generated WGSL constants every MDAS kernel is compiled with.
     pub fn constants(&self) -> Wgsl {
-        let indices = super::counter::ALL.iter().chain(&super::state::ALL);
+        let indices = super::counter::ALL.iter().chain(super::state::ALL);
         let counters = indices.fold(Wgsl::new(), |w, &(name, index)| {
             w.constant(name, index as u32)
         });

@@ -120,66 +120,60 @@ pub const MAX_ITERATIONS_DEFAULT: u32 = 1024;
 const FIRST_BATCH: u32 = 2;
 const MAX_BATCH: u32 = 32;
 
-/// Indices into the counters buffer, the words kernels update with
-/// atomics (reductions over many invocations): the one definition,
-/// generated into every kernel as `C_<NAME>` ([`config::Config::constants`]).
-pub(crate) mod counter {
-    /// E_max of the current error pass (f32 bits).
-    pub const EMAX: usize = 0;
-    /// Non-finite samples (stats.wgsl).
-    pub const NONFINITE: usize = 1;
-    /// Three words: largest finite |f| per channel (f32 bits, stats.wgsl).
-    pub const MAXABS: usize = 2;
-    /// Leaves marked collapsed.
-    pub const COLLAPSED: usize = 5;
-    pub const LEN: usize = 8;
-
-    /// WGSL names and indices.
-    pub const ALL: [(&str, usize); 4] = [
-        ("C_EMAX", EMAX),
-        ("C_NONFINITE", NONFINITE),
-        ("C_MAXABS", MAXABS),
-        ("C_COLLAPSED", COLLAPSED),
-    ];
+/// Declares `pub const NAME: usize = index;` for each listed word and
+/// `ALL`: the WGSL constant names (`prefix` + NAME) with their indices, which
+/// [`config::Config::constants`] generates into every kernel. One list, so
+/// a word's index exists once.
+macro_rules! word_indices {
+    ($prefix:literal; $($(#[$doc:meta])* $name:ident = $index:literal,)+) => {
+        $($(#[$doc])* pub const $name: usize = $index;)+
+        /// WGSL names and indices.
+        pub const ALL: &[(&str, usize)] = &[$((concat!($prefix, stringify!($name)), $name)),+];
+    };
 }
 
-/// Indices into the state buffer: the iteration state, written by one
-/// invocation at a time (scan.wgsl, plan.wgsl, stats.wgsl) and read by
-/// every invocation with plain loads (an atomic load of one word by
-/// millions of invocations serialises on a GPU). Generated into the
-/// kernels as `S_<NAME>`.
-pub(crate) mod state {
-    /// Leaves selected in the current iteration, and of those the ones that
-    /// split (scan.wgsl).
-    pub const SELECTED: usize = 0;
-    pub const SPLITS: usize = 1;
-    /// Leaves in use.
-    pub const LEAVES: usize = 2;
-    /// Samples placed (evaluated by the end of the iteration).
-    pub const SAMPLES: usize = 3;
-    /// The current iteration, from 1; the iterations run once done.
-    pub const ITERATION: usize = 4;
-    /// First sample and count of the pending evaluate dispatch.
-    pub const EVAL_FIRST: usize = 5;
-    pub const EVAL_COUNT: usize = 6;
-    /// 1 once no further iteration runs (plan.wgsl).
-    pub const DONE: usize = 7;
-    /// The reconstruction's fixed-point exponent (i32 bits, stats.wgsl).
-    pub const FIXED_EXP: usize = 8;
-    pub const LEN: usize = 16;
+/// Indices into the counters buffer: the words kernels update with atomics
+/// (reductions over many invocations), `C_<NAME>` in the WGSL.
+pub(crate) mod counter {
+    word_indices! { "C_";
+        /// E_max of the current error pass (f32 bits).
+        EMAX = 0,
+        /// Non-finite samples (stats.wgsl).
+        NONFINITE = 1,
+        /// Three words: largest finite |f| per channel (f32 bits, stats.wgsl).
+        MAXABS = 2,
+        /// Leaves marked collapsed.
+        COLLAPSED = 5,
+    }
+    pub const LEN: usize = 8;
+}
 
-    /// WGSL names and indices.
-    pub const ALL: [(&str, usize); 9] = [
-        ("S_SELECTED", SELECTED),
-        ("S_SPLITS", SPLITS),
-        ("S_LEAVES", LEAVES),
-        ("S_SAMPLES", SAMPLES),
-        ("S_ITERATION", ITERATION),
-        ("S_EVAL_FIRST", EVAL_FIRST),
-        ("S_EVAL_COUNT", EVAL_COUNT),
-        ("S_DONE", DONE),
-        ("S_FIXED_EXP", FIXED_EXP),
-    ];
+/// Indices into the state buffer, `S_<NAME>` in the WGSL: the iteration
+/// state, written by one invocation at a time (scan.wgsl, plan.wgsl,
+/// stats.wgsl) and read by every invocation with plain loads (an atomic
+/// load of one word by millions of invocations serialises on a GPU).
+pub(crate) mod state {
+    word_indices! { "S_";
+        /// Leaves selected in the current iteration (scan.wgsl).
+        SELECTED = 0,
+        /// Of those, the ones that split.
+        SPLITS = 1,
+        /// Leaves in use.
+        LEAVES = 2,
+        /// Samples placed (evaluated by the end of the iteration).
+        SAMPLES = 3,
+        /// The current iteration, from 1; the iterations run once done.
+        ITERATION = 4,
+        /// First sample of the pending evaluate dispatch.
+        EVAL_FIRST = 5,
+        /// Samples of the pending evaluate dispatch.
+        EVAL_COUNT = 6,
+        /// 1 once no further iteration runs (plan.wgsl).
+        DONE = 7,
+        /// The reconstruction's fixed-point exponent (i32 bits, stats.wgsl).
+        FIXED_EXP = 8,
+    }
+    pub const LEN: usize = 16;
 }
 
 /// The MDAS integrator.
