@@ -191,7 +191,7 @@ pub struct Mdas {
 }
 
 /// Progress callback: (samples taken, budget), called after every
-/// submission of iterations (the driver reads the counters then anyway).
+/// submission of iterations (the driver reads the state then anyway).
 pub type Progress = Box<dyn FnMut(u64, u64)>;
 
 /// What a render did besides its image.
