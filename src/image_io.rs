@@ -170,11 +170,33 @@ pub fn write_exr(path: &Path, width: u32, height: u32, rgb: &[[f32; 3]]) -> Resu
     })
 }
 
+/// The most pixels [`read_exr`] accepts: 2^28 (16384 × 16384, 3 GiB as f32
+/// RGB). Only a render above 8× the film of the largest scene is bigger:
+/// it is written, but cannot be read back as a reference.
+pub const MAX_EXR_PIXELS: u64 = 1 << 28;
+
 /// Reads the R, G, B channels of the first RGB layer of an EXR file (any
 /// sample type, converted to f32) as `(width, height, pixels)`, row-major with
 /// the top row first. Other channels (alpha, ...) are ignored.
 pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>)> {
     use exr::prelude::*;
+
+    // The header first: a forged data window must not make the pixel
+    // buffer below ask for more memory than any image here can need (an
+    // allocation failure aborts the process).
+    let meta = exr::meta::MetaData::read_from_file(path, false)
+        .map_err(|e| anyhow!("cannot read {}: {e}", path.display()))?;
+    for header in meta.headers.iter() {
+        let size = header.layer_size;
+        if size.width() as u64 * size.height() as u64 > MAX_EXR_PIXELS {
+            bail!(
+                "cannot read {}: its header claims {}×{} pixels, more than the {MAX_EXR_PIXELS} an image may have here (a damaged or forged file?)",
+                path.display(),
+                size.width(),
+                size.height()
+            );
+        }
+    }
 
     struct Pixels {
         width: usize,
@@ -395,6 +417,34 @@ mod tests {
             assert!(v >= previous);
             previous = v;
         }
+    }
+
+    /// A 300-byte file whose header claims 100000 × 100000 pixels is
+    /// refused with a message before any pixel buffer is allocated (it
+    /// aborted the process with a failed 120 GB allocation).
+    #[test]
+    fn forged_exr_header_is_refused_before_allocating() {
+        let dir = std::env::temp_dir().join(format!("mdas-forged-exr-{}", std::process::id()));
+        fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("forged.exr");
+        write_exr(&path, 2, 2, &[[1.0, 2.0, 3.0]; 4]).unwrap();
+        let mut bytes = fs::read(&path).unwrap();
+        // dataWindow: name, type, 4-byte size 16, then xMin yMin xMax yMax.
+        let key = b"dataWindow\0box2i\0";
+        let at = bytes
+            .windows(key.len())
+            .position(|w| w == key)
+            .expect("the header has a data window")
+            + key.len()
+            + 4;
+        for (k, v) in [0i32, 0, 99_999, 99_999].iter().enumerate() {
+            bytes[at + 4 * k..at + 4 * k + 4].copy_from_slice(&v.to_le_bytes());
+        }
+        fs::write(&path, &bytes).unwrap();
+        let err = format!("{:#}", read_exr(&path).unwrap_err());
+        assert!(err.contains("100000×100000"), "{err}");
+        assert!(err.contains("forged.exr"), "{err}");
+        fs::remove_dir_all(&dir).ok();
     }
 
     #[test]
