@@ -258,6 +258,32 @@ fn unreadable_file_is_an_io_error() {
     assert_eq!(e.position(), None);
 }
 
+/// Devices, directories and oversized files are refused before reading:
+/// a scene path of /dev/zero grew memory without bound.
+#[test]
+fn devices_directories_and_huge_files_are_refused() {
+    for path in [Path::new("/dev/zero"), Path::new("scenes")] {
+        let e = scene::load(path).unwrap_err();
+        assert!(matches!(e, SceneError::Io { .. }), "{e}");
+        assert!(e.to_string().ends_with("not a regular file"), "{e}");
+    }
+    let dir = std::env::temp_dir().join(format!("mdas-huge-scene-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let huge = dir.join("huge.toml");
+    let file = std::fs::File::create(&huge).unwrap();
+    file.set_len(scene::format::MAX_SCENE_BYTES + 1).unwrap();
+    let e = scene::load(&huge).unwrap_err().to_string();
+    assert!(
+        e.contains(&format!(
+            "{} bytes, more than the {}",
+            scene::format::MAX_SCENE_BYTES + 1,
+            scene::format::MAX_SCENE_BYTES
+        )),
+        "{e}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 #[test]
 fn malformed_toml_points_at_the_syntax_error() {
     let m = error_at(

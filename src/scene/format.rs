@@ -91,11 +91,22 @@ impl SceneError {
     }
 }
 
+/// The largest scene file read (scene files are a few KiB; meshes live in
+/// their own files).
+pub const MAX_SCENE_BYTES: u64 = 16 << 20;
+
 /// Read and load a scene file.
 pub fn load(path: &Path) -> Result<Scene, SceneError> {
-    let text = std::fs::read_to_string(path).map_err(|error| SceneError::Io {
+    let io = |error| SceneError::Io {
         path: path.to_path_buf(),
         error,
+    };
+    let bytes = super::read_input(path, MAX_SCENE_BYTES).map_err(io)?;
+    let text = String::from_utf8(bytes).map_err(|_| {
+        io(std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            "not UTF-8 text",
+        ))
     })?;
     parse(&text, path)
 }

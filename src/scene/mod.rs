@@ -268,3 +268,34 @@ impl Scene {
         self.meshes.iter().map(|m| m.indices.len()).sum()
     }
 }
+
+/// Reads an input file of at most `limit` bytes: devices, pipes and
+/// directories are refused (a scene naming /dev/zero must not hang or
+/// grow without bound), and so is a larger file, with its size and the
+/// limit in the message.
+pub(crate) fn read_input(path: &std::path::Path, limit: u64) -> std::io::Result<Vec<u8>> {
+    use std::io::{Error, ErrorKind, Read};
+    let metadata = std::fs::metadata(path)?;
+    if !metadata.is_file() {
+        return Err(Error::new(ErrorKind::InvalidInput, "not a regular file"));
+    }
+    let too_large = |size: u64| {
+        Error::new(
+            ErrorKind::InvalidData,
+            format!("{size} bytes, more than the {limit} read from such a file"),
+        )
+    };
+    if metadata.len() > limit {
+        return Err(too_large(metadata.len()));
+    }
+    // The file may grow between the check and the read: read one byte past
+    // the limit at most.
+    let mut bytes = Vec::with_capacity(metadata.len() as usize);
+    std::fs::File::open(path)?
+        .take(limit + 1)
+        .read_to_end(&mut bytes)?;
+    if bytes.len() as u64 > limit {
+        return Err(too_large(bytes.len() as u64));
+    }
+    Ok(bytes)
+}

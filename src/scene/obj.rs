@@ -10,17 +10,15 @@ use super::shapes::TriMesh;
 use glam::Vec3;
 use std::path::Path;
 
+/// The largest OBJ file read (a 10M-triangle mesh is about 500 MB).
+pub const MAX_OBJ_BYTES: u64 = 1 << 30;
+
 /// Read and triangulate an OBJ file. The error is a sentence naming the
 /// file, for the scene loader to place at the `file` key.
 pub fn load_obj(path: &Path) -> Result<TriMesh, String> {
     let cannot_read =
         |e: &dyn std::fmt::Display| format!("cannot read mesh file '{}': {e}", path.display());
-    // Refuse devices and pipes (a scene naming /dev/zero must not hang).
-    let metadata = std::fs::metadata(path).map_err(|e| cannot_read(&e))?;
-    if !metadata.is_file() {
-        return Err(cannot_read(&"not a regular file"));
-    }
-    let bytes = std::fs::read(path).map_err(|e| cannot_read(&e))?;
+    let bytes = super::read_input(path, MAX_OBJ_BYTES).map_err(|e| cannot_read(&e))?;
     parse_obj(&bytes).map_err(|e| format!("mesh file '{}': {e}", path.display()))
 }
 
