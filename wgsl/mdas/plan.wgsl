@@ -15,10 +15,9 @@
 // (scan.wgsl and `plan` itself check S_DONE). `prime` writes both from
 // the state the host set before the first iteration.
 
+// args[ARGS_LEAVES ..] and args[ARGS_EVALUATE ..]: three words each
+// (generated from src/integrator/mdas/plan.rs).
 @group(1) @binding(0) var<storage, read_write> args: array<u32>;
-
-const ARGS_LEAVES: u32 = 0u;
-const ARGS_EVALUATE: u32 = 3u;
 
 // Arguments of a 2D dispatch of `groups` workgroups: the fewest rows of at
 // most max_groups each, evenly filled (as Gpu::dispatch_dims).

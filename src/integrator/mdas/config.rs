@@ -209,7 +209,7 @@ impl Config {
     pub const COUNTERS_BYTES: u64 = 4 * super::counter::LEN as u64;
     pub const STATE_BYTES: u64 = 4 * super::state::LEN as u64;
     /// Indirect arguments: two dispatches of three words (plan.wgsl).
-    pub const ARGS_BYTES: u64 = 24;
+    pub const ARGS_BYTES: u64 = super::plan::ARGS_BYTES;
 
     /// Every buffer the render allocates (the figure in `Render::gpu_bytes`).
     pub fn gpu_bytes(&self) -> u64 {

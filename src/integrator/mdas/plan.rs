@@ -14,14 +14,22 @@ use super::Kernels;
 use crate::gpu::shader::Wgsl;
 use crate::wgsl_file;
 
-/// Byte offset in the arguments buffer of the leaf dispatches (error,
-/// count, apply): `ARGS_LEAVES` in the WGSL.
-pub const ARGS_LEAVES: u64 = 0;
-/// Byte offset of the evaluate dispatch: `ARGS_EVALUATE` (word 3).
-pub const ARGS_EVALUATE: u64 = 12;
+/// Word offset in the arguments buffer of the leaf dispatches (error,
+/// count, apply) and of the evaluate dispatch, three words each: generated
+/// into plan.wgsl as `ARGS_LEAVES` and `ARGS_EVALUATE`.
+const LEAVES_WORD: u32 = 0;
+const EVALUATE_WORD: u32 = 3;
+/// The same as byte offsets, for `dispatch_workgroups_indirect`.
+pub const ARGS_LEAVES: u64 = 4 * LEAVES_WORD as u64;
+pub const ARGS_EVALUATE: u64 = 4 * EVALUATE_WORD as u64;
+/// Size of the arguments buffer.
+pub const ARGS_BYTES: u64 = ARGS_EVALUATE + 12;
 
 pub fn source(base: &Wgsl) -> Wgsl {
-    base.clone().part(wgsl_file!("mdas/plan.wgsl"))
+    base.clone()
+        .constant("ARGS_LEAVES", LEAVES_WORD)
+        .constant("ARGS_EVALUATE", EVALUATE_WORD)
+        .part(wgsl_file!("mdas/plan.wgsl"))
 }
 
 /// `plan`, after apply in the adaptive pass.
