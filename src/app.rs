@@ -181,14 +181,25 @@ pub fn prepare_loaded(
     })
 }
 
-/// Writes `OUT.exr` and `OUT.png` beside it (each atomically).
-pub fn write_outputs(exr: &Path, render_film: Film, image: &[[f32; 3]]) -> Result<PathBuf> {
-    if exr.extension().and_then(|e| e.to_str()) != Some("exr") {
+/// Fails unless `path` ends in `.exr` (any case): the render's EXR, with
+/// its PNG written beside it.
+pub fn check_exr_path(path: &Path) -> Result<()> {
+    let is_exr = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+    if !is_exr {
         bail!(
             "output '{}' must end in .exr (a .png is written beside it)",
-            exr.display()
+            path.display()
         );
     }
+    Ok(())
+}
+
+/// Writes `OUT.exr` and `OUT.png` beside it (each atomically).
+pub fn write_outputs(exr: &Path, render_film: Film, image: &[[f32; 3]]) -> Result<PathBuf> {
+    check_exr_path(exr)?;
     let png = exr.with_extension("png");
     image_io::write_exr(exr, render_film.width, render_film.height, image)?;
     image_io::write_png(&png, render_film.width, render_film.height, image)?;

@@ -458,9 +458,13 @@ fn run(cli: Cli) -> Result<()> {
                 if !(s.is_finite() && s > 0.0) {
                     bail!("--spp must be positive, got {s}");
                 }
-                if integrator == IntegratorKind::Halton && (s.fract() != 0.0 || s > u32::MAX as f32)
-                {
+                if integrator == IntegratorKind::Halton && s.fract() != 0.0 {
                     bail!("--spp must be a whole number of samples per pixel for Halton, got {s}");
+                }
+                // Above 2^24 an f32 no longer holds every whole number, and
+                // 4294967297 parsed as f32 would saturate to u32::MAX spp.
+                if integrator == IntegratorKind::Halton && s > MAX_HALTON_SPP as f32 {
+                    bail!("--spp must be at most {MAX_HALTON_SPP} for Halton, got {s}");
                 }
             }
             let reference = reference.map(|r| image_io::read_exr(&r)).transpose()?;
@@ -583,13 +587,12 @@ fn default_output(scene: &Path, integrator: &str) -> PathBuf {
 }
 
 /// An output must be an `.exr` path whose directory exists or can be made.
+/// The largest Halton `--spp` of `render` (every whole number up to it is
+/// exact in the f32 the flag is parsed as).
+const MAX_HALTON_SPP: u32 = 1 << 24;
+
 fn check_output(path: &Path) -> Result<()> {
-    if path.extension().and_then(|e| e.to_str()) != Some("exr") {
-        bail!(
-            "output '{}' must end in .exr (a .png is written beside it)",
-            path.display()
-        );
-    }
+    app::check_exr_path(path)?;
     ensure_parent(path)
 }
 

@@ -74,6 +74,26 @@ fn render_writes_exr_and_png() {
 }
 
 #[test]
+fn output_extension_is_case_insensitive() {
+    let dir = temp_dir("upper");
+    let out = dir.join("plane.EXR");
+    let o = mdas(&[
+        "render",
+        "scenes/area_light_plane.toml",
+        "--spp",
+        "1",
+        "--scale",
+        "0.125",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "stderr: {}", stderr(&o));
+    assert!(mdas::image_io::read_exr(&out).is_ok());
+    assert!(dir.join("plane.png").exists());
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
 fn render_with_mdas_and_its_overrides() {
     let dir = temp_dir("mdas");
     let out = dir.join("plane.exr");
@@ -234,6 +254,12 @@ fn bad_arguments_fail_cleanly() {
         &["budget", "initial samples"],
     );
     assert_fails_cleanly(&["render", scene, "--spp", "-3", "-o", o], &out, &["-3"]);
+    // Parsed as f32, 4294967297 saturated to u32::MAX spp and ran for ever.
+    assert_fails_cleanly(
+        &["render", scene, "--spp", "4294967297", "-o", o],
+        &out,
+        &["--spp must be at most 16777216 for Halton"],
+    );
     assert_fails_cleanly(
         &[
             "render",
