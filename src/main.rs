@@ -110,7 +110,7 @@ enum Command {
         /// Sampling method.
         #[arg(long, value_enum, default_value = "halton")]
         integrator: IntegratorKind,
-        /// Samples per pixel. Halton: a whole number ≥ 1 (default 16); MDAS: the
+        /// Samples per pixel. Halton: a whole number in 1..=2^24 (default 16); MDAS: the
         /// average budget, may be fractional (default: the scene's [mdas] spp).
         #[arg(long)]
         spp: Option<f32>,
