@@ -98,7 +98,7 @@ pub mod scan;
 pub mod stats;
 
 use super::{Integrator, Render};
-use crate::gpu::buffer::STORAGE;
+use crate::gpu::buffer::{Readback, STORAGE};
 use crate::gpu::profiler::{PhaseTimes, Profiler};
 use crate::gpu::shader::{storage_entry, uniform_entry, Wgsl};
 use crate::gpu::Gpu;
@@ -592,7 +592,7 @@ impl Mdas {
 
             // Iterations error → adaptive → evaluate, recorded in batches
             // that grow from FIRST_BATCH to MAX_BATCH; the host reads the
-            // counters once per batch (progress and the stop test). An
+            // state once per batch (progress and the stop test). An
             // observer needs the state after each error pass, so it gets
             // one iteration per batch and a submission after the error pass.
             let observing = observe.is_some() && !final_only;
@@ -681,9 +681,19 @@ impl Mdas {
                 })?;
             }
             let passes = profiler.finish_detailed()?;
-            let state = read_state()?;
-            let counters = read_counters()?;
-            let words: Vec<u32> = gpu.read_buffer(accum, 8 * cfg.pixels() as usize)?;
+            // One submission copies back the state (its fixed-point
+            // exponent, written by stats.wgsl), the counters and the sums.
+            let state = Readback::<u32>::new(gpu, &bufs.state, state::LEN)?;
+            let counters = Readback::<u32>::new(gpu, &bufs.counters, counter::LEN)?;
+            let sums = Readback::<u32>::new(gpu, accum, 8 * cfg.pixels() as usize)?;
+            let mut encoder = gpu.device.create_command_encoder(&Default::default());
+            for copy in [&state, &counters, &sums] {
+                copy.record(&mut encoder);
+            }
+            gpu.queue.submit([encoder.finish()]);
+            let state = State(state.finish(gpu)?);
+            let counters = counters.finish(gpu)?;
+            let words = sums.finish(gpu)?;
             let image = reconstruct::resolve(&words, state.fixed_exp());
             let stats = RunStats {
                 // No iteration runs when the initial samples are the budget.
