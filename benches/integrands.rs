@@ -147,7 +147,7 @@ fn main() -> anyhow::Result<()> {
             integrand.dims(),
             film.width,
             film.height,
-            prepared.scene.triangle_count(),
+            prepared.scene.scene.triangle_count(),
             rays as f64 / samples as f64,
             median,
             samples as f64 / median / 1e3,

@@ -17,10 +17,11 @@
 use mdas::accel::GpuScene;
 use mdas::app;
 use mdas::gpu::Gpu;
+use mdas::integrand::IntegrandSpec;
 use mdas::integrand::ManyLight;
+use mdas::integrand::ManyLightSpec;
 use mdas::integrator::{Halton, Integrator};
 use mdas::lights::sampler::SamplerKind;
-use mdas::scene::{IntegrandSpec, ManyLightSpec, Scene};
 use std::path::Path;
 use std::sync::Arc;
 
@@ -41,19 +42,20 @@ fn main() -> anyhow::Result<()> {
         ("scenes/cornell_lights.toml", scale),
         ("scenes/vpl_atrium.toml", scale),
     ] {
-        let scene = Scene::load(Path::new(file))?;
+        let loaded = mdas::scene_file::load(Path::new(file))?;
+        let scene = &loaded.scene;
         let film = app::scaled_film(scene.film, s)?;
-        let IntegrandSpec::ManyLight(spec) = &scene.integrand else {
+        let IntegrandSpec::ManyLight(spec) = &loaded.integrand else {
             anyhow::bail!("{file} is not a many_light scene")
         };
-        let gpu_scene = Arc::new(GpuScene::new(gpu, &scene, film)?);
+        let gpu_scene = Arc::new(GpuScene::new(gpu, scene, film)?);
         let mut uniform_ns = None;
         for kind in SamplerKind::ALL {
             let spec = ManyLightSpec {
-                sampler: kind.to_string(),
+                sampler: kind,
                 ..spec.clone()
             };
-            let integrand = ManyLight::new(gpu, &scene, gpu_scene.clone(), film, &spec)?;
+            let integrand = ManyLight::new(gpu, scene, gpu_scene.clone(), film, &spec)?;
             let setup = integrand.setup_times();
             let cuts = setup.get("many_light.cuts").unwrap_or(0.0);
             let build = setup.total() - cuts;

@@ -10,11 +10,12 @@
 //! the baseline of the equal-time comparisons. Run: `cargo bench --bench mdas`.
 
 use criterion::{criterion_group, criterion_main, Criterion};
+use mdas::film::Film;
 use mdas::gpu::shader::{bind_buffers, storage_entry, Wgsl};
 use mdas::gpu::Gpu;
 use mdas::integrand::{point_wgsl, Integrand};
+use mdas::integrator::mdas::MdasParams;
 use mdas::integrator::{Halton, Integrator, Mdas, Render};
-use mdas::scene::{Film, MdasParams};
 use std::time::Duration;
 
 /// Test case 0 of tests/kernels/test_integrands.wgsl.

@@ -21,10 +21,11 @@ use std::time::Duration;
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use glam::{Affine3A, Vec3};
 use mdas::accel::{BuiltScene, GpuScene, HitRecord, Ray, TraceKernel, TraceMode};
+use mdas::film::Film;
 use mdas::gpu::buffer::STORAGE;
 use mdas::gpu::Gpu;
 use mdas::scene::shapes::{self, TriMesh};
-use mdas::scene::{Camera, Film, IntegrandSpec, Material, MdasParams, Mesh, Scene};
+use mdas::scene::{Camera, Material, Mesh, Scene};
 
 const FILM: Film = Film {
     width: 640,
@@ -59,8 +60,6 @@ fn scene_of(camera: Camera, materials: Vec<Material>, meshes: Vec<Mesh>) -> Scen
         meshes,
         lights: Vec::new(),
         point_light_sets: Vec::new(),
-        integrand: IntegrandSpec::AreaLight,
-        mdas: MdasParams::default(),
     }
 }
 
@@ -80,8 +79,8 @@ fn pinhole(position: Vec3, look_at: Vec3, fov_y: f32) -> Camera {
 /// `scenes/cornell.toml`, or the same room built here.
 fn cornell() -> Scene {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.toml");
-    match Scene::load(&path) {
-        Ok(scene) => return scene,
+    match mdas::scene_file::load(&path) {
+        Ok(file) => return file.scene,
         Err(e) => eprintln!(
             "trace bench: {} did not load ({e}); using the built-in Cornell box",
             path.display()

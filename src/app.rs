@@ -3,14 +3,17 @@
 //! writing outputs.
 
 use crate::accel::GpuScene;
+use crate::film::Film;
 use crate::gpu::Gpu;
 use crate::image_io;
+use crate::integrand::IntegrandSpec;
 use crate::integrand::{
     AmbientOcclusion, AreaLight, DepthOfField, Integrand, ManyLight, MotionBlur, PathTracing,
 };
+use crate::integrator::mdas::MdasParams;
 use crate::integrator::{Halton, Integrator, Render};
 use crate::lights::sampler::SamplerKind;
-use crate::scene::{Film, IntegrandSpec, MdasParams, Scene};
+use crate::scene_file::SceneFile;
 use anyhow::{bail, Context, Result};
 use sha2::{Digest, Sha256};
 use std::path::{Path, PathBuf};
@@ -43,21 +46,21 @@ pub fn mdas_params_at_scale(params: MdasParams, scale: f32) -> MdasParams {
 }
 
 /// Builds the scene's GPU representation and its integrand over `film`.
-pub fn integrand_for(gpu: &Gpu, scene: &Scene, film: Film) -> Result<Box<dyn Integrand>> {
-    let gpu_scene = Arc::new(GpuScene::new(gpu, scene, film)?);
-    integrand_on(gpu, scene, gpu_scene, film)
+pub fn integrand_for(gpu: &Gpu, file: &SceneFile, film: Film) -> Result<Box<dyn Integrand>> {
+    let gpu_scene = Arc::new(GpuScene::new(gpu, &file.scene, film)?);
+    integrand_on(gpu, file, gpu_scene, film)
 }
 
-/// The integrand of `scene.integrand` over an already uploaded scene
-/// (`gpu_scene` must be `scene`'s upload for `film`), so several integrands
+/// The integrand of `file.integrand` over an already uploaded scene
+/// (`gpu_scene` must be `file.scene`'s upload for `film`), so several integrands
 /// (e.g. one per light sampler) can share one BVH.
 pub fn integrand_on(
     gpu: &Gpu,
-    scene: &Scene,
+    file: &SceneFile,
     gpu_scene: Arc<GpuScene>,
     film: Film,
 ) -> Result<Box<dyn Integrand>> {
-    Ok(match &scene.integrand {
+    Ok(match &file.integrand {
         IntegrandSpec::AreaLight => Box::new(AreaLight::new(gpu_scene, film)),
         IntegrandSpec::DepthOfField => Box::new(DepthOfField::new(gpu_scene, film)),
         IntegrandSpec::MotionBlur => Box::new(MotionBlur::new(gpu_scene, film)),
@@ -68,28 +71,16 @@ pub fn integrand_on(
             Box::new(AmbientOcclusion::new(gpu_scene, film, *radius)?)
         }
         IntegrandSpec::ManyLight(spec) => {
-            Box::new(ManyLight::new(gpu, scene, gpu_scene, film, spec)?)
+            Box::new(ManyLight::new(gpu, &file.scene, gpu_scene, film, spec)?)
         }
     })
 }
 
-/// The scene-file name of an integrand type (`[integrand] type`).
-pub fn integrand_type_name(spec: &IntegrandSpec) -> &'static str {
-    match spec {
-        IntegrandSpec::AreaLight => "area_light",
-        IntegrandSpec::DepthOfField => "depth_of_field",
-        IntegrandSpec::MotionBlur => "motion_blur",
-        IntegrandSpec::PathTracing { .. } => "path",
-        IntegrandSpec::AmbientOcclusion { .. } => "ambient_occlusion",
-        IntegrandSpec::ManyLight(_) => "many_light",
-    }
-}
-
 /// The light sampler of a `many_light` integrand, `None` for other types.
-pub fn light_sampler(spec: &IntegrandSpec) -> Result<Option<SamplerKind>> {
+pub fn light_sampler(spec: &IntegrandSpec) -> Option<SamplerKind> {
     match spec {
-        IntegrandSpec::ManyLight(m) => Ok(Some(m.sampler.parse()?)),
-        _ => Ok(None),
+        IntegrandSpec::ManyLight(m) => Some(m.sampler),
+        _ => None,
     }
 }
 
@@ -118,13 +109,13 @@ impl IntegrandOverrides {
         match spec {
             IntegrandSpec::ManyLight(m) => {
                 let mut m = m.clone();
-                m.sampler = kind.name().to_string();
+                m.sampler = kind;
                 Ok(IntegrandSpec::ManyLight(m))
             }
             other => bail!(
                 "--sampler {kind} applies only to the many_light integrand, but {} uses '{}' (light samplers: {})",
                 scene.display(),
-                integrand_type_name(other),
+                other.type_name(),
                 SamplerKind::names()
             ),
         }
@@ -133,7 +124,7 @@ impl IntegrandOverrides {
     /// What the overrides add to a reference's cache key: nothing when
     /// they leave `spec` (the scene file's own table) as it is.
     pub fn cache_key(&self, spec: &IntegrandSpec) -> Result<String> {
-        Ok(match (self.sampler, light_sampler(spec)?) {
+        Ok(match (self.sampler, light_sampler(spec)) {
             (Some(kind), Some(own)) if kind != own => format!("|sampler={kind}"),
             _ => String::new(),
         })
@@ -142,8 +133,8 @@ impl IntegrandOverrides {
 
 /// A loaded scene with its integrand, ready to render at one film size.
 pub struct Prepared {
-    /// The scene, its `integrand` with the overrides applied.
-    pub scene: Scene,
+    /// The scene file, its `integrand` with the overrides applied.
+    pub scene: SceneFile,
     pub film: Film,
     pub integrand: Box<dyn Integrand>,
 }
@@ -159,20 +150,20 @@ pub fn prepare_with(
     scale: f32,
     overrides: IntegrandOverrides,
 ) -> Result<Prepared> {
-    let scene = Scene::load(scene_path)?;
+    let scene = SceneFile::load(scene_path)?;
     prepare_loaded(gpu, scene, scene_path, scale, overrides)
 }
 
 /// [`prepare_with`] for a scene already loaded from `scene_path`.
 pub fn prepare_loaded(
     gpu: &Gpu,
-    mut scene: Scene,
+    mut scene: SceneFile,
     scene_path: &Path,
     scale: f32,
     overrides: IntegrandOverrides,
 ) -> Result<Prepared> {
     scene.integrand = overrides.apply(&scene.integrand, scene_path)?;
-    let film = scaled_film(scene.film, scale)?;
+    let film = scaled_film(scene.scene.film, scale)?;
     let integrand = integrand_for(gpu, &scene, film)?;
     Ok(Prepared {
         scene,
@@ -286,7 +277,7 @@ pub fn reference_with(
     cache_dir: &Path,
     progress: Option<crate::integrator::halton::Progress>,
 ) -> Result<(Film, Vec<[f32; 3]>, PathBuf, bool)> {
-    let scene = Scene::load(scene_path)?;
+    let scene = SceneFile::load(scene_path)?;
     let extra = overrides.cache_key(&scene.integrand)?;
     let path = reference_cache_path_keyed(cache_dir, scene_path, spec, &extra)?;
     let prepared = prepare_loaded(gpu, scene, scene_path, spec.scale, overrides)?;
@@ -339,14 +330,14 @@ mod tests {
 
     #[test]
     fn sampler_overrides_apply_to_many_light_only() {
-        use crate::scene::ManyLightSpec;
+        use crate::integrand::ManyLightSpec;
         let scene = Path::new("s.toml");
         let many = IntegrandSpec::ManyLight(ManyLightSpec::default());
         let power = IntegrandOverrides::sampler(SamplerKind::Power);
         let tree = IntegrandOverrides::sampler(SamplerKind::Tree);
         let none = IntegrandOverrides::default();
         match power.apply(&many, scene).unwrap() {
-            IntegrandSpec::ManyLight(m) => assert_eq!(m.sampler, "power"),
+            IntegrandSpec::ManyLight(m) => assert_eq!(m.sampler, SamplerKind::Power),
             other => panic!("{other:?}"),
         }
         assert_eq!(none.apply(&many, scene).unwrap(), many);

@@ -6,9 +6,9 @@ use indicatif::{ProgressBar, ProgressStyle};
 use mdas::app::IntegrandOverrides;
 use mdas::app::{self, ReferenceSpec};
 use mdas::gpu::Gpu;
+use mdas::integrator::mdas::MdasParams;
 use mdas::integrator::{Halton, Integrator, Mdas, Render};
 use mdas::lights::sampler::SamplerKind;
-use mdas::scene::MdasParams;
 use mdas::{compare, image_io, metrics};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -482,14 +482,14 @@ fn run(cli: Cli) -> Result<()> {
                     seed,
                 ))?),
             };
-            let light_sampler = app::light_sampler(&prepared.scene.integrand)?
+            let light_sampler = app::light_sampler(&prepared.scene.integrand)
                 .map_or_else(String::new, |k| format!(", sampler {k}"));
             println!(
                 "{}: {}×{} px, {} triangles, integrand {} ({}D{light_sampler}), {}, adapter {}",
                 scene.display(),
                 film.width,
                 film.height,
-                prepared.scene.triangle_count(),
+                prepared.scene.scene.triangle_count(),
                 prepared.integrand.name(),
                 prepared.integrand.dims(),
                 integrator.name(),

@@ -24,11 +24,10 @@
 use glam::{Quat, Vec3};
 use mdas::accel::cpu::{ray_t_min, ShearedRay};
 use mdas::accel::{BuiltScene, GpuScene, HitRecord, Ray, TraceKernel, BVH_MAX_STEPS, MISS};
+use mdas::film::Film;
 use mdas::gpu::Gpu;
 use mdas::scene::shapes::{self, TriMesh};
-use mdas::scene::{
-    Camera, Checker, Film, IntegrandSpec, Keyframe, Light, Material, MdasParams, Mesh, Scene,
-};
+use mdas::scene::{Camera, Checker, Keyframe, Light, Material, Mesh, Scene};
 use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
 
@@ -74,8 +73,6 @@ fn scene_of(materials: Vec<Material>, meshes: Vec<Mesh>) -> Scene {
         meshes,
         lights: Vec::new(),
         point_light_sets: Vec::new(),
-        integrand: IntegrandSpec::AreaLight,
-        mdas: MdasParams::default(),
     }
 }
 
@@ -998,7 +995,7 @@ fn dump(@builtin(workgroup_id) id: vec3<u32>) {
 #[test]
 fn keyframe_interpolation_matches_slerp() {
     use glam::Vec4;
-    use mdas::accel::motion::{quat_slerp, transform_at};
+    use mdas::scene::motion::{quat_slerp, transform_at};
     let mut rng = StdRng::seed_from_u64(10);
     for _ in 0..2000 {
         let a = Quat::from_axis_angle(random_unit(&mut rng), rng.random_range(-3.1..3.1));
@@ -1057,7 +1054,7 @@ fn swept_bounds_contain_the_motion() {
                 local.extend(v.into());
             }
         }
-        let bounds = mdas::accel::motion::swept_bounds(&keys, &local);
+        let bounds = mdas::scene::motion::swept_bounds(&keys, &local);
         for step in 0..=400 {
             let time = -0.2 + 1.4 * step as f32 / 400.0;
             for &p in &prims {

@@ -11,7 +11,7 @@ use common::gpu;
 use mdas::compare::sweep::{sweep, SweepSpec, CSV_HEADER};
 use mdas::compare::{compare, Budget, CompareSpec, Setup};
 use mdas::image_io::read_exr;
-use mdas::scene::MdasParams;
+use mdas::integrator::mdas::MdasParams;
 use report_checks::{check_method, close};
 use serde_json::Value;
 use std::path::{Path, PathBuf};

@@ -5,10 +5,10 @@
 mod common;
 
 use common::{gpu, image_bits, TestIntegrand};
+use mdas::film::Film;
 use mdas::gpu::shader::{bind_buffers, storage_entry, Wgsl};
 use mdas::integrand::MAX_DIMS;
 use mdas::integrator::{Halton, Integrator};
-use mdas::scene::Film;
 use mdas::wgsl_file;
 use rand::{RngExt, SeedableRng};
 

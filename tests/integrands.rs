@@ -15,17 +15,19 @@ mod common;
 
 use common::gpu;
 use mdas::app;
+use mdas::integrand::IntegrandSpec;
 use mdas::integrator::{Halton, Integrator, Render};
-use mdas::scene::{self, IntegrandSpec, Scene};
+use mdas::scene_file;
+use mdas::scene_file::SceneFile;
 use std::path::Path;
 
-fn parse(text: &str) -> Scene {
-    scene::parse(text, Path::new("inline.toml")).unwrap()
+fn parse(text: &str) -> SceneFile {
+    scene_file::parse(text, Path::new("inline.toml")).unwrap()
 }
 
-fn render(scene: &Scene, spp: u32, seed: u32) -> Render {
+fn render(scene: &SceneFile, spp: u32, seed: u32) -> Render {
     let gpu = gpu();
-    let integrand = app::integrand_for(gpu, scene, scene.film).unwrap();
+    let integrand = app::integrand_for(gpu, scene, scene.scene.film).unwrap();
     let r = Halton::new(spp, seed)
         .render(gpu, integrand.as_ref())
         .unwrap();
@@ -37,7 +39,7 @@ fn render(scene: &Scene, spp: u32, seed: u32) -> Render {
 
 /// A checkered plane facing the camera at z = 0.05 (checker cells of 0.1,
 /// about 2 pixels), lit head-on by a directional light.
-fn focus_plane(aperture: f32, focus: f32) -> Scene {
+fn focus_plane(aperture: f32, focus: f32) -> SceneFile {
     parse(&format!(
         r#"
 [film]
@@ -125,7 +127,7 @@ const MB_KEYS: [(f64, f64); 3] = [(0.0, -1.5), (0.25, 0.0), (1.0, 1.0)];
 /// An emissive (L_e = 1, albedo 0) vertical bar 0.6 wide at z = 0 moving
 /// along x with piecewise-linear motion over the shutter, in front of a
 /// constant background of 0.25; the camera looks down −z from z = 5.
-fn moving_bar() -> Scene {
+fn moving_bar() -> SceneFile {
     parse(&format!(
         r#"
 background = [{b}, {b}, {b}]
@@ -248,7 +250,7 @@ const WALL_KEYS: [(f64, f64); 3] = [(0.0, -2.2), (0.7, -1.5), (1.0, -0.5)];
 /// (E = 1, cosθ = 1/√2). A wall x = x_w(t), y ∈ [0.5, 1.5], out of the
 /// camera's view, moves with the shutter; its shadow on the floor is
 /// [x_w + 0.5, x_w + 1.5] at time t.
-fn moving_shadow() -> Scene {
+fn moving_shadow() -> SceneFile {
     parse(&format!(
         r#"
 [film]
@@ -324,7 +326,7 @@ fn moving_shadow_darkens_each_pixel_for_the_exact_fraction_of_the_shutter() {
 
 /// A floor (y = 0, facing +y) seen straight down from y = 0.5; with
 /// `ceiling`, a downward-facing quad at y = 1 covers it.
-fn ao_scene(radius: f32, ceiling: bool) -> Scene {
+fn ao_scene(radius: f32, ceiling: bool) -> SceneFile {
     let ceiling = if ceiling {
         r#"
 [[shape]]
@@ -370,8 +372,8 @@ fn ambient_occlusion_of_an_unoccluded_plane_is_exactly_one() {
     for (p, v) in r.image.iter().enumerate() {
         assert_eq!(*v, [1.0; 3], "pixel {p}");
     }
-    let integrand = app::integrand_for(gpu(), &scene, scene.film).unwrap();
-    let params = mdas::scene::MdasParams {
+    let integrand = app::integrand_for(gpu(), &scene, scene.scene.film).unwrap();
+    let params = mdas::integrator::mdas::MdasParams {
         extra_image_bits: 2,
         spp: 8.0,
         ..Default::default()
@@ -423,7 +425,7 @@ fn ambient_occlusion_under_a_ceiling_is_one_over_radius_squared() {
 /// The inside of a closed sphere of radius 1 (a lathe profile listed top
 /// to bottom: normals inward), albedo ρ and emission L_e everywhere,
 /// camera at the centre.
-fn furnace(rho: f32, le: f32, max_bounces: u32) -> Scene {
+fn furnace(rho: f32, le: f32, max_bounces: u32) -> SceneFile {
     parse(&furnace_text(rho, le, max_bounces))
 }
 
@@ -480,7 +482,7 @@ fn path_tracer_furnace_converges_to_the_truncated_geometric_series() {
             scene.integrand,
             IntegrandSpec::PathTracing { max_bounces: m }
         );
-        let integrand = app::integrand_for(gpu(), &scene, scene.film).unwrap();
+        let integrand = app::integrand_for(gpu(), &scene, scene.scene.film).unwrap();
         assert_eq!(integrand.dims(), 4 + 4 * m);
         let r = Halton::new(64, 11)
             .render(gpu(), integrand.as_ref())
@@ -513,7 +515,7 @@ fn path_dimensions_follow_the_documented_layout() {
     assert_eq!(max_bounces_limit(true), 3);
     // Too many bounces for the dimension budget is a scene-file error
     // pointing at the value.
-    let e = scene::parse(&furnace_text(0.5, 1.0, 4), Path::new("f.toml"))
+    let e = scene_file::parse(&furnace_text(0.5, 1.0, 4), Path::new("f.toml"))
         .unwrap_err()
         .to_string();
     assert!(
@@ -528,7 +530,7 @@ fn integrand_error(table: &str) -> String {
     let text = format!(
         "[film]\nwidth = 4\nheight = 4\n[camera]\nposition = [0, 0, 1]\nlook_at = [0, 0, 0]\nup = [0, 1, 0]\nfov_y = 40\n[integrand]\n{table}\n"
     );
-    scene::parse(&text, Path::new("s.toml"))
+    scene_file::parse(&text, Path::new("s.toml"))
         .unwrap_err()
         .to_string()
 }
@@ -539,7 +541,9 @@ fn integrand_tables_parse_with_their_parameters_and_reject_mistakes() {
         let text = format!(
             "[film]\nwidth = 4\nheight = 4\n[camera]\nposition = [0, 0, 1]\nlook_at = [0, 0, 0]\nup = [0, 1, 0]\nfov_y = 40\n[integrand]\n{table}\n"
         );
-        scene::parse(&text, Path::new("s.toml")).unwrap().integrand
+        scene_file::parse(&text, Path::new("s.toml"))
+            .unwrap()
+            .integrand
     };
     assert_eq!(ok("type = \"depth_of_field\""), IntegrandSpec::DepthOfField);
     assert_eq!(ok("type = \"motion_blur\""), IntegrandSpec::MotionBlur);
@@ -593,7 +597,7 @@ fn integrand_tables_parse_with_their_parameters_and_reject_mistakes() {
 /// A grey plane (ρ = 0.5) seen straight down from height 2, lit by a
 /// directional light at cosθ = 0.8 (E = 1) and a point light (I = 1) at
 /// height 1; nothing occludes either light.
-fn lit_plane(integrand: &str) -> Scene {
+fn lit_plane(integrand: &str) -> SceneFile {
     parse(&format!(
         r#"
 [film]

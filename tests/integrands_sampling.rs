@@ -29,7 +29,8 @@ use glam::Vec3;
 use mdas::accel::{BuiltScene, GpuScene};
 use mdas::gpu::shader::{bind_buffers, storage_entry, uniform_entry};
 use mdas::integrand::scene_wgsl;
-use mdas::scene::{self, Scene};
+use mdas::scene_file;
+use mdas::scene_file::SceneFile;
 use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
 use stats::gamma_q;
@@ -75,8 +76,8 @@ corners = [[1, 3, 1], [1, 3, 2.5], [3, 3, 2.5], [3, 3, 1]]
 radiance = [0.5, 0.25, 0.5]
 "#;
 
-fn test_scene() -> Scene {
-    scene::parse(SCENE, Path::new("warps.toml")).unwrap()
+fn test_scene() -> SceneFile {
+    scene_file::parse(SCENE, Path::new("warps.toml")).unwrap()
 }
 
 #[repr(C)]
@@ -97,7 +98,7 @@ fn uniforms(seed: u64) -> Vec<[f32; 2]> {
 fn run_warp(warp: u32, normal: Vec3, inputs: &[[f32; 2]]) -> Vec<[[f32; 4]; 2]> {
     let gpu = gpu();
     let scene = test_scene();
-    let gpu_scene = GpuScene::new(gpu, &scene, scene.film).unwrap();
+    let gpu_scene = GpuScene::new(gpu, &scene.scene, scene.scene.film).unwrap();
     let layout = gpu
         .device
         .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -339,12 +340,12 @@ fn sub_triangle(b1: f64, b2: f64) -> Option<usize> {
 #[test]
 fn emitter_samples_follow_power_times_area_and_are_uniform_on_each_triangle() {
     let scene = test_scene();
-    let built = BuiltScene::new(&scene).unwrap();
+    let built = BuiltScene::new(&scene.scene).unwrap();
     // The emissive triangles and their probabilities, computed here.
     let lum = |c: Vec3| c.dot(Vec3::new(0.2126, 0.7152, 0.0722)) as f64;
     let mut tris: Vec<(u32, [Vec3; 3], f64, f64)> = Vec::new(); // prim, vertices, weight, area
     for prim in 0..built.triangle_count() {
-        let le = scene.materials[built.triangle_material(prim) as usize].emission;
+        let le = scene.scene.materials[built.triangle_material(prim) as usize].emission;
         if le.max_element() > 0.0 {
             let v = built.triangle_world(prim, 0.0);
             let area = 0.5 * (v[1] - v[0]).cross(v[2] - v[0]).length() as f64;

@@ -8,34 +8,36 @@ mod common;
 use common::{gpu, image_bits};
 use glam::{DVec3, Vec3};
 use mdas::app;
+use mdas::film::Film;
+use mdas::integrand::IntegrandSpec;
 use mdas::integrand::ManyLight;
 use mdas::integrator::{Halton, Integrator, Mdas};
 use mdas::lights::sampler::SamplerKind;
 use mdas::lights::scene_lights::light_prims;
-use mdas::scene::{Film, IntegrandSpec, Scene};
+use mdas::scene_file::SceneFile;
 use std::path::Path;
 use std::sync::Arc;
 
-fn load(path: &str) -> Scene {
-    Scene::load(Path::new(path)).unwrap()
+fn load(path: &str) -> SceneFile {
+    SceneFile::load(Path::new(path)).unwrap()
 }
 
 /// The scene's integrand with `sampler` instead of the scene's own.
-fn integrand(scene: &Scene, film: Film, sampler: SamplerKind) -> ManyLight {
+fn integrand(scene: &SceneFile, film: Film, sampler: SamplerKind) -> ManyLight {
     integrand_interleaved(scene, film, sampler, 1)
 }
 
-fn integrand_interleaved(scene: &Scene, film: Film, sampler: SamplerKind, m: u32) -> ManyLight {
+fn integrand_interleaved(scene: &SceneFile, film: Film, sampler: SamplerKind, m: u32) -> ManyLight {
     let IntegrandSpec::ManyLight(spec) = &scene.integrand else {
         panic!("not a many_light scene")
     };
-    let spec = mdas::scene::ManyLightSpec {
-        sampler: sampler.to_string(),
+    let spec = mdas::integrand::ManyLightSpec {
+        sampler,
         interleave: m,
         ..spec.clone()
     };
-    let gpu_scene = Arc::new(mdas::accel::GpuScene::new(gpu(), scene, film).unwrap());
-    ManyLight::new(gpu(), scene, gpu_scene, film, &spec).unwrap()
+    let gpu_scene = Arc::new(mdas::accel::GpuScene::new(gpu(), &scene.scene, film).unwrap());
+    ManyLight::new(gpu(), &scene.scene, gpu_scene, film, &spec).unwrap()
 }
 
 /// Exact pixel means of `scenes/tests/point_lights_plane.toml`: the camera
@@ -45,16 +47,19 @@ fn integrand_interleaved(scene: &Scene, film: Film, sampler: SamplerKind, m: u32
 /// (the radiance is smooth over a pixel: the lights are ≥ 0.3 above the
 /// plane and a pixel covers ~0.06 units, so the rule's error is ~1e-5
 /// relative).
-fn point_lights_plane_exact(scene: &Scene) -> Vec<[f64; 3]> {
-    let c = scene.camera;
+fn point_lights_plane_exact(scene: &SceneFile) -> Vec<[f64; 3]> {
+    let c = scene.scene.camera;
     let (eye, look, up) = (c.position.as_dvec3(), c.look_at.as_dvec3(), c.up.as_dvec3());
     let f = (look - eye).normalize();
     let r = f.cross(up).normalize();
     let u = r.cross(f);
-    let (w, h) = (scene.film.width as f64, scene.film.height as f64);
+    let (w, h) = (
+        scene.scene.film.width as f64,
+        scene.scene.film.height as f64,
+    );
     let t = ((c.fov_y as f64).to_radians() * 0.5).tan();
-    let rho = scene.materials[0].albedo.as_dvec3() / std::f64::consts::PI;
-    let lights: Vec<(DVec3, DVec3)> = light_prims(scene, 0.0)
+    let rho = scene.scene.materials[0].albedo.as_dvec3() / std::f64::consts::PI;
+    let lights: Vec<(DVec3, DVec3)> = light_prims(&scene.scene, 0.0)
         .iter()
         .map(|l| {
             (
@@ -77,8 +82,8 @@ fn point_lights_plane_exact(scene: &Scene) -> Vec<[f64; 3]> {
     };
     const Q: u32 = 4;
     let mut out = Vec::new();
-    for j in 0..scene.film.height {
-        for i in 0..scene.film.width {
+    for j in 0..scene.scene.film.height {
+        for i in 0..scene.scene.film.width {
             let mut sum = DVec3::ZERO;
             for qy in 0..Q {
                 for qx in 0..Q {
@@ -116,7 +121,7 @@ fn image_mean(image: &[[f32; 3]]) -> [f64; 3] {
 #[test]
 fn every_sampler_converges_to_the_exact_sum_over_4096_lights() {
     let scene = load("scenes/tests/point_lights_plane.toml");
-    assert_eq!(light_prims(&scene, 0.0).len(), 4096);
+    assert_eq!(light_prims(&scene.scene, 0.0).len(), 4096);
     let exact = image_mean(
         &point_lights_plane_exact(&scene)
             .iter()
@@ -125,7 +130,7 @@ fn every_sampler_converges_to_the_exact_sum_over_4096_lights() {
     );
     const K: u32 = 8;
     for kind in SamplerKind::ALL {
-        let integrand = integrand(&scene, scene.film, kind);
+        let integrand = integrand(&scene, scene.scene.film, kind);
         let means: Vec<[f64; 3]> = (0..K)
             .map(|seed| {
                 let r = Halton::new(16, 100 + seed)
@@ -167,7 +172,7 @@ fn tree_sampling_beats_uniform_selection_per_pixel() {
         .map(|p| p.map(|v| v as f32))
         .collect();
     let relmse = |kind: SamplerKind| {
-        let integrand = integrand(&scene, scene.film, kind);
+        let integrand = integrand(&scene, scene.scene.film, kind);
         let r = Halton::new(16, 3).render(gpu(), &integrand).unwrap();
         mdas::metrics::compare(&r.image, &exact).unwrap().relmse
     };
@@ -196,8 +201,8 @@ fn interleaved_sampling_keeps_the_sub_block_mean() {
             .map(|p| p.map(|v| v as f32))
             .collect::<Vec<_>>(),
     );
-    let plain = integrand(&scene, scene.film, SamplerKind::Tree);
-    let inter = integrand_interleaved(&scene, scene.film, SamplerKind::Tree, 2);
+    let plain = integrand(&scene, scene.scene.film, SamplerKind::Tree);
+    let inter = integrand_interleaved(&scene, scene.scene.film, SamplerKind::Tree, 2);
     const K: u32 = 8;
     let means: Vec<[f64; 3]> = (0..K)
         .map(|seed| {
@@ -233,9 +238,9 @@ fn zero_lights_render_black() {
     let start = text.find("[[light_set]]").unwrap();
     let end = text.find("[integrand]").unwrap();
     let no_lights = format!("{}{}", &text[..start], &text[end..]);
-    let scene = mdas::scene::parse(&no_lights, Path::new("no_lights.toml")).unwrap();
+    let scene = mdas::scene_file::parse(&no_lights, Path::new("no_lights.toml")).unwrap();
     for kind in SamplerKind::ALL {
-        let integrand = integrand(&scene, scene.film, kind);
+        let integrand = integrand(&scene, scene.scene.film, kind);
         assert_eq!(integrand.light_count(), 0);
         let r = Halton::new(2, 1).render(gpu(), &integrand).unwrap();
         assert_eq!(r.nonfinite, 0);
@@ -248,8 +253,8 @@ fn zero_lights_render_black() {
 #[test]
 fn renders_are_deterministic() {
     let scene = load("scenes/tests/point_lights_plane.toml");
-    let a = integrand(&scene, scene.film, SamplerKind::Tree);
-    let b = integrand(&scene, scene.film, SamplerKind::Tree);
+    let a = integrand(&scene, scene.scene.film, SamplerKind::Tree);
+    let b = integrand(&scene, scene.scene.film, SamplerKind::Tree);
     let ra = Halton::new(4, 9).render(gpu(), &a).unwrap();
     let rb = Halton::new(4, 9).render(gpu(), &b).unwrap();
     assert_eq!(image_bits(&ra), image_bits(&rb));

@@ -5,9 +5,12 @@
 //! No GPU needed.
 
 use glam::{Quat, Vec3};
+use mdas::integrand::IntegrandSpec;
+use mdas::integrand::ManyLightSpec;
+use mdas::lights::sampler::SamplerKind;
 use mdas::lights::scene_lights::{light_count, light_counts, light_prims, LightCounts};
 use mdas::lights::{LightPrim, KIND_POINT, KIND_TRIANGLE};
-use mdas::scene::{self, IntegrandSpec, ManyLightSpec};
+use mdas::scene_file;
 use std::path::Path;
 use std::time::Instant;
 
@@ -34,10 +37,10 @@ fn assert_close(a: Vec3, b: Vec3, tol: f32, what: &str) {
 
 #[test]
 fn cornell_lights_has_twelve_animated_mesh_lights_of_1000_triangles() {
-    let s = scene::load(&scene_path("cornell_lights.toml")).unwrap();
-    assert_eq!((s.film.width, s.film.height), (256, 256));
+    let s = scene_file::load(&scene_path("cornell_lights.toml")).unwrap();
+    assert_eq!((s.scene.film.width, s.scene.film.height), (256, 256));
     assert!(matches!(s.integrand, IntegrandSpec::ManyLight(_)));
-    let counts = light_counts(&s);
+    let counts = light_counts(&s.scene);
     assert_eq!(
         counts,
         LightCounts {
@@ -47,9 +50,15 @@ fn cornell_lights_has_twelve_animated_mesh_lights_of_1000_triangles() {
         }
     );
     let lamps: Vec<_> = s
+        .scene
         .meshes
         .iter()
-        .filter(|m| s.materials[m.material as usize].emission.max_element() > 0.0)
+        .filter(|m| {
+            s.scene.materials[m.material as usize]
+                .emission
+                .max_element()
+                > 0.0
+        })
         .collect();
     assert_eq!(lamps.len(), 12);
     for (k, m) in lamps.iter().enumerate() {
@@ -62,11 +71,11 @@ fn cornell_lights_has_twelve_animated_mesh_lights_of_1000_triangles() {
         assert!(a.rotation.dot(b.rotation).abs() > 0.999_999);
     }
     // The walls and blocks of cornell.toml, without its ceiling light.
-    assert_eq!(s.triangle_count() - 12_000, 5 * 2 + 2 * 12);
-    assert!(s.lights.is_empty() && s.point_light_sets.is_empty());
+    assert_eq!(s.scene.triangle_count() - 12_000, 5 * 2 + 2 * 12);
+    assert!(s.scene.lights.is_empty() && s.scene.point_light_sets.is_empty());
     // Every lamp stays inside the room at every time.
     for t in [0.0, 0.3, 1.0, 1.7, 2.5, 3.2, 3.99] {
-        for p in light_prims(&s, t) {
+        for p in light_prims(&s.scene, t) {
             assert_eq!(p.kind, KIND_TRIANGLE);
             for q in [p.p0, p.p1, p.p2] {
                 assert!(
@@ -80,10 +89,10 @@ fn cornell_lights_has_twelve_animated_mesh_lights_of_1000_triangles() {
 
 #[test]
 fn vpl_atrium_has_100k_surface_lights_on_the_hall() {
-    let s = scene::load(&scene_path("vpl_atrium.toml")).unwrap();
+    let s = scene_file::load(&scene_path("vpl_atrium.toml")).unwrap();
     assert!(matches!(s.integrand, IntegrandSpec::ManyLight(_)));
     assert_eq!(
-        light_counts(&s),
+        light_counts(&s.scene),
         LightCounts {
             points: 0,
             set_points: 100_000,
@@ -92,8 +101,8 @@ fn vpl_atrium_has_100k_surface_lights_on_the_hall() {
     );
     // 7 quads (floor, walls, roof strips) and 23 boxes (pillars, balcony
     // slabs and parapets, the basin).
-    assert_eq!(s.triangle_count(), 7 * 2 + 23 * 12);
-    let set = &s.point_light_sets[0];
+    assert_eq!(s.scene.triangle_count(), 7 * 2 + 23 * 12);
+    let set = &s.scene.point_light_sets[0];
     assert_eq!(set.orbit_radius, 0.0);
     // Inside the hall's box grown by the 0.15 offset.
     let (lo, hi) = (Vec3::new(-12.2, -0.2, -16.2), Vec3::new(12.2, 12.2, 16.2));
@@ -126,19 +135,19 @@ fn vpl_atrium_has_100k_surface_lights_on_the_hall() {
 #[test]
 fn lights_1m_has_a_million_canopy_lights_and_loads_fast() {
     let start = Instant::now();
-    let s = scene::load(&scene_path("lights_1m.toml")).unwrap();
+    let s = scene_file::load(&scene_path("lights_1m.toml")).unwrap();
     let load = start.elapsed().as_secs_f64();
     assert_eq!(
-        light_counts(&s),
+        light_counts(&s.scene),
         LightCounts {
             points: 0,
             set_points: 1_000_000,
             triangles: 0
         }
     );
-    assert_eq!(s.triangle_count(), 2 + 64 * 12);
+    assert_eq!(s.scene.triangle_count(), 2 + 64 * 12);
     // Grid order: x fastest; cell centres 0.1 apart over [-50, 50]², y = 24.
-    let set = &s.point_light_sets[0];
+    let set = &s.scene.point_light_sets[0];
     for (i, ix, iz) in [(0, 0, 0), (999, 999, 0), (1000, 0, 1), (123_456, 456, 123)] {
         let want = Vec3::new(
             -50.0 + (ix as f32 + 0.5) * 0.1,
@@ -149,7 +158,12 @@ fn lights_1m_has_a_million_canopy_lights_and_loads_fast() {
     }
     // Exposure: the unoccluded ρ/π · Σ I cosθ / d² on a roof (nothing
     // between it and the canopy) is in the stated range.
-    let roof = s.meshes.iter().find(|m| m.name == "building_3_4").unwrap();
+    let roof = s
+        .scene
+        .meshes
+        .iter()
+        .find(|m| m.name == "building_3_4")
+        .unwrap();
     let top = roof
         .positions
         .iter()
@@ -167,12 +181,12 @@ fn lights_1m_has_a_million_canopy_lights_and_loads_fast() {
             mdas::lights::luminance(l.intensity) * d.normalize().y.max(0.0) / d.length_squared()
         })
         .sum();
-    let albedo = mdas::lights::luminance(s.materials[roof.material as usize].albedo);
+    let albedo = mdas::lights::luminance(s.scene.materials[roof.material as usize].albedo);
     let radiance = albedo / std::f32::consts::PI * e;
     eprintln!("lights_1m: roof radiance {radiance} at {p}");
     assert!((0.1..1.0).contains(&radiance), "roof radiance {radiance}");
     let start = Instant::now();
-    let prims = light_prims(&s, 0.25);
+    let prims = light_prims(&s.scene, 0.25);
     let extract = start.elapsed().as_secs_f64();
     assert_eq!(prims.len(), 1_000_000);
     eprintln!("lights_1m: load {load:.3} s, light_prims {extract:.3} s");
@@ -189,17 +203,18 @@ fn lights_1m_has_a_million_canopy_lights_and_loads_fast() {
 /// transform, and the frame at another time differs.
 #[test]
 fn mesh_lights_follow_their_keyframes() {
-    let s = scene::load(&scene_path("cornell_lights.toml")).unwrap();
-    let first = light_counts(&s).first_triangle();
+    let s = scene_file::load(&scene_path("cornell_lights.toml")).unwrap();
+    let first = light_counts(&s.scene).first_triangle();
     let lamp = |k: usize| {
-        s.meshes
+        s.scene
+            .meshes
             .iter()
             .find(|m| m.name == format!("lamp{k}"))
             .unwrap()
     };
-    let a = light_prims(&s, 0.5);
-    let b = light_prims(&s, 1.5);
-    assert_eq!(a.len(), light_count(&s));
+    let a = light_prims(&s.scene, 0.5);
+    let b = light_prims(&s.scene, 1.5);
+    assert_eq!(a.len(), light_count(&s.scene));
     assert_eq!(a.len(), b.len());
     let moved = a.iter().zip(&b).filter(|(x, y)| x != y).count();
     assert_eq!(moved, 12_000, "every lamp triangle moves between frames");
@@ -214,7 +229,10 @@ fn mesh_lights_follow_their_keyframes() {
     for (got, i) in [(p.p0, i0), (p.p1, i1), (p.p2, i2)] {
         assert_close(v(got), m.positions[i as usize] + t, 1e-6, "lamp0 at 0.5");
     }
-    assert_eq!(v(p.emission), s.materials[m.material as usize].emission);
+    assert_eq!(
+        v(p.emission),
+        s.scene.materials[m.material as usize].emission
+    );
 
     // lamp6 (ids 6000..7000): rotate 0° → 90° about +y between t=1 and
     // t=2 with translations (1.5, 3.4, 3.6) → (1.5, 3.0, 3.6); at 1.5 it
@@ -244,7 +262,7 @@ fn mesh_lights_follow_their_keyframes() {
         );
     }
     // Before the first keyframe the first one holds.
-    assert_eq!(light_prims(&s, -3.0), light_prims(&s, 0.0));
+    assert_eq!(light_prims(&s.scene, -3.0), light_prims(&s.scene, 0.0));
 }
 
 #[test]
@@ -260,7 +278,7 @@ fn light_sets_orbit_and_order_is_points_then_sets_then_emissive_triangles() {
         with_floor()
     );
     let s = ok("order", &text);
-    let c = light_counts(&s);
+    let c = light_counts(&s.scene);
     assert_eq!(
         c,
         LightCounts {
@@ -270,8 +288,8 @@ fn light_sets_orbit_and_order_is_points_then_sets_then_emissive_triangles() {
         }
     );
     assert_eq!((c.total(), c.first_triangle()), (9, 6));
-    let p0 = light_prims(&s, 0.0);
-    let p1 = light_prims(&s, 1.0);
+    let p0 = light_prims(&s.scene, 0.0);
+    let p1 = light_prims(&s.scene, 1.0);
     assert_eq!(p0.len(), 9);
     let kinds: Vec<u32> = p0.iter().map(|p| p.kind).collect();
     assert_eq!(&kinds[..6], &[KIND_POINT; 6]);
@@ -286,7 +304,7 @@ fn light_sets_orbit_and_order_is_points_then_sets_then_emissive_triangles() {
     assert_eq!(v(p0[7].emission), Vec3::splat(7.0));
     // Box-set lights orbit their base: radius 0.5, in the xz plane, at
     // angle φ_i + 2t.
-    let set = &s.point_light_sets[0];
+    let set = &s.scene.point_light_sets[0];
     for (i, l) in set.lights.iter().enumerate() {
         for (prims, t) in [(&p0, 0.0f32), (&p1, 1.0)] {
             let a = l.phase + 2.0 * t;
@@ -298,7 +316,7 @@ fn light_sets_orbit_and_order_is_points_then_sets_then_emissive_triangles() {
     }
     // Surface-set lights sit 0.25 above the floor (the only non-emissive
     // surface), static.
-    for l in &s.point_light_sets[1].lights {
+    for l in &s.scene.point_light_sets[1].lights {
         assert_eq!(l.base.y, 0.25);
         assert!(l.base.x.abs() <= 1.0 && l.base.z.abs() <= 1.0);
     }
@@ -313,7 +331,10 @@ fn generated_sets_are_deterministic_for_a_seed() {
             with_floor(),
             if ty == "box" { "min = [0, 0, 0]\nmax = [1, 2, 3]\n" } else { "" }
         );
-        ok(&format!("det-{ty}-{count}-{seed}"), &text).point_light_sets[0].clone()
+        ok(&format!("det-{ty}-{count}-{seed}"), &text)
+            .scene
+            .point_light_sets[0]
+            .clone()
     };
     for ty in ["box", "surface"] {
         let a = set(ty, 500, 9);
@@ -367,7 +388,7 @@ fn surface_lights_are_uniform_by_area() {
         with_floor()
     );
     let s = ok("uniform", &text);
-    let lights = &s.point_light_sets[0].lights;
+    let lights = &s.scene.point_light_sets[0].lights;
     let on_floor = lights
         .iter()
         .filter(|l| l.base.y == 0.1 && (l.base.z - (-0.9)).abs() > 1e-6)
@@ -408,7 +429,7 @@ fn many_light_integrand_parses_with_defaults() {
     assert_eq!(
         ManyLightSpec::default(),
         ManyLightSpec {
-            sampler: "tree".into(),
+            sampler: SamplerKind::Tree,
             cut_size: 8,
             block: 8,
             interleave: 1,
@@ -416,7 +437,7 @@ fn many_light_integrand_parses_with_defaults() {
             frame: 0
         }
     );
-    for sampler in scene::MANY_LIGHT_SAMPLERS {
+    for sampler in SamplerKind::ALL {
         let s = ok(
             &format!("ml-{sampler}"),
             &format!("{BASE}[integrand]\ntype = \"many_light\"\nsampler = \"{sampler}\"\ncut_size = 64\nblock = 4\ninterleave = 2\ntime = 2.5\nframe = 7\n"),
@@ -424,7 +445,7 @@ fn many_light_integrand_parses_with_defaults() {
         assert_eq!(
             s.integrand,
             IntegrandSpec::ManyLight(ManyLightSpec {
-                sampler: sampler.into(),
+                sampler,
                 cut_size: 64,
                 block: 4,
                 interleave: 2,
@@ -432,17 +453,6 @@ fn many_light_integrand_parses_with_defaults() {
                 frame: 7
             })
         );
-    }
-}
-
-/// The parser accepts exactly the names `SamplerKind` parses.
-#[test]
-fn sampler_names_are_the_sampler_kinds() {
-    use mdas::lights::sampler::SamplerKind;
-    let kinds: Vec<&str> = SamplerKind::ALL.iter().map(|k| k.name()).collect();
-    assert_eq!(kinds, scene::MANY_LIGHT_SAMPLERS);
-    for name in scene::MANY_LIGHT_SAMPLERS {
-        assert_eq!(name.parse::<SamplerKind>().unwrap().name(), name);
     }
 }
 
@@ -648,11 +658,11 @@ fn corrupted_light_set_scenes_never_panic() {
         with_floor()
     );
     let file = Path::new("t.toml");
-    let s = scene::parse(&text, file).unwrap();
-    assert_eq!(light_count(&s), 32);
+    let s = scene_file::parse(&text, file).unwrap();
+    assert_eq!(light_count(&s.scene), 32);
     for_each_corruption(&text, 0x9E37_79B9_7F4A_7C15, 3000, |t| {
-        if let Ok(s) = scene::parse(t, file) {
-            let _ = light_prims(&s, 0.5);
+        if let Ok(s) = scene_file::parse(t, file) {
+            let _ = light_prims(&s.scene, 0.5);
         }
     });
 }

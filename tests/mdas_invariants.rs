@@ -7,9 +7,10 @@
 mod common;
 mod mdas_support;
 
+use mdas::film::Film;
 use mdas::integrator::mdas::cpu_oracle;
 use mdas::integrator::mdas::debug::{Snapshot, DIRTY};
-use mdas::scene::{Film, MdasParams};
+use mdas::integrator::mdas::MdasParams;
 use mdas_support::*;
 use rand::{RngExt, SeedableRng};
 

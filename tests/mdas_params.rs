@@ -6,8 +6,9 @@ mod common;
 mod mdas_support;
 
 use common::{gpu, TestIntegrand};
+use mdas::film::Film;
+use mdas::integrator::mdas::MdasParams;
 use mdas::integrator::{Integrator, Mdas};
-use mdas::scene::{Film, MdasParams};
 use mdas_support::params;
 
 fn new_err(p: MdasParams) -> String {

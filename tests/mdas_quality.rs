@@ -7,8 +7,9 @@ mod common;
 mod mdas_support;
 
 use common::{gpu, TestIntegrand};
+use mdas::film::Film;
+use mdas::integrator::mdas::MdasParams;
 use mdas::integrator::{Halton, Integrator, Mdas};
-use mdas::scene::{Film, MdasParams};
 use mdas_support::*;
 
 fn linear_reference(film: Film) -> Vec<[f32; 3]> {

@@ -2,7 +2,10 @@
 //! content, and the error messages (file:line:column) for bad files.
 
 use glam::{Quat, Vec3};
-use mdas::scene::{self, IntegrandSpec, Light, Mesh, SceneError};
+use mdas::integrand::IntegrandSpec;
+use mdas::scene::{Light, Mesh};
+use mdas::scene_file;
+use mdas::scene_file::SceneError;
 use std::path::Path;
 
 mod scene_text;
@@ -30,18 +33,18 @@ fn area(m: &Mesh) -> f32 {
 
 #[test]
 fn area_light_plane_is_exactly_the_known_answer_scene() {
-    let s = scene::load(&scene_path("area_light_plane.toml")).unwrap();
-    assert_eq!((s.film.width, s.film.height), (128, 96));
-    let c = s.camera;
+    let s = scene_file::load(&scene_path("area_light_plane.toml")).unwrap();
+    assert_eq!((s.scene.film.width, s.scene.film.height), (128, 96));
+    let c = s.scene.camera;
     assert_eq!(
         (c.position, c.look_at, c.up),
         (Vec3::new(0.0, 0.5, 4.0), Vec3::ZERO, Vec3::Y)
     );
     assert_eq!((c.fov_y, c.aperture_radius), (45.0, 0.0));
-    assert_eq!(s.background, Vec3::ZERO);
+    assert_eq!(s.scene.background, Vec3::ZERO);
     assert_eq!(s.integrand, IntegrandSpec::AreaLight);
     assert!(
-        s.lights.is_empty(),
+        s.scene.lights.is_empty(),
         "the area light is a mesh, not a delta light"
     );
     let m = s.mdas;
@@ -56,8 +59,8 @@ fn area_light_plane_is_exactly_the_known_answer_scene() {
         (1.0, 1, 5, 0.25, 16.0)
     );
 
-    assert_eq!(s.meshes.len(), 2);
-    let (plane, light) = (&s.meshes[0], &s.meshes[1]);
+    assert_eq!(s.scene.meshes.len(), 2);
+    let (plane, light) = (&s.scene.meshes[0], &s.scene.meshes[1]);
 
     assert_eq!(plane.indices.len(), 2);
     assert!(
@@ -69,7 +72,7 @@ fn area_light_plane_is_exactly_the_known_answer_scene() {
         .iter()
         .all(|p| p.y == 0.0 && p.x.abs() == 10.0 && p.z.abs() == 10.0));
     assert_eq!(area(plane), 400.0);
-    let plane_material = &s.materials[plane.material as usize];
+    let plane_material = &s.scene.materials[plane.material as usize];
     assert_eq!(
         (plane_material.albedo, plane_material.emission),
         (Vec3::splat(0.5), Vec3::ZERO)
@@ -89,18 +92,18 @@ fn area_light_plane_is_exactly_the_known_answer_scene() {
         .iter()
         .all(|p| p.y == 2.0 && p.x.abs() == 0.5 && p.z.abs() == 0.5));
     assert_eq!(area(light), 1.0);
-    let light_material = &s.materials[light.material as usize];
+    let light_material = &s.scene.materials[light.material as usize];
     assert_eq!(
         (light_material.albedo, light_material.emission),
         (Vec3::ZERO, Vec3::splat(10.0))
     );
-    assert!(s.meshes.iter().all(|m| m.motion.is_empty()));
+    assert!(s.scene.meshes.iter().all(|m| m.motion.is_empty()));
 }
 
 #[test]
 fn cornell_box_loads_with_closed_outward_blocks_and_the_ceiling_light() {
-    let s = scene::load(&scene_path("cornell.toml")).unwrap();
-    assert_eq!((s.film.width, s.film.height), (256, 256));
+    let s = scene_file::load(&scene_path("cornell.toml")).unwrap();
+    assert_eq!((s.scene.film.width, s.scene.film.height), (256, 256));
     assert_eq!(s.integrand, IntegrandSpec::AreaLight);
     let m = s.mdas;
     assert_eq!(
@@ -114,10 +117,10 @@ fn cornell_box_loads_with_closed_outward_blocks_and_the_ceiling_light() {
         (1.0, 1, 7, 0.25, 8.0)
     );
     // 5 walls + 2 blocks + the light.
-    assert_eq!(s.meshes.len(), 8);
-    assert_eq!(s.triangle_count(), 5 * 2 + 2 * 12 + 2);
+    assert_eq!(s.scene.meshes.len(), 8);
+    assert_eq!(s.scene.triangle_count(), 5 * 2 + 2 * 12 + 2);
     let room_center = Vec3::splat(2.775);
-    for wall in &s.meshes[..5] {
+    for wall in &s.scene.meshes[..5] {
         let [a, b, c] = wall.indices[0].map(|i| wall.positions[i as usize]);
         let n = (b - a).cross(c - a);
         assert!(
@@ -126,7 +129,7 @@ fn cornell_box_loads_with_closed_outward_blocks_and_the_ceiling_light() {
             wall.name
         );
     }
-    for block in &s.meshes[5..7] {
+    for block in &s.scene.meshes[5..7] {
         let center = block.positions.iter().copied().sum::<Vec3>() / block.positions.len() as f32;
         for (t, n) in normals(block).iter().enumerate() {
             let a = block.positions[block.indices[t][0] as usize];
@@ -141,52 +144,59 @@ fn cornell_box_loads_with_closed_outward_blocks_and_the_ceiling_light() {
             .iter()
             .all(|p| p.min_element() >= 0.0 && p.max_element() < 5.55));
     }
-    let light = &s.meshes[7];
+    let light = &s.scene.meshes[7];
     assert!(normals(light)
         .iter()
         .all(|n| n.abs_diff_eq(Vec3::NEG_Y, 1e-6)));
     assert_eq!(
-        s.materials[light.material as usize].emission,
+        s.scene.materials[light.material as usize].emission,
         Vec3::new(17.0, 12.0, 4.0)
     );
-    let albedo = |name: &str| s.materials.iter().find(|m| m.name == name).unwrap().albedo;
+    let albedo = |name: &str| {
+        s.scene
+            .materials
+            .iter()
+            .find(|m| m.name == name)
+            .unwrap()
+            .albedo
+    };
     assert_eq!(albedo("red"), Vec3::new(0.65, 0.05, 0.05));
     assert_eq!(albedo("green"), Vec3::new(0.12, 0.45, 0.15));
 }
 
 #[test]
 fn every_shape_type_loads() {
-    let s = scene::load(&scene_path("tests/shapes.toml")).unwrap();
-    assert_eq!(s.meshes.len(), 8);
-    assert_eq!(s.background, Vec3::splat(0.1));
+    let s = scene_file::load(&scene_path("tests/shapes.toml")).unwrap();
+    assert_eq!(s.scene.meshes.len(), 8);
+    assert_eq!(s.scene.background, Vec3::splat(0.1));
     assert_eq!(
         (
-            s.camera.aperture_radius,
-            s.camera.focus_distance,
-            s.camera.shutter_close
+            s.scene.camera.aperture_radius,
+            s.scene.camera.focus_distance,
+            s.scene.camera.shutter_close
         ),
         (0.05, 11.0, 0.5)
     );
-    let checker = s.materials[0].checker.unwrap();
+    let checker = s.scene.materials[0].checker.unwrap();
     assert_eq!((checker.albedo2, checker.scale), (Vec3::splat(0.1), 0.5));
-    let by_type: Vec<usize> = s.meshes.iter().map(|m| m.indices.len()).collect();
+    let by_type: Vec<usize> = s.scene.meshes.iter().map(|m| m.indices.len()).collect();
     assert_eq!(by_type[..5], [2, 1, 12, 2 * 48 * 23, 32]);
     assert_eq!(by_type[6], 2 * 64 * 32);
     assert_eq!(by_type[7], 20 * 64);
-    assert_eq!(s.meshes[0].name, "shape0");
+    assert_eq!(s.scene.meshes[0].name, "shape0");
     // The transformed box: scaled ×2 in y before moving.
-    let top = s.meshes[2]
+    let top = s.scene.meshes[2]
         .positions
         .iter()
         .map(|p| p.y)
         .fold(f32::MIN, f32::max);
     assert_eq!(top, 2.0);
     // The disk faces down.
-    assert!(normals(&s.meshes[4])
+    assert!(normals(&s.scene.meshes[4])
         .iter()
         .all(|n| n.abs_diff_eq(Vec3::NEG_Y, 1e-5)));
     assert_eq!(
-        s.lights,
+        s.scene.lights,
         vec![
             Light::Point {
                 position: Vec3::new(0.0, 6.0, 0.0),
@@ -202,8 +212,8 @@ fn every_shape_type_loads() {
 
 #[test]
 fn obj_mesh_loads_relative_to_the_scene_file_with_motion() {
-    let s = scene::load(&scene_path("tests/mesh.toml")).unwrap();
-    let m = &s.meshes[0];
+    let s = scene_file::load(&scene_path("tests/mesh.toml")).unwrap();
+    let m = &s.scene.meshes[0];
     assert_eq!(m.name, "tetra");
     assert_eq!(m.indices.len(), 4);
     assert_eq!(m.positions.len(), 4);
@@ -234,7 +244,7 @@ fn obj_mesh_loads_relative_to_the_scene_file_with_motion() {
 #[test]
 fn message_format_names_file_line_column() {
     let text = format!("{BASE}[[material]]\nname = \"red\"\nalbdo = [1, 0, 0]\n");
-    let e = scene::parse(&text, Path::new("scenes/x.toml"))
+    let e = scene_file::parse(&text, Path::new("scenes/x.toml"))
         .unwrap_err()
         .to_string();
     assert!(
@@ -248,7 +258,7 @@ fn message_format_names_file_line_column() {
 #[test]
 fn unreadable_file_is_an_io_error() {
     let path = scene_path("tests/does-not-exist.toml");
-    let e = scene::load(&path).unwrap_err();
+    let e = scene_file::load(&path).unwrap_err();
     assert!(matches!(e, SceneError::Io { .. }));
     assert!(
         e.to_string()
@@ -263,7 +273,7 @@ fn unreadable_file_is_an_io_error() {
 #[test]
 fn devices_directories_and_huge_files_are_refused() {
     for path in [Path::new("/dev/zero"), Path::new("scenes")] {
-        let e = scene::load(path).unwrap_err();
+        let e = scene_file::load(path).unwrap_err();
         assert!(matches!(e, SceneError::Io { .. }), "{e}");
         assert!(e.to_string().ends_with("not a regular file"), "{e}");
     }
@@ -271,13 +281,13 @@ fn devices_directories_and_huge_files_are_refused() {
     std::fs::create_dir_all(&dir).unwrap();
     let huge = dir.join("huge.toml");
     let file = std::fs::File::create(&huge).unwrap();
-    file.set_len(scene::format::MAX_SCENE_BYTES + 1).unwrap();
-    let e = scene::load(&huge).unwrap_err().to_string();
+    file.set_len(scene_file::MAX_SCENE_BYTES + 1).unwrap();
+    let e = scene_file::load(&huge).unwrap_err().to_string();
     assert!(
         e.contains(&format!(
             "{} bytes, more than the {}",
-            scene::format::MAX_SCENE_BYTES + 1,
-            scene::format::MAX_SCENE_BYTES
+            scene_file::MAX_SCENE_BYTES + 1,
+            scene_file::MAX_SCENE_BYTES
         )),
         "{e}"
     );
@@ -476,7 +486,7 @@ fn motion_keyframes_parse_and_must_increase() {
         &format!("{shape}motion = [{{ time = 0 }}, {{ time = 1, translate = [0, 2, 0], rotate = [1, 0, 0, 90] }}]\n"),
     );
     let s = ok.unwrap();
-    let motion = &s.meshes[0].motion;
+    let motion = &s.scene.meshes[0].motion;
     assert_eq!(motion.len(), 2);
     assert_eq!(
         (motion[0].time, motion[0].translation, motion[0].rotation),
@@ -490,8 +500,8 @@ fn motion_keyframes_parse_and_must_increase() {
         .rotation
         .abs_diff_eq(Quat::from_rotation_x(std::f32::consts::FRAC_PI_2), 1e-6));
     // Object space: the sphere stays at the origin; motion moves it.
-    let centroid =
-        s.meshes[0].positions.iter().copied().sum::<Vec3>() / s.meshes[0].positions.len() as f32;
+    let centroid = s.scene.meshes[0].positions.iter().copied().sum::<Vec3>()
+        / s.scene.meshes[0].positions.len() as f32;
     assert!(centroid.length() < 1e-5);
 
     let text = format!(
@@ -596,7 +606,7 @@ fn corrupted_scenes_never_panic() {
     let text = std::fs::read_to_string(scene_path("tests/shapes.toml")).unwrap();
     let file = scene_path("tests/shapes.toml");
     for_each_corruption(&text, 0x2545_F491_4F6C_DD1D, 2000, |t| {
-        let _ = scene::parse(t, &file);
+        let _ = scene_file::parse(t, &file);
     });
 }
 
@@ -604,13 +614,14 @@ fn corrupted_scenes_never_panic() {
 /// stated parameters, and their light sets the stated shape.
 #[test]
 fn many_light_scenes_parse_their_integrand_and_light_sets() {
-    use scene::ManyLightSpec;
-    let spec = |file: &str| scene::load(&scene_path(file)).unwrap();
+    use mdas::integrand::ManyLightSpec;
+    use mdas::lights::sampler::SamplerKind;
+    let spec = |file: &str| scene_file::load(&scene_path(file)).unwrap();
     let s = spec("cornell_lights.toml");
     assert_eq!(
         s.integrand,
         IntegrandSpec::ManyLight(ManyLightSpec {
-            sampler: "tree".into(),
+            sampler: SamplerKind::Tree,
             cut_size: 8,
             block: 8,
             interleave: 1,
@@ -618,10 +629,10 @@ fn many_light_scenes_parse_their_integrand_and_light_sets() {
             frame: 0
         })
     );
-    assert!(s.point_light_sets.is_empty());
+    assert!(s.scene.point_light_sets.is_empty());
     // The Cornell box walls and blocks are cornell.toml's.
     let cornell = spec("cornell.toml");
-    for (a, b) in s.meshes[..7].iter().zip(&cornell.meshes[..7]) {
+    for (a, b) in s.scene.meshes[..7].iter().zip(&cornell.scene.meshes[..7]) {
         assert_eq!(a, b);
     }
     for (file, count, orbit) in [
@@ -637,12 +648,12 @@ fn many_light_scenes_parse_their_integrand_and_light_sets() {
             }),
             "{file}"
         );
-        assert_eq!(s.point_light_sets.len(), 1, "{file}");
-        assert_eq!(s.point_light_sets[0].len(), count, "{file}");
-        assert_eq!(s.point_light_sets[0].orbit_radius, orbit, "{file}");
-        assert!(s.lights.is_empty(), "{file}");
+        assert_eq!(s.scene.point_light_sets.len(), 1, "{file}");
+        assert_eq!(s.scene.point_light_sets[0].len(), count, "{file}");
+        assert_eq!(s.scene.point_light_sets[0].orbit_radius, orbit, "{file}");
+        assert!(s.scene.lights.is_empty(), "{file}");
         assert!(
-            s.materials.iter().all(|m| m.emission == Vec3::ZERO),
+            s.scene.materials.iter().all(|m| m.emission == Vec3::ZERO),
             "{file}: lit by its light set only"
         );
     }
@@ -655,7 +666,7 @@ fn light_set_keys_parse_into_the_set() {
     );
     let (_, r) = load_text("light-set-grid", &text);
     let s = r.unwrap();
-    let set = &s.point_light_sets[0];
+    let set = &s.scene.point_light_sets[0];
     assert_eq!(
         (set.len(), set.orbit_radius, set.orbit_speed),
         (8, 0.5, -2.0)
@@ -681,8 +692,8 @@ fn light_set_keys_parse_into_the_set() {
     let text = text.replace("orbit_radius = 0.5\n", "");
     let (_, r) = load_text("light-set-static", &text);
     let s = r.unwrap();
-    let l = s.point_light_sets[0].lights[5];
-    assert_eq!(s.point_light_sets[0].position(&l, 9.0), l.base);
+    let l = s.scene.point_light_sets[0].lights[5];
+    assert_eq!(s.scene.point_light_sets[0].position(&l, 9.0), l.base);
     // Unknown top-level keys name light_set among the expected ones.
     let m = error_at("light-sets", &format!("{BASE}[[light_sets]]\n"), 12, 3);
     assert!(

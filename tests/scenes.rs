@@ -11,8 +11,10 @@ mod common;
 
 use common::gpu;
 use mdas::app;
+use mdas::integrand::IntegrandSpec;
 use mdas::integrator::{Halton, Integrator, Mdas, Render};
-use mdas::scene::{IntegrandSpec, Light, Scene};
+use mdas::scene::Light;
+use mdas::scene_file::SceneFile;
 use std::path::Path;
 
 struct Expect {
@@ -110,35 +112,38 @@ fn expectations() -> Vec<Expect> {
     ]
 }
 
-fn check_configuration(e: &Expect, scene: &Scene) {
+fn check_configuration(e: &Expect, scene: &SceneFile) {
     let name = e.file;
     assert_eq!(scene.integrand, e.spec, "{name}: integrand");
     assert_eq!(
-        (scene.film.width, scene.film.height),
+        (scene.scene.film.width, scene.scene.film.height),
         e.film,
         "{name}: film size"
     );
-    let tris = scene.triangle_count();
+    let tris = scene.scene.triangle_count();
     assert!(
         e.triangles.contains(&tris),
         "{name}: {tris} triangles, expected {:?}",
         e.triangles
     );
     let points = scene
+        .scene
         .lights
         .iter()
         .filter(|l| matches!(l, Light::Point { .. }))
         .count();
-    let dirs = scene.lights.len() - points;
+    let dirs = scene.scene.lights.len() - points;
     assert_eq!(
         (points, dirs),
         (e.point_lights, e.directional_lights),
         "{name}: lights"
     );
-    let emissive = scene
-        .meshes
-        .iter()
-        .any(|m| scene.materials[m.material as usize].emission.max_element() > 0.0);
+    let emissive = scene.scene.meshes.iter().any(|m| {
+        scene.scene.materials[m.material as usize]
+            .emission
+            .max_element()
+            > 0.0
+    });
     assert_eq!(emissive, e.area_lights, "{name}: area lights");
     let m = scene.mdas;
     assert_eq!(
@@ -226,7 +231,7 @@ fn load_and_render(file: &str) {
         println!(
             "{}: {} triangles, {}×{}, load {load_s:.2} s, halton {halton_s:.2} s, mdas {mdas_s:.2} s",
             e.file,
-            prepared.scene.triangle_count(),
+            prepared.scene.scene.triangle_count(),
             prepared.film.width,
             prepared.film.height
         );

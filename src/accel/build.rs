@@ -5,7 +5,7 @@
 //! gets its own BLAS over its object-space vertices, placed by its
 //! keyframes. A top-level BVH (TLAS) is built over the instances' world
 //! bounds — for moving instances the bounds swept over all time
-//! ([`super::motion::swept_bounds`]).
+//! ([`crate::scene::motion::swept_bounds`]).
 //!
 //! **Builder.** Each BVH is a compressed wide 8-ary BVH (Ylitie, Karras &
 //! Laine 2017, "Efficient Incoherent Ray Traversal on GPUs Through
@@ -42,7 +42,7 @@ use obvhs::{
 use std::time::{Duration, Instant};
 
 use super::layout::{GpuInstance, GpuKeyframe};
-use super::motion::{self, Rigid};
+use crate::scene::motion::{self, Rigid};
 use crate::scene::{Keyframe, Scene};
 
 /// obvhs build parameters for every BLAS and the TLAS (see module docs).

@@ -28,8 +28,8 @@
 use glam::{Vec2, Vec3};
 
 use super::build::BuiltScene;
-use super::motion::Rigid;
 use super::trace::{HitRecord, Ray, MISS};
+use crate::scene::motion::Rigid;
 
 /// Relative ray epsilon, see the module docs. Generated into WGSL as
 /// `BVH_T_MIN_REL_BITS` by [`super::GpuScene::wgsl`].

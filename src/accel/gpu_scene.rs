@@ -14,10 +14,11 @@ use super::build::BuiltScene;
 use super::layout::{
     GpuEmitter, GpuLight, GpuMaterial, SceneUniforms, LIGHT_DIRECTIONAL, LIGHT_POINT,
 };
+use crate::film::Film;
 use crate::gpu::buffer::STORAGE;
 use crate::gpu::shader::{bind_buffers, storage_entry, uniform_entry};
 use crate::gpu::Gpu;
-use crate::scene::{Film, Light, Scene};
+use crate::scene::{Light, Scene};
 
 /// What was built and uploaded, for logs and reports.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]

@@ -3,7 +3,7 @@
 //! A [`Scene`](crate::scene::Scene) becomes a [`GpuScene`]: a two-level
 //! compressed wide BVH (Ylitie, Karras & Laine 2017) built with obvhs
 //! ([`build`]), a flat triangle array, instances with rigid keyframe motion
-//! ([`motion`]), materials, the emissive-triangle selection table and the
+//! ([`crate::scene::motion`]), materials, the emissive-triangle selection table and the
 //! analytic lights, bound at `@group(1)` as `wgsl/shared/scene.wgsl`
 //! declares. Kernels include [`GpuScene::wgsl`] (scene.wgsl + bvh.wgsl) and
 //! call `trace_closest(origin, dir, t_max, time) -> Hit` and
@@ -12,7 +12,6 @@
 //! | module         | what                                                      |
 //! |----------------|-----------------------------------------------------------|
 //! | [`build`]      | obvhs BLAS/TLAS builds and the flat node/triangle layout  |
-//! | [`motion`]     | keyframe interpolation, swept instance bounds             |
 //! | [`layout`]     | `#[repr(C)]` mirrors of the WGSL scene structs            |
 //! | [`gpu_scene`]  | upload, bind group, camera frame, emitter table           |
 //! | [`cpu`]        | the CPU oracle: same triangle test, brute force           |
@@ -31,7 +30,6 @@ pub mod build;
 pub mod cpu;
 pub mod gpu_scene;
 pub mod layout;
-pub mod motion;
 pub mod trace;
 
 pub use build::BuiltScene;

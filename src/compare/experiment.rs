@@ -30,9 +30,10 @@ use crate::gpu::profiler::Clock;
 use crate::gpu::Gpu;
 use crate::image_io;
 use crate::integrand::Integrand;
+use crate::integrator::mdas::MdasParams;
 use crate::integrator::{Halton, Mdas};
 use crate::metrics;
-use crate::scene::{MdasParams, Scene};
+use crate::scene_file::SceneFile;
 use anyhow::{bail, Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::collections::BTreeMap;
@@ -368,10 +369,10 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
     // 1. Validation, before any render or file.
     spec.setup.check()?;
     check_budget(spec.budget)?;
-    let scene = Scene::load(&spec.setup.scene)?;
-    let reference_sampler = app::light_sampler(&scene.integrand)?;
+    let scene = SceneFile::load(&spec.setup.scene)?;
+    let reference_sampler = app::light_sampler(&scene.integrand);
     let prepared = app::prepare_loaded(gpu, scene, &spec.setup.scene, spec.setup.scale, overrides)?;
-    let sampler = app::light_sampler(&prepared.scene.integrand)?;
+    let sampler = app::light_sampler(&prepared.scene.integrand);
     let integrand = prepared.integrand.as_ref();
     let film = prepared.film;
     let params = (spec.setup.mdas_params)(prepared.scene.mdas);

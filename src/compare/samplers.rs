@@ -37,9 +37,10 @@ use crate::accel::GpuScene;
 use crate::app;
 use crate::gpu::Gpu;
 use crate::integrand::Integrand;
+use crate::integrand::IntegrandSpec;
 use crate::lights::sampler::SamplerKind;
 use crate::metrics;
-use crate::scene::{IntegrandSpec, Scene};
+use crate::scene_file::SceneFile;
 use anyhow::{bail, Result};
 use std::collections::BTreeMap;
 use std::sync::Arc;
@@ -97,17 +98,17 @@ fn run(gpu: &Gpu, spec: &SamplersSpec) -> Result<Report> {
     setup.check()?;
     check_budget(spec.budget)?;
     check_samplers(&spec.samplers)?;
-    let mut scene = Scene::load(&setup.scene)?;
+    let mut scene = SceneFile::load(&setup.scene)?;
     let own = match &scene.integrand {
-        IntegrandSpec::ManyLight(m) => m.sampler.clone(),
+        IntegrandSpec::ManyLight(m) => m.sampler,
         other => bail!(
             "--samplers compares light samplers of the many_light integrand, but {} uses '{}'",
             setup.scene.display(),
-            app::integrand_type_name(other)
+            other.type_name()
         ),
     };
-    let film = app::scaled_film(scene.film, setup.scale)?;
-    let gpu_scene = Arc::new(GpuScene::new(gpu, &scene, film)?);
+    let film = app::scaled_film(scene.scene.film, setup.scale)?;
+    let gpu_scene = Arc::new(GpuScene::new(gpu, &scene.scene, film)?);
     // One integrand per sampler (plus MDAS's tree if not listed), sharing
     // the uploaded scene.
     let mut kinds = spec.samplers.clone();
@@ -283,7 +284,7 @@ fn run(gpu: &Gpu, spec: &SamplersSpec) -> Result<Report> {
             spp: setup.ref_spp,
             path: ref_path.display().to_string(),
             cached,
-            sampler: Some(own),
+            sampler: Some(own.to_string()),
         },
         methods,
         equal_time: EqualTimeReport {

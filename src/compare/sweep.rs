@@ -11,9 +11,9 @@ use super::plot::{loglog_svg, svg_to_png, Series};
 use crate::app;
 use crate::gpu::Gpu;
 use crate::image_io;
+use crate::integrator::mdas::MdasParams;
 use crate::integrator::{Halton, Integrator, Mdas};
 use crate::metrics;
-use crate::scene::MdasParams;
 use anyhow::{bail, Result};
 
 /// Inputs of [`sweep`].

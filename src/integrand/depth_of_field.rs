@@ -21,8 +21,8 @@
 
 use super::{scene_wgsl, Integrand};
 use crate::accel::GpuScene;
+use crate::film::Film;
 use crate::gpu::shader::Wgsl;
-use crate::scene::Film;
 use crate::wgsl_file;
 use std::sync::Arc;
 

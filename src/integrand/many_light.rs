@@ -35,8 +35,10 @@
 //! sub-block of equal lighting it is the whole cut's — the paper filters
 //! the image afterwards, which mdas does not.
 
+use super::ManyLightSpec;
 use super::{scene_wgsl, Integrand};
 use crate::accel::GpuScene;
+use crate::film::Film;
 use crate::gpu::buffer::STORAGE;
 use crate::gpu::profiler::PhaseTimes;
 use crate::gpu::shader::{storage_entry, Wgsl};
@@ -46,7 +48,7 @@ use crate::lights::gpu_sampler::{CutLayout, GpuSamplerData, TreeSource, FIRST_BI
 use crate::lights::sampler::SamplerKind;
 use crate::lights::scene_lights::light_prims;
 use crate::lights::KIND_TRIANGLE;
-use crate::scene::{Film, ManyLightSpec, Scene};
+use crate::scene::Scene;
 use crate::wgsl_file;
 use anyhow::{Context, Result};
 use std::sync::Arc;
@@ -80,7 +82,7 @@ impl ManyLight {
         film: Film,
         spec: &ManyLightSpec,
     ) -> Result<ManyLight> {
-        let kind: SamplerKind = spec.sampler.parse().map_err(anyhow::Error::msg)?;
+        let kind = spec.sampler;
         let prims = light_prims(scene, spec.time);
         let n = u32::try_from(prims.len()).context("more than 2^32 lights")?;
         let triangles = prims.iter().any(|l| l.kind == KIND_TRIANGLE);

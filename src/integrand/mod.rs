@@ -37,10 +37,11 @@ pub mod depth_of_field;
 pub mod many_light;
 pub mod motion_blur;
 pub mod path;
+pub mod spec;
 
 use crate::accel::GpuScene;
+use crate::film::Film;
 use crate::gpu::shader::Wgsl;
-use crate::scene::Film;
 use crate::wgsl_file;
 
 pub use ambient_occlusion::AmbientOcclusion;
@@ -49,6 +50,7 @@ pub use depth_of_field::DepthOfField;
 pub use many_light::ManyLight;
 pub use motion_blur::MotionBlur;
 pub use path::PathTracing;
+pub use spec::{IntegrandSpec, ManyLightSpec};
 
 /// Most dimensions (film included) any integrand may use.
 pub const MAX_DIMS: u32 = 16;

@@ -44,8 +44,8 @@
 
 use super::{scene_wgsl, Integrand, MAX_DIMS};
 use crate::accel::GpuScene;
+use crate::film::Film;
 use crate::gpu::shader::Wgsl;
-use crate::scene::Film;
 use crate::wgsl_file;
 use anyhow::{bail, Result};
 use std::sync::Arc;

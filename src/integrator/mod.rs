@@ -9,10 +9,10 @@
 pub mod halton;
 pub mod mdas;
 
+use crate::film::Film;
 use crate::gpu::profiler::{Clock, PhaseTimes};
 use crate::gpu::Gpu;
 use crate::integrand::Integrand;
-use crate::scene::Film;
 use anyhow::Result;
 
 pub use halton::Halton;

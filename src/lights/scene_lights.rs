@@ -12,8 +12,8 @@
 //!    channel), meshes in `Scene::meshes` order (the `[[shape]]`s, then the
 //!    `[[light]] type = "quad"` meshes), triangles in index order, placed
 //!    at time t by the mesh's keyframes exactly as the BVH and the GPU place
-//!    them ([`crate::accel::motion::transform_at`] on
-//!    [`crate::accel::motion::normalized_keys`]); radiance = the
+//!    them ([`crate::scene::motion::transform_at`] on
+//!    [`crate::scene::motion::normalized_keys`]); radiance = the
 //!    material's emission. Zero-area triangles of an emissive mesh are kept
 //!    (zero intensity) so the ids do not depend on the geometry.
 //!
@@ -25,7 +25,7 @@
 //! [`PointLightSet::position`]: crate::scene::PointLightSet::position
 
 use super::LightPrim;
-use crate::accel::motion::{normalized_keys, transform_at};
+use crate::scene::motion::{normalized_keys, transform_at};
 use crate::scene::{Light, Mesh, Scene};
 
 /// The number of lights in each group of [`light_prims`]' order.

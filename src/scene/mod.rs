@@ -1,33 +1,25 @@
 //! Scenes: the CPU-side description of what is rendered.
 //!
-//! A [`Scene`] is loaded from a TOML file (format documented in
-//! [`format`](mod@format) and `docs/scene-format.md`) and holds everything in world space
+//! A [`Scene`] is loaded from a TOML file by [`crate::scene_file`] (format
+//! in `docs/scene-format.md`) and holds everything in world space
 //! (right-handed, +y up, linear RGB; see `shared/DESIGN.md`):
 //! the film, the camera, materials, triangle meshes (every shape is
 //! tessellated to triangles on load), per-mesh rigid motion over the
-//! shutter, analytic lights (point, directional), procedurally generated
-//! and animated point-light sets (`[[light_set]]`, [`PointLightSet`]) and
-//! the integrand and MDAS parameter tables. Area lights are emissive
+//! shutter ([`motion`]), analytic lights (point, directional) and
+//! procedurally generated, animated point-light sets (`[[light_set]]`,
+//! [`PointLightSet`]). The integrand and MDAS tables of the same file
+//! belong to their owners (`crate::integrand::IntegrandSpec`,
+//! `crate::integrator::mdas::MdasParams`). Area lights are emissive
 //! triangles: a `[[light]] type = "quad"` becomes a one-sided emissive quad
 //! mesh. `crate::lights::scene_lights` turns all of them into the
 //! many-light list of one frame.
 
-pub mod format;
+pub mod motion;
 pub mod obj;
 pub mod shapes;
 
+use crate::film::Film;
 use glam::{Quat, Vec3};
-use std::path::Path;
-
-pub use format::{load, parse, SceneError};
-
-/// Film resolution in pixels. Pixel (i, j) covers [i, i+1) × [j, j+1),
-/// i = column from the left, j = row from the top.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Film {
-    pub width: u32,
-    pub height: u32,
-}
 
 /// Pinhole or thin-lens camera (DESIGN.md "Camera").
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -102,74 +94,6 @@ pub enum Light {
     Directional { direction: Vec3, irradiance: Vec3 },
 }
 
-/// Which integrand renders the scene, with its parameters (scene file
-/// `[integrand] type = …`; dimension orders in `crate::integrand`).
-#[derive(Clone, Debug, PartialEq)]
-pub enum IntegrandSpec {
-    /// `area_light`: area-light direct lighting (4D: film + 2 light dims).
-    AreaLight,
-    /// `depth_of_field`: thin lens (4D: film + 2 lens dims), point and
-    /// directional lights with shadow rays.
-    DepthOfField,
-    /// `motion_blur`: (3D: film + shutter time), point and directional
-    /// lights with shadow rays, rays traced at their time.
-    MotionBlur,
-    /// `path`: path tracing with next-event estimation and `max_bounces`
-    /// indirect bounces (2 + 2m dims, or 4 + 4m with area lights).
-    PathTracing { max_bounces: u32 },
-    /// `ambient_occlusion`: cosine-weighted unoccluded fraction within
-    /// `radius` world units (4D: film + 2 hemisphere dims).
-    AmbientOcclusion { radius: f32 },
-    /// `many_light`: direct lighting from every light of the scene (point
-    /// lights, light sets, emissive triangles) through a many-light sampler.
-    ManyLight(ManyLightSpec),
-}
-
-/// Sampler names accepted by `[integrand] type = "many_light"`, `sampler`
-/// (`crate::lights::sampler::SamplerKind` parses the same names).
-pub const MANY_LIGHT_SAMPLERS: [&str; 6] = [
-    "uniform",
-    "power",
-    "tree_nocut",
-    "tree",
-    "unbalanced",
-    "unbalanced_nocut",
-];
-
-/// Parameters of the `many_light` integrand (scene file `[integrand]`).
-#[derive(Clone, Debug, PartialEq)]
-pub struct ManyLightSpec {
-    /// One of [`MANY_LIGHT_SAMPLERS`] (checked on load).
-    pub sampler: String,
-    /// Light-cut size, 1..=64.
-    pub cut_size: u32,
-    /// Cut-sharing block size k: k × k pixels share one cut; ≥ 1.
-    pub block: u32,
-    /// Interleaved sampling (stochastic lightcuts §3.4): each pixel of an
-    /// m × m sub-block samples 1/m² of the cut, scaled by m²; 1 = off
-    /// (the default). m divides `block`. Biased per pixel (unbiased over a
-    /// sub-block of equal lighting): the paper filters the result.
-    pub interleave: u32,
-    /// Frame time in scene time units: mesh-light keyframes and animated
-    /// light sets are evaluated at this time.
-    pub time: f32,
-    /// Frame number, rotates the per-frame random choices.
-    pub frame: u32,
-}
-
-impl Default for ManyLightSpec {
-    fn default() -> Self {
-        ManyLightSpec {
-            sampler: "tree".into(),
-            cut_size: 8,
-            block: 8,
-            interleave: 1,
-            time: 0.0,
-            frame: 0,
-        }
-    }
-}
-
 /// One light of a [`PointLightSet`]: an isotropic point light.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SetLight {
@@ -213,36 +137,6 @@ impl PointLightSet {
     }
 }
 
-/// Parameters of the MDAS integrator (paper §5.1); defaults per the paper.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct MdasParams {
-    pub bits_per_dim: u32,
-    pub extra_image_bits: u32,
-    pub initial_samples_per_cell: u32,
-    pub scale_factor: f32,
-    pub alpha: f32,
-    pub candidates: u32,
-    pub max_samples_per_leaf: u32,
-    pub spp: f32,
-    pub seed: u32,
-}
-
-impl Default for MdasParams {
-    fn default() -> Self {
-        MdasParams {
-            bits_per_dim: 1,
-            extra_image_bits: 8,
-            initial_samples_per_cell: 1,
-            scale_factor: 1.0,
-            alpha: 0.25,
-            candidates: 4,
-            max_samples_per_leaf: 4,
-            spp: 8.0,
-            seed: 0,
-        }
-    }
-}
-
 #[derive(Clone, Debug, PartialEq)]
 pub struct Scene {
     pub film: Film,
@@ -254,16 +148,9 @@ pub struct Scene {
     pub lights: Vec<Light>,
     /// `[[light_set]]`s in file order (used by the `many_light` integrand).
     pub point_light_sets: Vec<PointLightSet>,
-    pub integrand: IntegrandSpec,
-    pub mdas: MdasParams,
 }
 
 impl Scene {
-    /// Load and validate a scene file; see [`format`](mod@format).
-    pub fn load(path: &Path) -> Result<Scene, SceneError> {
-        format::load(path)
-    }
-
     pub fn triangle_count(&self) -> usize {
         self.meshes.iter().map(|m| m.indices.len()).sum()
     }

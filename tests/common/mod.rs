@@ -1,10 +1,10 @@
 //! Test support: integrands with known answers that need no scene.
 #![allow(dead_code)]
 
+use mdas::film::Film;
 use mdas::gpu::shader::{storage_entry, Wgsl};
 use mdas::gpu::Gpu;
 use mdas::integrand::{point_wgsl, Integrand};
-use mdas::scene::Film;
 
 /// One of the cases of `tests/kernels/test_integrands.wgsl`.
 pub struct TestIntegrand {

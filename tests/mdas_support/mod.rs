@@ -2,9 +2,10 @@
 #![allow(dead_code)]
 
 use crate::common::{gpu, TestIntegrand};
+use mdas::film::Film;
 use mdas::integrator::mdas::debug::Snapshot;
+use mdas::integrator::mdas::MdasParams;
 use mdas::integrator::{Integrator, Mdas, Render};
-use mdas::scene::{Film, MdasParams};
 
 pub fn params(bits: u32, extra: u32, l: u32, spp: f32, seed: u32) -> MdasParams {
     MdasParams {

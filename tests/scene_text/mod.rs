@@ -3,7 +3,9 @@
 //! tests.
 #![allow(dead_code)]
 
-use mdas::scene::{self, Scene, SceneError};
+use mdas::scene_file;
+use mdas::scene_file::SceneError;
+use mdas::scene_file::SceneFile;
 use std::path::{Path, PathBuf};
 
 pub fn scene_path(rel: &str) -> PathBuf {
@@ -14,19 +16,19 @@ pub fn scene_path(rel: &str) -> PathBuf {
 
 /// Write `text` to a fresh file in a per-test temp directory and load it
 /// through the public `load`, as the CLI does.
-pub fn load_text(test: &str, text: &str) -> (PathBuf, Result<Scene, SceneError>) {
+pub fn load_text(test: &str, text: &str) -> (PathBuf, Result<SceneFile, SceneError>) {
     let exe = std::env::current_exe().unwrap();
     let binary = exe.file_stem().unwrap().to_string_lossy();
     let dir = std::env::temp_dir().join(format!("mdas-{binary}-{}-{test}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("scene.toml");
     std::fs::write(&path, text).unwrap();
-    let result = scene::load(&path);
+    let result = scene_file::load(&path);
     (path, result)
 }
 
 /// A scene that must load.
-pub fn ok(test: &str, text: &str) -> Scene {
+pub fn ok(test: &str, text: &str) -> SceneFile {
     let (_, r) = load_text(test, text);
     r.unwrap()
 }

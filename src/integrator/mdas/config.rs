@@ -19,11 +19,41 @@
 
 use super::gpu_params::{STATS_PER_INVOCATION, WG};
 use super::MAX_ITERATIONS_DEFAULT;
+use crate::film::Film;
 use crate::gpu::shader::Wgsl;
 use crate::gpu::Gpu;
 use crate::integrand::MAX_DIMS;
-use crate::scene::{Film, MdasParams};
 use anyhow::{bail, Result};
+
+/// Parameters of the MDAS integrator (paper §5.1); defaults per the paper.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MdasParams {
+    pub bits_per_dim: u32,
+    pub extra_image_bits: u32,
+    pub initial_samples_per_cell: u32,
+    pub scale_factor: f32,
+    pub alpha: f32,
+    pub candidates: u32,
+    pub max_samples_per_leaf: u32,
+    pub spp: f32,
+    pub seed: u32,
+}
+
+impl Default for MdasParams {
+    fn default() -> Self {
+        MdasParams {
+            bits_per_dim: 1,
+            extra_image_bits: 8,
+            initial_samples_per_cell: 1,
+            scale_factor: 1.0,
+            alpha: 0.25,
+            candidates: 4,
+            max_samples_per_leaf: 4,
+            spp: 8.0,
+            seed: 0,
+        }
+    }
+}
 
 /// Sample indices live in 27 bits of a leaf header (the rest: a 4-bit
 /// count and the collapsed flag), and 0x7ffffff marks the end of a list.
@@ -47,43 +77,77 @@ pub const PIXELS_PER_PASS: u32 = 16384;
 /// RelMSE on a sharp edge).
 pub const EPSILON: f32 = 1e-2;
 
-/// Checks the parameters that do not depend on the integrand.
-pub fn validate(p: &MdasParams) -> Result<()> {
+/// A parameter out of its range: the `[mdas]` key it names and why.
+/// The scene file positions it at that key; elsewhere it reads as a
+/// plain message.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{key} = {value}: {why}")]
+pub struct ParamError {
+    pub key: &'static str,
+    pub value: String,
+    pub why: String,
+}
+
+/// Checks the parameters that do not depend on the integrand: the one
+/// validator of every `[mdas]` value (the scene file calls it too).
+pub fn validate(p: &MdasParams) -> Result<(), ParamError> {
+    let fail = |key: &'static str, value: &dyn std::fmt::Display, why: String| {
+        Err(ParamError {
+            key,
+            value: value.to_string(),
+            why,
+        })
+    };
     let m = p.max_samples_per_leaf;
     if !(2..=MAX_SAMPLES_PER_LEAF).contains(&m) {
-        bail!("max_samples_per_leaf = {m}: must be in 2..={MAX_SAMPLES_PER_LEAF} (a full leaf of m samples plus one splits at its object median)");
+        return fail("max_samples_per_leaf", &m, format!("must be in 2..={MAX_SAMPLES_PER_LEAF} (a full leaf of m samples plus one splits at its object median)"));
     }
     let l = p.initial_samples_per_cell;
     if l == 0 || l > m {
-        bail!("initial_samples_per_cell = {l}: must be in 1..=max_samples_per_leaf ({m})");
+        return fail(
+            "initial_samples_per_cell",
+            &l,
+            format!("must be in 1..=max_samples_per_leaf ({m})"),
+        );
     }
     if p.candidates == 0 || p.candidates > MAX_CANDIDATES {
-        bail!(
-            "candidates = {}: must be in 1..={MAX_CANDIDATES}",
-            p.candidates
+        return fail(
+            "candidates",
+            &p.candidates,
+            format!("must be in 1..={MAX_CANDIDATES}"),
         );
     }
     if !(p.alpha.is_finite() && (0.0..=MAX_ALPHA).contains(&p.alpha)) {
-        bail!("alpha = {}: must be a number in [0, {MAX_ALPHA}]", p.alpha);
+        return fail(
+            "alpha",
+            &p.alpha,
+            format!("must be a number in [0, {MAX_ALPHA}]"),
+        );
     }
     if !(p.scale_factor.is_finite() && p.scale_factor > 0.0) {
-        bail!(
-            "scale_factor = {}: must be a positive number",
-            p.scale_factor
+        return fail(
+            "scale_factor",
+            &p.scale_factor,
+            "must be a positive number".into(),
         );
     }
     if !(p.spp.is_finite() && p.spp > 0.0) {
-        bail!("spp = {}: must be a positive number", p.spp);
+        return fail("spp", &p.spp, "must be a positive number".into());
     }
-    if p.bits_per_dim > 16
-        || p.extra_image_bits > 16
-        || 2 * (p.bits_per_dim + p.extra_image_bits) > MORTON_BITS_MAX
-    {
-        bail!(
-            "bits_per_dim = {} and extra_image_bits = {}: the film axes alone need 2·(b + e) = {} Morton bits, at most {MORTON_BITS_MAX}",
-            p.bits_per_dim,
-            p.extra_image_bits,
-            2 * (p.bits_per_dim + p.extra_image_bits)
+    let morton = 2 * (p.bits_per_dim + p.extra_image_bits);
+    if p.bits_per_dim > 16 || p.extra_image_bits > 16 || morton > MORTON_BITS_MAX {
+        let key = if p.bits_per_dim > p.extra_image_bits {
+            "bits_per_dim"
+        } else {
+            "extra_image_bits"
+        };
+        return fail(
+            key,
+            &if key == "bits_per_dim" { p.bits_per_dim } else { p.extra_image_bits },
+            format!(
+                "with bits_per_dim = {} and extra_image_bits = {} the film axes alone need 2·(b + e) = {morton} Morton bits, at most {MORTON_BITS_MAX}",
+                p.bits_per_dim, p.extra_image_bits
+            ),
         );
     }
     Ok(())

@@ -2,7 +2,8 @@
 //! ([`super::Mdas::render_observed`]). Decodes the storage layout of
 //! `wgsl/mdas/common.wgsl`.
 
-use crate::scene::{Film, MdasParams};
+use super::MdasParams;
+use crate::film::Film;
 
 pub const NIL: u32 = 0x7ff_ffff;
 pub const DIRTY: u32 = u32::MAX;

@@ -31,7 +31,7 @@
 use glam::{Quat, Vec3, Vec4};
 use obvhs::aabb::Aabb;
 
-use crate::scene::Keyframe;
+use super::Keyframe;
 
 /// Eberly's 1 + μ for the last series term (the paper's FPU constant).
 const SLERP_ONE_PLUS_MU: f64 = 1.901_107_453_517_3;

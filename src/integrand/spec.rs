@@ -1,0 +1,77 @@
+//! What a scene file's `[integrand]` table asks for: the integrand and its
+//! parameters, before any GPU work ([`crate::app::integrand_for`] builds
+//! it). The table is parsed by [`crate::scene_file`]; the limits it checks
+//! come from the integrand modules (e.g. [`super::path::max_bounces_limit`]).
+
+use crate::lights::sampler::SamplerKind;
+
+/// Which integrand renders the scene, with its parameters (scene file
+/// `[integrand] type = …`; dimension orders in the integrand modules).
+#[derive(Clone, Debug, PartialEq)]
+pub enum IntegrandSpec {
+    /// `area_light`: area-light direct lighting (4D: film + 2 light dims).
+    AreaLight,
+    /// `depth_of_field`: thin lens (4D: film + 2 lens dims), point and
+    /// directional lights with shadow rays.
+    DepthOfField,
+    /// `motion_blur`: (3D: film + shutter time), point and directional
+    /// lights with shadow rays, rays traced at their time.
+    MotionBlur,
+    /// `path`: path tracing with next-event estimation and `max_bounces`
+    /// indirect bounces (2 + 2m dims, or 4 + 4m with area lights).
+    PathTracing { max_bounces: u32 },
+    /// `ambient_occlusion`: cosine-weighted unoccluded fraction within
+    /// `radius` world units (4D: film + 2 hemisphere dims).
+    AmbientOcclusion { radius: f32 },
+    /// `many_light`: direct lighting from every light of the scene (point
+    /// lights, light sets, emissive triangles) through a many-light sampler.
+    ManyLight(ManyLightSpec),
+}
+
+impl IntegrandSpec {
+    /// The scene-file name of an integrand type (`[integrand] type`).
+    pub fn type_name(&self) -> &'static str {
+        match self {
+            IntegrandSpec::AreaLight => "area_light",
+            IntegrandSpec::DepthOfField => "depth_of_field",
+            IntegrandSpec::MotionBlur => "motion_blur",
+            IntegrandSpec::PathTracing { .. } => "path",
+            IntegrandSpec::AmbientOcclusion { .. } => "ambient_occlusion",
+            IntegrandSpec::ManyLight(_) => "many_light",
+        }
+    }
+}
+
+/// Parameters of the `many_light` integrand (scene file `[integrand]`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ManyLightSpec {
+    /// The light sampler (its names: [`SamplerKind::ALL`]).
+    pub sampler: SamplerKind,
+    /// Light-cut size, 1..=64.
+    pub cut_size: u32,
+    /// Cut-sharing block size k: k × k pixels share one cut; ≥ 1.
+    pub block: u32,
+    /// Interleaved sampling (stochastic lightcuts §3.4): each pixel of an
+    /// m × m sub-block samples 1/m² of the cut, scaled by m²; 1 = off
+    /// (the default). m divides `block`. Biased per pixel (unbiased over a
+    /// sub-block of equal lighting): the paper filters the result.
+    pub interleave: u32,
+    /// Frame time in scene time units: mesh-light keyframes and animated
+    /// light sets are evaluated at this time.
+    pub time: f32,
+    /// Frame number, rotates the per-frame random choices.
+    pub frame: u32,
+}
+
+impl Default for ManyLightSpec {
+    fn default() -> Self {
+        ManyLightSpec {
+            sampler: SamplerKind::Tree,
+            cut_size: 8,
+            block: 8,
+            interleave: 1,
+            time: 0.0,
+            frame: 0,
+        }
+    }
+}

@@ -1,0 +1,90 @@
+//! `[integrand]`: the table handed to [`IntegrandSpec`], limits from the
+//! integrand modules.
+
+use super::ctx::quoted_list;
+use super::ctx::{Ctx, Result};
+use super::raw::*;
+use super::*;
+use crate::integrand::ManyLightSpec;
+use crate::lights::sampler::SamplerKind;
+
+impl Ctx<'_> {
+    /// `emissive`: whether any mesh emits (then the path tracer spends two
+    /// more dimensions per vertex on area-light NEE).
+    pub(super) fn integrand(&self, r: &RawIntegrand, emissive: bool) -> Result<IntegrandSpec> {
+        let t = self.check_type("integrand", &r.kind, &r.type_keys(), &INTEGRAND_TYPES)?;
+        Ok(match INTEGRAND_TYPES[t].0 {
+            "area_light" => IntegrandSpec::AreaLight,
+            "depth_of_field" => IntegrandSpec::DepthOfField,
+            "motion_blur" => IntegrandSpec::MotionBlur,
+            "path" => {
+                let limit = crate::integrand::path::max_bounces_limit(emissive);
+                let why = if emissive {
+                    "with emissive surfaces a path has 4 + 4·max_bounces dimensions, at most 16"
+                } else {
+                    "a path has 2 + 2·max_bounces dimensions, at most 16"
+                };
+                let max_bounces = match &r.max_bounces {
+                    None => 1,
+                    Some(v) => {
+                        let x = *v.get_ref();
+                        if x < 1 || x > limit as i64 {
+                            return Err(self.error(
+                                v.span(),
+                                format!("max_bounces must be in 1..={limit} ({why}), found {x}"),
+                            ));
+                        }
+                        x as u32
+                    }
+                };
+                IntegrandSpec::PathTracing { max_bounces }
+            }
+            "ambient_occlusion" => IntegrandSpec::AmbientOcclusion {
+                radius: self.positive(
+                    self.need(&r.radius, "radius", &r.kind, "integrand")?,
+                    "radius",
+                )?,
+            },
+            "many_light" => {
+                let d = ManyLightSpec::default();
+                let sampler = match &r.sampler {
+                    None => d.sampler,
+                    Some(v) => v.get_ref().parse::<SamplerKind>().map_err(|_| {
+                        let names = SamplerKind::ALL.map(SamplerKind::name);
+                        self.error(
+                            v.span(),
+                            format!(
+                                "unknown sampler '{}', expected one of {}",
+                                v.get_ref(),
+                                quoted_list(&names)
+                            ),
+                        )
+                    })?,
+                };
+                let block = self.u32(&r.block, "block", 1, d.block)?;
+                let interleave = self.u32(&r.interleave, "interleave", 1, d.interleave)?;
+                if block % interleave != 0 {
+                    let span = r.interleave.as_ref().map_or(r.kind.span(), |v| v.span());
+                    return Err(self.error(
+                        span,
+                        format!("interleave = {interleave} must divide block = {block}"),
+                    ));
+                }
+                IntegrandSpec::ManyLight(ManyLightSpec {
+                    sampler,
+                    cut_size: self.opt_int(
+                        &r.cut_size,
+                        "cut_size",
+                        1..=MAX_CUT_SIZE as i64,
+                        d.cut_size as i64,
+                    )? as u32,
+                    block,
+                    interleave,
+                    time: r.time.as_ref().map_or(d.time, |v| v.get_ref().0),
+                    frame: self.u32(&r.frame, "frame", 0, d.frame)?,
+                })
+            }
+            _ => unreachable!("INTEGRAND_TYPES and this match list the same types"),
+        })
+    }
+}

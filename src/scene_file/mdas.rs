@@ -1,0 +1,70 @@
+//! `[mdas]`: [`MdasParams`]. Only types are checked here (integers ≥ 0,
+//! finite numbers); the ranges are the integrator's own
+//! ([`crate::integrator::mdas::config::validate`]), and its error is
+//! positioned at the key it names (at the table when that key was left at
+//! its default).
+
+use super::ctx::{Ctx, Result};
+use super::raw::*;
+use super::values::{Num, S};
+use super::*;
+use crate::integrator::mdas::config;
+use std::ops::Range;
+
+impl Ctx<'_> {
+    pub(super) fn mdas(&self, table: &S<RawMdas>) -> Result<MdasParams> {
+        let m = table.get_ref();
+        let d = MdasParams::default();
+        let number =
+            |v: &Option<S<Num>>, default: f32| v.as_ref().map_or(default, |v| v.get_ref().0);
+        let params = MdasParams {
+            bits_per_dim: self.u32(&m.bits_per_dim, "bits_per_dim", 0, d.bits_per_dim)?,
+            extra_image_bits: self.u32(
+                &m.extra_image_bits,
+                "extra_image_bits",
+                0,
+                d.extra_image_bits,
+            )?,
+            initial_samples_per_cell: self.u32(
+                &m.initial_samples_per_cell,
+                "initial_samples_per_cell",
+                0,
+                d.initial_samples_per_cell,
+            )?,
+            scale_factor: number(&m.scale_factor, d.scale_factor),
+            alpha: number(&m.alpha, d.alpha),
+            candidates: self.u32(&m.candidates, "candidates", 0, d.candidates)?,
+            max_samples_per_leaf: self.u32(
+                &m.max_samples_per_leaf,
+                "max_samples_per_leaf",
+                0,
+                d.max_samples_per_leaf,
+            )?,
+            spp: number(&m.spp, d.spp),
+            seed: self.u32(&m.seed, "seed", 0, d.seed)?,
+        };
+        config::validate(&params).map_err(|e| {
+            let span = self.mdas_key_span(m, e.key).unwrap_or_else(|| table.span());
+            self.error(span, e.to_string())
+        })?;
+        Ok(params)
+    }
+
+    /// Where `key` is written in the table, if it is.
+    fn mdas_key_span(&self, m: &RawMdas, key: &str) -> Option<Range<usize>> {
+        let int = |v: &Option<S<i64>>| v.as_ref().map(|v| v.span());
+        let num = |v: &Option<S<Num>>| v.as_ref().map(|v| v.span());
+        match key {
+            "bits_per_dim" => int(&m.bits_per_dim),
+            "extra_image_bits" => int(&m.extra_image_bits),
+            "initial_samples_per_cell" => int(&m.initial_samples_per_cell),
+            "candidates" => int(&m.candidates),
+            "max_samples_per_leaf" => int(&m.max_samples_per_leaf),
+            "seed" => int(&m.seed),
+            "scale_factor" => num(&m.scale_factor),
+            "alpha" => num(&m.alpha),
+            "spp" => num(&m.spp),
+            _ => None,
+        }
+    }
+}

@@ -1,0 +1,360 @@
+//! `[[shape]]`: each type tessellated to a mesh, its transform and motion.
+
+use super::ctx::quoted_list;
+use super::ctx::{Ctx, Result};
+use super::raw::*;
+use super::values::*;
+use super::*;
+use crate::scene::shapes::{self, TriMesh};
+use crate::scene::{Keyframe, Mesh};
+use glam::{Affine3A, Quat, Vec2, Vec3};
+use std::collections::HashMap;
+
+impl Ctx<'_> {
+    /// Four planar corners of a quad, in order around it.
+    pub(super) fn quad_corners(&self, v: &S<Vec<V3>>) -> Result<[Vec3; 4]> {
+        let c: [Vec3; 4] = self.points(v, "corners")?;
+        let n012 = (c[1] - c[0]).cross(c[2] - c[0]);
+        let n023 = (c[2] - c[0]).cross(c[3] - c[0]);
+        // Newell-style normal of the whole polygon, robust to one
+        // degenerate triangle.
+        if let Some(n) = (n012 + n023).try_normalize() {
+            let center = (c[0] + c[1] + c[2] + c[3]) / 4.0;
+            let size = c.iter().map(|p| (*p - center).length()).fold(0.0, f32::max);
+            let off = c
+                .iter()
+                .map(|p| (*p - center).dot(n).abs())
+                .fold(0.0, f32::max);
+            if off > 1e-4 * size {
+                return Err(self.error(
+                    v.span(),
+                    format!("quad corners must be planar: a corner is {off} off their mean plane"),
+                ));
+            }
+            if n012.dot(n023) < 0.0 {
+                return Err(self.error(
+                    v.span(),
+                    "quad corners must be listed in order around the quad (these make a bow tie)",
+                ));
+            }
+        }
+        Ok(c)
+    }
+
+    pub(super) fn shape(
+        &self,
+        s: &S<RawShape>,
+        n: usize,
+        materials: &HashMap<&str, u32>,
+    ) -> Result<Mesh> {
+        let r = s.get_ref();
+        let keys = r.type_keys();
+        let t = self.check_type("shape", &r.kind, &keys, &SHAPE_TYPES)?;
+        let kind = SHAPE_TYPES[t].0;
+        let material = match materials.get(r.material.get_ref().as_str()) {
+            Some(&m) => m,
+            None => {
+                let mut known: Vec<&str> = materials.keys().copied().collect();
+                known.sort_unstable();
+                return Err(self.error(
+                    r.material.span(),
+                    format!(
+                        "unknown material '{}' (defined: {})",
+                        r.material.get_ref(),
+                        if known.is_empty() {
+                            "none".into()
+                        } else {
+                            quoted_list(&known)
+                        }
+                    ),
+                ));
+            }
+        };
+        // Where "this geometry is degenerate" points.
+        let geometry_span = keys.first().map_or(r.kind.span(), |(_, span)| span.clone());
+        let center = r.center.as_ref().map_or(Vec3::ZERO, |c| c.get_ref().0);
+        let segments = |default| self.opt_int(&r.segments, "segments", 3..=1 << 20, default);
+
+        let mut mesh = match kind {
+            "quad" => shapes::quad(
+                self.quad_corners(self.need(&r.corners, "corners", &r.kind, "shape")?)?,
+            ),
+            "triangle" => shapes::triangle(self.points(
+                self.need(&r.vertices, "vertices", &r.kind, "shape")?,
+                "vertices",
+            )?),
+            "box" => {
+                let min = Vec3::from(self.array::<3>(
+                    self.need(&r.min, "min", &r.kind, "shape")?,
+                    "min",
+                    "[x, y, z]",
+                )?);
+                let max_v = self.need(&r.max, "max", &r.kind, "shape")?;
+                let max = Vec3::from(self.array::<3>(max_v, "max", "[x, y, z]")?);
+                if !max.cmpgt(min).all() {
+                    return Err(self.error(
+                        max_v.span(),
+                        "box max must be greater than min in x, y and z",
+                    ));
+                }
+                shapes::cuboid(min, max)
+            }
+            "sphere" => {
+                let radius =
+                    self.positive(self.need(&r.radius, "radius", &r.kind, "shape")?, "radius")?;
+                let segments = segments(32)?;
+                let rings = self.opt_int(&r.rings, "rings", 2..=1 << 20, 16)?;
+                let span = r
+                    .segments
+                    .as_ref()
+                    .or(r.rings.as_ref())
+                    .map_or(geometry_span.clone(), |v| v.span());
+                self.count_check(
+                    shapes::uv_sphere_triangles(segments as u64, rings as u64),
+                    span,
+                    kind,
+                )?;
+                shapes::uv_sphere(center, radius, segments as u32, rings as u32)
+            }
+            "disk" => {
+                let normal =
+                    self.nonzero(self.need(&r.normal, "normal", &r.kind, "shape")?, "normal")?;
+                let radius =
+                    self.positive(self.need(&r.radius, "radius", &r.kind, "shape")?, "radius")?;
+                let segments = segments(32)?;
+                let span = r
+                    .segments
+                    .as_ref()
+                    .map_or(geometry_span.clone(), |v| v.span());
+                self.count_check(segments as u64, span, kind)?;
+                shapes::disk(center, normal, radius, segments as u32)
+            }
+            "mesh" => {
+                let file = self.need(&r.file, "file", &r.kind, "shape")?;
+                let dir = self.file.parent().unwrap_or(Path::new(""));
+                let path = dir.join(file.get_ref());
+                crate::scene::obj::load_obj(&path).map_err(|e| self.error(file.span(), e))?
+            }
+            "lathe" => {
+                let profile_v = self.need(&r.profile, "profile", &r.kind, "shape")?;
+                let mut profile = Vec::with_capacity(profile_v.get_ref().len());
+                for p in profile_v.get_ref() {
+                    let [radius, height] =
+                        self.array::<2>(p, "profile point", "[radius, height]")?;
+                    if radius < 0.0 {
+                        return Err(self.error(
+                            p.span(),
+                            format!("profile radius must be ≥ 0, found {radius}"),
+                        ));
+                    }
+                    profile.push(Vec2::new(radius, height));
+                }
+                if profile.len() < 2 {
+                    return Err(
+                        self.error(profile_v.span(), "a lathe profile needs at least 2 points")
+                    );
+                }
+                let segments = segments(32)?;
+                let span = r.segments.as_ref().map_or(profile_v.span(), |v| v.span());
+                self.count_check(
+                    shapes::lathe_triangles(profile.len() as u64, segments as u64),
+                    span,
+                    kind,
+                )?;
+                shapes::lathe(&profile, segments as u32, center)
+            }
+            "heightfield" => {
+                let min = Vec2::from(self.array::<2>(
+                    self.need(&r.min, "min", &r.kind, "shape")?,
+                    "heightfield min",
+                    "[x, z]",
+                )?);
+                let max_v = self.need(&r.max, "max", &r.kind, "shape")?;
+                let max = Vec2::from(self.array::<2>(max_v, "heightfield max", "[x, z]")?);
+                if !max.cmpgt(min).all() {
+                    return Err(self.error(
+                        max_v.span(),
+                        "heightfield max must be greater than min in x and z",
+                    ));
+                }
+                let res_v = self.need(&r.resolution, "resolution", &r.kind, "shape")?;
+                let res = res_v.get_ref();
+                if res.len() != 2 {
+                    return Err(self.error(
+                        res_v.span(),
+                        format!("resolution must be [nx, nz], found {} elements", res.len()),
+                    ));
+                }
+                let nx = self.int(&res[0], "resolution nx", 1..=1 << 24)?;
+                let nz = self.int(&res[1], "resolution nz", 1..=1 << 24)?;
+                self.count_check(
+                    shapes::heightfield_triangles(nx as u64, nz as u64),
+                    res_v.span(),
+                    kind,
+                )?;
+                let noise = match &r.noise {
+                    None => shapes::HeightNoise::Fbm,
+                    Some(v) => match v.get_ref().as_str() {
+                        "fbm" => shapes::HeightNoise::Fbm,
+                        "cells" => shapes::HeightNoise::Cells,
+                        other => {
+                            return Err(self.error(
+                                v.span(),
+                                format!("unknown noise '{other}', expected one of 'fbm', 'cells'"),
+                            ))
+                        }
+                    },
+                };
+                shapes::heightfield(&shapes::Heightfield {
+                    min,
+                    max,
+                    resolution: [nx as u32, nz as u32],
+                    base_y: r.base_y.as_ref().map_or(0.0, |v| v.get_ref().0),
+                    amplitude: r.amplitude.as_ref().map_or(1.0, |v| v.get_ref().0),
+                    frequency: r
+                        .frequency
+                        .as_ref()
+                        .map_or(Ok(1.0), |v| self.positive(v, "frequency"))?,
+                    octaves: self.opt_int(&r.octaves, "octaves", 1..=16, 4)? as u32,
+                    seed: self.u32(&r.seed, "seed", 0, 0)?,
+                    noise,
+                })
+            }
+            "blob" => {
+                let radius =
+                    self.positive(self.need(&r.radius, "radius", &r.kind, "shape")?, "radius")?;
+                let subdivisions = self.opt_int(&r.subdivisions, "subdivisions", 0..=16, 4)? as u32;
+                let span = r
+                    .subdivisions
+                    .as_ref()
+                    .map_or(geometry_span.clone(), |v| v.span());
+                self.count_check(shapes::icosphere_triangles(subdivisions), span, kind)?;
+                let amplitude = match &r.amplitude {
+                    Some(v) if !(0.0..1.0).contains(&v.get_ref().0) => {
+                        return Err(self.error(
+                            v.span(),
+                            format!("blob amplitude must be in [0, 1), found {}", v.get_ref().0),
+                        ))
+                    }
+                    Some(v) => v.get_ref().0,
+                    None => 0.25,
+                };
+                let noise = shapes::BlobNoise {
+                    amplitude,
+                    frequency: r
+                        .frequency
+                        .as_ref()
+                        .map_or(Ok(2.0), |v| self.positive(v, "frequency"))?,
+                    octaves: self.opt_int(&r.octaves, "octaves", 1..=16, 4)? as u32,
+                    seed: self.u32(&r.seed, "seed", 0, 0)?,
+                };
+                shapes::blob(center, radius, subdivisions, &noise)
+            }
+            _ => unreachable!("SHAPE_TYPES and this match list the same types"),
+        };
+
+        if let Some(tr) = &r.transform {
+            mesh.transform(&self.transform(tr.get_ref())?);
+        }
+        if !mesh.positions.iter().all(|p| p.is_finite()) {
+            let span = r
+                .transform
+                .as_ref()
+                .map_or(geometry_span.clone(), |t| t.span());
+            return Err(self.error(span, "vertex positions overflow to infinity"));
+        }
+        if !mesh.has_area() {
+            let why = if r.transform.is_some() {
+                " (after transform)"
+            } else {
+                ""
+            };
+            return Err(self.error(
+                geometry_span,
+                format!("this {kind} is entirely degenerate: every triangle has zero area{why}"),
+            ));
+        }
+        let motion = match &r.motion {
+            Some(m) => self.motion(m)?,
+            None => Vec::new(),
+        };
+        let TriMesh { positions, indices } = mesh;
+        Ok(Mesh {
+            name: r
+                .name
+                .as_ref()
+                .map_or_else(|| format!("shape{n}"), |v| v.get_ref().clone()),
+            positions,
+            indices,
+            material,
+            motion,
+        })
+    }
+
+    /// scale, then rotate about +y, then translate.
+    pub(super) fn transform(&self, t: &RawTransform) -> Result<Affine3A> {
+        let scale = match &t.scale {
+            Some(s) if s.get_ref().0.cmpeq(Vec3::ZERO).any() => {
+                return Err(self.error(
+                    s.span(),
+                    "scale must be nonzero (a zero scale flattens the shape)",
+                ))
+            }
+            Some(s) => s.get_ref().0,
+            None => Vec3::ONE,
+        };
+        let angle = t
+            .rotate_y
+            .as_ref()
+            .map_or(0.0, |a| a.get_ref().0.to_radians());
+        let translate = t.translate.as_ref().map_or(Vec3::ZERO, |v| v.get_ref().0);
+        Ok(Affine3A::from_scale_rotation_translation(
+            scale,
+            Quat::from_rotation_y(angle),
+            translate,
+        ))
+    }
+
+    pub(super) fn motion(&self, m: &S<Vec<S<RawKeyframe>>>) -> Result<Vec<Keyframe>> {
+        let frames = m.get_ref();
+        if frames.len() < 2 {
+            return Err(self.error(
+                m.span(),
+                format!("motion needs at least 2 keyframes, found {}", frames.len()),
+            ));
+        }
+        let mut out: Vec<Keyframe> = Vec::with_capacity(frames.len());
+        for k in frames {
+            let k = k.get_ref();
+            let time = k.time.get_ref().0;
+            if let Some(prev) = out.last() {
+                if time <= prev.time {
+                    return Err(self.error(
+                        k.time.span(),
+                        format!(
+                            "keyframe times must be strictly increasing: {time} follows {}",
+                            prev.time
+                        ),
+                    ));
+                }
+            }
+            let rotation = match &k.rotate {
+                None => Quat::IDENTITY,
+                Some(r) => {
+                    let [x, y, z, degrees] =
+                        self.array::<4>(r, "rotate", "[axis_x, axis_y, axis_z, angle_degrees]")?;
+                    let Some(axis) = Vec3::new(x, y, z).try_normalize() else {
+                        return Err(self.error(r.span(), "rotate axis must be a nonzero vector"));
+                    };
+                    Quat::from_axis_angle(axis, degrees.to_radians())
+                }
+            };
+            out.push(Keyframe {
+                time,
+                translation: k.translate.as_ref().map_or(Vec3::ZERO, |v| v.get_ref().0),
+                rotation,
+            });
+        }
+        Ok(out)
+    }
+}
