@@ -15,6 +15,7 @@
 //! many-light list of one frame.
 
 pub mod motion;
+pub mod noise;
 pub mod obj;
 pub mod shapes;
 
