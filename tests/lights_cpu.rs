@@ -21,7 +21,7 @@ use mdas::lights::cut::{LightTree, MAX_CUT};
 use mdas::lights::importance::{node_importance, ONE_MINUS_EPSILON};
 use mdas::lights::morton::{codes, exponent, morton30, quantize_axis};
 use mdas::lights::perfect::{self, gather, PerfectTree};
-use mdas::lights::sampler::{
+use mdas::lights::{
     new_sampler, select_cut, LightSampler, PowerSampler, SamplerKind, Shading, TreeSampler,
     UniformSampler,
 };

@@ -23,7 +23,7 @@ use mdas::lights::cut::MAX_CUT;
 use mdas::lights::gpu_build::GpuLightTree;
 use mdas::lights::gpu_sampler::{CutLayout, GpuSamplerData, TreeSource};
 use mdas::lights::perfect;
-use mdas::lights::sampler::{
+use mdas::lights::{
     select_cut, LightSampler, PowerSampler, SamplerKind, Shading, TreeSampler, UniformSampler,
 };
 use mdas::lights::{LightPrim, NO_LIGHT};

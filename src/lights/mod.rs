@@ -44,6 +44,7 @@
 pub mod alias;
 pub mod bvh;
 pub mod cut;
+pub mod factory;
 pub mod gpu_build;
 pub mod gpu_sampler;
 pub mod importance;
@@ -52,6 +53,12 @@ pub mod perfect;
 pub mod radix_sort;
 pub mod sampler;
 pub mod scene_lights;
+
+pub use alias::{AliasEntry, PowerSampler};
+pub use cut::{select_cut, LightTree, TreeSampler};
+pub use factory::{new_sampler, UniformSampler};
+pub use importance::Shading;
+pub use sampler::{LightSample, LightSampler, SamplerKind};
 
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;

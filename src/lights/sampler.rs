@@ -1,25 +1,22 @@
 //! The light-sampler contract (pbrt-v4's `LightSampler`): `sample(ctx, u)`
 //! picks one light with its probability, `pmf(ctx, light)` gives the same
-//! probability independently. Implementations:
+//! probability independently; and the sampler names ([`SamplerKind`]).
+//! This module depends on nothing but [`Shading`]; the implementations
+//! depend on it, and [`super::factory::new_sampler`] builds one by kind:
 //!
 //! | kind | sampler | paper |
 //! |---|---|---|
-//! | `uniform` | [`UniformSampler`] | "random sampling" baseline (§4) |
-//! | `power` | [`PowerSampler`] (alias table, `I_i/ΣI`) | pbrt-v4 |
-//! | `tree_nocut` | [`TreeSampler`] over a [`PerfectTree`], cut = root | §3.2 |
+//! | `uniform` | [`UniformSampler`](super::factory::UniformSampler) | "random sampling" baseline (§4) |
+//! | `power` | [`PowerSampler`](super::alias::PowerSampler) (alias table, `I_i/ΣI`) | pbrt-v4 |
+//! | `tree_nocut` | [`TreeSampler`](super::cut::TreeSampler) over a [`PerfectTree`](super::perfect::PerfectTree), cut = root | §3.2 |
 //! | `tree` | same, with a greedy cut per pixel block | §3.2–3.3 |
-//! | `unbalanced_nocut` | [`TreeSampler`] over a [`LightBvh`], cut = root | §4 |
+//! | `unbalanced_nocut` | [`TreeSampler`](super::cut::TreeSampler) over a [`LightBvh`](super::bvh::LightBvh), cut = root | §4 |
 //! | `unbalanced` | same, with a greedy cut | §4 |
 //!
 //! A sampler's pmf is an f64 product of the f32 probabilities the
 //! sampling decisions use, so `sample(s, u).pmf == pmf(s, light)` exactly.
 
-pub use super::alias::{AliasEntry, PowerSampler};
-use super::bvh::{self, LightBvh};
-pub use super::cut::{select_cut, LightTree, TreeSampler};
-pub use super::importance::Shading;
-use super::perfect::{self, PerfectTree};
-use super::LightPrim;
+use super::importance::Shading;
 use std::fmt;
 use std::str::FromStr;
 
@@ -115,72 +112,6 @@ impl FromStr for SamplerKind {
             .into_iter()
             .find(|k| k.name() == s)
             .ok_or_else(|| UnknownSampler(s.to_string()))
-    }
-}
-
-/// Every light with probability `1/N`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct UniformSampler {
-    pub count: u32,
-}
-
-impl LightSampler for UniformSampler {
-    fn sample(&self, _s: &Shading, u: f32) -> Option<LightSample> {
-        if self.count == 0 {
-            return None;
-        }
-        let light = ((u * self.count as f32).floor() as u32).min(self.count - 1);
-        Some(LightSample {
-            light,
-            pmf: 1.0 / self.count as f64,
-        })
-    }
-
-    fn pmf(&self, _s: &Shading, light: u32) -> f64 {
-        if light < self.count {
-            1.0 / self.count as f64
-        } else {
-            0.0
-        }
-    }
-}
-
-/// The unbalanced-tree sampler.
-pub type UnbalancedSampler = TreeSampler<LightBvh>;
-
-/// A CPU sampler of `kind` over `prims`. `cut_at` = (representative
-/// shading point, cut size) selects the cut of the `tree` and `unbalanced`
-/// kinds (without it they sample from the root); the other kinds ignore it.
-/// Zero lights give a sampler that never returns a light.
-pub fn new_sampler(
-    kind: SamplerKind,
-    prims: &[LightPrim],
-    cut_at: Option<(&Shading, u32)>,
-) -> Box<dyn LightSampler + Send + Sync> {
-    fn tree<T: LightTree + Send + Sync + 'static>(
-        t: T,
-        cut_at: Option<(&Shading, u32)>,
-    ) -> Box<dyn LightSampler + Send + Sync> {
-        match cut_at {
-            Some((s, size)) => Box::new(TreeSampler::with_cut_at(t, s, size)),
-            None => Box::new(TreeSampler::new(t)),
-        }
-    }
-    if prims.is_empty() {
-        return Box::new(UniformSampler { count: 0 });
-    }
-    let cut_at = cut_at.filter(|_| kind.uses_cut());
-    match kind {
-        SamplerKind::Uniform => Box::new(UniformSampler {
-            count: prims.len() as u32,
-        }),
-        SamplerKind::Power => Box::new(PowerSampler::new(prims)),
-        SamplerKind::Tree | SamplerKind::TreeNoCut => {
-            tree::<PerfectTree>(perfect::build(prims).unwrap(), cut_at)
-        }
-        SamplerKind::Unbalanced | SamplerKind::UnbalancedNoCut => {
-            tree::<LightBvh>(bvh::build(prims).unwrap(), cut_at)
-        }
     }
 }
 

@@ -103,7 +103,7 @@ impl Snapshot {
     }
 
     pub fn cell_coords(&self, cell: u32) -> Vec<u32> {
-        super::cpu_oracle::morton_decode(
+        super::morton::morton_decode(
             cell,
             self.dims,
             self.params.bits_per_dim,

@@ -92,6 +92,7 @@ pub mod error;
 pub mod evaluate;
 pub mod gpu_params;
 pub mod initial;
+pub mod morton;
 pub mod plan;
 pub mod reconstruct;
 pub mod scan;

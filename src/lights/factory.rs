@@ -1,0 +1,76 @@
+//! CPU light samplers by kind: [`new_sampler`], and the uniform sampler
+//! (the others live with their data structures: alias, cut, bvh, perfect).
+
+use super::alias::PowerSampler;
+use super::bvh::{self, LightBvh};
+use super::cut::{LightTree, TreeSampler};
+use super::importance::Shading;
+use super::perfect::{self, PerfectTree};
+use super::sampler::{LightSample, LightSampler, SamplerKind};
+use super::LightPrim;
+
+/// Every light with probability `1/N`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct UniformSampler {
+    pub count: u32,
+}
+
+impl LightSampler for UniformSampler {
+    fn sample(&self, _s: &Shading, u: f32) -> Option<LightSample> {
+        if self.count == 0 {
+            return None;
+        }
+        let light = ((u * self.count as f32).floor() as u32).min(self.count - 1);
+        Some(LightSample {
+            light,
+            pmf: 1.0 / self.count as f64,
+        })
+    }
+
+    fn pmf(&self, _s: &Shading, light: u32) -> f64 {
+        if light < self.count {
+            1.0 / self.count as f64
+        } else {
+            0.0
+        }
+    }
+}
+
+/// The unbalanced-tree sampler.
+pub type UnbalancedSampler = TreeSampler<LightBvh>;
+
+/// A CPU sampler of `kind` over `prims`. `cut_at` = (representative
+/// shading point, cut size) selects the cut of the `tree` and `unbalanced`
+/// kinds (without it they sample from the root); the other kinds ignore it.
+/// Zero lights give a sampler that never returns a light.
+pub fn new_sampler(
+    kind: SamplerKind,
+    prims: &[LightPrim],
+    cut_at: Option<(&Shading, u32)>,
+) -> Box<dyn LightSampler + Send + Sync> {
+    fn tree<T: LightTree + Send + Sync + 'static>(
+        t: T,
+        cut_at: Option<(&Shading, u32)>,
+    ) -> Box<dyn LightSampler + Send + Sync> {
+        match cut_at {
+            Some((s, size)) => Box::new(TreeSampler::with_cut_at(t, s, size)),
+            None => Box::new(TreeSampler::new(t)),
+        }
+    }
+    if prims.is_empty() {
+        return Box::new(UniformSampler { count: 0 });
+    }
+    let cut_at = cut_at.filter(|_| kind.uses_cut());
+    match kind {
+        SamplerKind::Uniform => Box::new(UniformSampler {
+            count: prims.len() as u32,
+        }),
+        SamplerKind::Power => Box::new(PowerSampler::new(prims)),
+        SamplerKind::Tree | SamplerKind::TreeNoCut => {
+            tree::<PerfectTree>(perfect::build(prims).unwrap(), cut_at)
+        }
+        SamplerKind::Unbalanced | SamplerKind::UnbalancedNoCut => {
+            tree::<LightBvh>(bvh::build(prims).unwrap(), cut_at)
+        }
+    }
+}
