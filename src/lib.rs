@@ -1,8 +1,9 @@
 //! mdas — multidimensional adaptive sampling and quasi-Monte Carlo
 //! integrators on the GPU (wgpu + WGSL compute).
 //!
-//! The flow is one-directional (see `shared/DESIGN.md`):
-//! a [`scene::Scene`] is loaded from TOML and uploaded as an
+//! The flow is one-directional (layers in `docs/architecture.md`): a scene
+//! file is loaded by [`scene_file`] into a [`scene::Scene`], the
+//! integrand's spec and the MDAS parameters; the scene is uploaded as an
 //! [`accel::GpuScene`] (CWBVH + buffers); an [`integrand::Integrand`]
 //! is a WGSL function f(film point, u ∈ [0,1)^d) → RGB with its bindings;
 //! an [`integrator::Integrator`] drives kernels around any integrand and
