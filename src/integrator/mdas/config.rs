@@ -21,8 +21,9 @@ use super::gpu_params::{STATS_PER_INVOCATION, WG};
 use super::MAX_ITERATIONS_DEFAULT;
 use crate::gpu::shader::Wgsl;
 use crate::gpu::Gpu;
-use crate::integrand::MAX_DIMS;
+use crate::integrand::{point_wgsl, MAX_DIMS};
 use crate::scene::{Film, MdasParams};
+use crate::wgsl_file;
 use anyhow::{bail, Result};
 
 /// Sample indices live in 27 bits of a leaf header (the rest: a 4-bit
@@ -256,6 +257,18 @@ impl Config {
             );
         }
         Ok(())
+    }
+
+    /// What every MDAS kernel's WGSL starts from: [`Config::constants`],
+    /// the integrand point, random numbers, warps, Morton codes and
+    /// `mdas/common.wgsl` (each kernel module's `source` adds its file).
+    pub fn base_wgsl(&self) -> Wgsl {
+        point_wgsl()
+            .include(&self.constants())
+            .part(wgsl_file!("shared/rng.wgsl"))
+            .part(wgsl_file!("shared/sampling.wgsl"))
+            .part(wgsl_file!("shared/morton.wgsl"))
+            .part(wgsl_file!("mdas/common.wgsl"))
     }
 
     /// The generated WGSL constants every MDAS kernel is compiled with.
