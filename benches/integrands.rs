@@ -63,7 +63,7 @@ fn count_rays(gpu: &Gpu, integrand: &dyn Integrand) -> anyhow::Result<(u64, u32)
             entries: &[uniform_entry(0), storage_entry(1, false)],
         });
     let source = mdas::integrator::halton::with_halton_points(
-        integrand,
+        integrand.wgsl(),
         (
             "tests/kernels/count_rays.wgsl",
             include_str!("../tests/kernels/count_rays.wgsl"),

@@ -71,13 +71,15 @@ pub enum TraceMode {
     Any,
 }
 
+/// `TraceParams` in `wgsl/trace.wgsl` (public for
+/// `tests/shader_interfaces.rs`, which compares the two layouts).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
-struct TraceParams {
-    ray_count: u32,
+pub struct TraceParams {
+    pub ray_count: u32,
     /// Invocations per grid row: the linear index is x + y · row_stride.
-    row_stride: u32,
-    _pad: [u32; 2],
+    pub row_stride: u32,
+    pub _pad: [u32; 2],
 }
 
 pub struct TraceKernel {
@@ -88,21 +90,32 @@ pub struct TraceKernel {
 }
 
 impl TraceKernel {
+    /// Group 0 of the trace kernels: parameters, rays (read-only), hits.
+    /// Group 1 is the scene's ([`GpuScene::layout_entries`]).
+    pub fn layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
+        vec![
+            uniform_entry(0),
+            storage_entry(1, true),
+            storage_entry(2, false),
+        ]
+    }
+
+    /// The WGSL of the three trace entry points.
+    pub fn source() -> Wgsl {
+        Wgsl::new()
+            .constant("TRACE_WORKGROUP_SIZE", TRACE_WORKGROUP_SIZE)
+            .include(&GpuScene::wgsl())
+            .part(crate::wgsl_file!("trace.wgsl"))
+    }
+
     pub fn new(gpu: &Gpu, scene: &GpuScene) -> Result<TraceKernel> {
         let layout = gpu
             .device
             .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                 label: Some("mdas.trace"),
-                entries: &[
-                    uniform_entry(0),
-                    storage_entry(1, true),
-                    storage_entry(2, false),
-                ],
+                entries: &Self::layout_entries(),
             });
-        let source = Wgsl::new()
-            .constant("TRACE_WORKGROUP_SIZE", TRACE_WORKGROUP_SIZE)
-            .include(&GpuScene::wgsl())
-            .part(crate::wgsl_file!("trace.wgsl"));
+        let source = Self::source();
         let layouts = [&layout, &scene.layout];
         Ok(TraceKernel {
             both: gpu.compute_pipeline("mdas.trace.both", &source, "trace_both", &layouts)?,

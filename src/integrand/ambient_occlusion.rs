@@ -36,6 +36,14 @@ pub struct AmbientOcclusion {
     radius: f32,
 }
 
+/// The integrand's WGSL for occlusion distance `radius` (device-free, see
+/// [`super::path::source`]).
+pub fn source(radius: f32) -> Wgsl {
+    scene_wgsl()
+        .constant("AO_RADIUS_BITS", radius.to_bits())
+        .part(wgsl_file!("ambient_occlusion.wgsl"))
+}
+
 impl AmbientOcclusion {
     /// The integrand over `film` with occlusion distance `radius` (> 0,
     /// finite).
@@ -69,9 +77,7 @@ impl Integrand for AmbientOcclusion {
     }
 
     fn wgsl(&self) -> Wgsl {
-        scene_wgsl()
-            .constant("AO_RADIUS_BITS", self.radius.to_bits())
-            .part(wgsl_file!("ambient_occlusion.wgsl"))
+        source(self.radius)
     }
 
     fn layout(&self) -> &wgpu::BindGroupLayout {

@@ -28,6 +28,11 @@ pub struct AreaLight {
     film: Film,
 }
 
+/// The integrand's WGSL (device-free, see [`super::path::source`]).
+pub fn source() -> Wgsl {
+    scene_wgsl().part(wgsl_file!("area_light.wgsl"))
+}
+
 impl AreaLight {
     /// The integrand over `film` (the scene's film or a scaled one; the
     /// GPU scene must have been built for the same film).
@@ -50,7 +55,7 @@ impl Integrand for AreaLight {
     }
 
     fn wgsl(&self) -> Wgsl {
-        scene_wgsl().part(wgsl_file!("area_light.wgsl"))
+        source()
     }
 
     fn layout(&self) -> &wgpu::BindGroupLayout {

@@ -31,6 +31,11 @@ pub struct DepthOfField {
     film: Film,
 }
 
+/// The integrand's WGSL (device-free, see [`super::path::source`]).
+pub fn source() -> Wgsl {
+    scene_wgsl().part(wgsl_file!("depth_of_field.wgsl"))
+}
+
 impl DepthOfField {
     /// The integrand over `film` (the GPU scene must be built for it).
     pub fn new(scene: Arc<GpuScene>, film: Film) -> Self {
@@ -52,7 +57,7 @@ impl Integrand for DepthOfField {
     }
 
     fn wgsl(&self) -> Wgsl {
-        scene_wgsl().part(wgsl_file!("depth_of_field.wgsl"))
+        source()
     }
 
     fn layout(&self) -> &wgpu::BindGroupLayout {

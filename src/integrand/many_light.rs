@@ -71,6 +71,42 @@ pub struct ManyLight {
     _tree: Option<GpuLightTree>,
 }
 
+/// The integrand's WGSL at frame time `time` and frame number `frame`,
+/// with or without emissive triangles (dimensions 3–4). The sampler kind
+/// is a uniform (`LightParams::kind`), so one source serves every kind.
+/// Device-free, see [`super::path::source`].
+pub fn source(time: f32, frame: u32, triangles: bool) -> Wgsl {
+    scene_wgsl()
+        .include(&GpuSamplerData::wgsl())
+        .constant("ML_TIME_BITS", time.to_bits())
+        .constant("ML_FRAME", frame)
+        .constant("ML_TRIANGLES", triangles as u32)
+        .part(wgsl_file!("many_light.wgsl"))
+}
+
+/// Group 1 of the evaluation and of the cut pre-pass: the scene's bindings
+/// 0–7, then the samplers' 16–21.
+pub fn layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
+    let mut entries = GpuScene::layout_entries();
+    entries.extend(GpuSamplerData::layout_entries());
+    entries
+}
+
+/// The cut pre-pass over `blocks` blocks: the integrand's WGSL
+/// ([`source`]) followed by `many_light_cuts.wgsl`.
+pub fn cuts_source(integrand: Wgsl, blocks: u32) -> Wgsl {
+    integrand
+        .constant("CUT_WG", CUT_WG)
+        .constant("CUT_BLOCKS", blocks)
+        .part(wgsl_file!("shared/rng.wgsl"))
+        .part(wgsl_file!("many_light_cuts.wgsl"))
+}
+
+/// Group 0 of the cut pre-pass: the cut buffer it fills.
+pub fn cuts_layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
+    vec![storage_entry(0, false)]
+}
+
 impl ManyLight {
     /// Sets up one frame of `scene` (its `[integrand]` table is `spec`) for
     /// rendering over `film`; `gpu_scene` must be the same scene's upload
@@ -121,13 +157,11 @@ impl ManyLight {
             Ok((sampler, tree))
         })?;
 
-        let mut entries = GpuScene::layout_entries();
-        entries.extend(GpuSamplerData::layout_entries());
         let layout = gpu
             .device
             .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                 label: Some("many_light.group1"),
-                entries: &entries,
+                entries: &layout_entries(),
             });
         let bind_group = {
             let mut e = gpu_scene.bind_group_entries();
@@ -185,7 +219,7 @@ impl ManyLight {
                 .device
                 .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                     label: Some("many_light.cuts.group0"),
-                    entries: &[storage_entry(0, false)],
+                    entries: &cuts_layout_entries(),
                 });
             let group0 = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("many_light.cuts.group0"),
@@ -195,12 +229,7 @@ impl ManyLight {
                     resource: self.sampler.cuts.as_entire_binding(),
                 }],
             });
-            let source = self
-                .wgsl()
-                .constant("CUT_WG", CUT_WG)
-                .constant("CUT_BLOCKS", cuts.blocks())
-                .part(wgsl_file!("shared/rng.wgsl"))
-                .part(wgsl_file!("many_light_cuts.wgsl"));
+            let source = cuts_source(self.wgsl(), cuts.blocks());
             let pipeline = gpu.compute_pipeline(
                 "many_light.cuts",
                 &source,
@@ -254,12 +283,7 @@ impl Integrand for ManyLight {
     }
 
     fn wgsl(&self) -> Wgsl {
-        scene_wgsl()
-            .include(&GpuSamplerData::wgsl())
-            .constant("ML_TIME_BITS", self.spec.time.to_bits())
-            .constant("ML_FRAME", self.spec.frame)
-            .constant("ML_TRIANGLES", self.triangles as u32)
-            .part(wgsl_file!("many_light.wgsl"))
+        source(self.spec.time, self.spec.frame, self.triangles)
     }
 
     fn layout(&self) -> &wgpu::BindGroupLayout {

@@ -30,6 +30,11 @@ pub struct MotionBlur {
     film: Film,
 }
 
+/// The integrand's WGSL (device-free, see [`super::path::source`]).
+pub fn source() -> Wgsl {
+    scene_wgsl().part(wgsl_file!("motion_blur.wgsl"))
+}
+
 impl MotionBlur {
     /// The integrand over `film` (the GPU scene must be built for it).
     pub fn new(scene: Arc<GpuScene>, film: Film) -> Self {
@@ -51,7 +56,7 @@ impl Integrand for MotionBlur {
     }
 
     fn wgsl(&self) -> Wgsl {
-        scene_wgsl().part(wgsl_file!("motion_blur.wgsl"))
+        source()
     }
 
     fn layout(&self) -> &wgpu::BindGroupLayout {

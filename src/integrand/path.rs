@@ -76,6 +76,16 @@ pub fn max_bounces_limit(area_lights: bool) -> u32 {
     }
 }
 
+/// The integrand's WGSL for `max_bounces` bounces, with or without
+/// area-light NEE: all [`PathTracing::wgsl`] depends on, so that it can be
+/// assembled (and checked, `tests/shader_interfaces.rs`) without a device.
+pub fn source(max_bounces: u32, area_nee: bool) -> Wgsl {
+    scene_wgsl()
+        .constant("PATH_MAX_BOUNCES", max_bounces)
+        .constant("PATH_AREA_NEE", area_nee as u32)
+        .part(wgsl_file!("path.wgsl"))
+}
+
 impl PathTracing {
     /// The integrand over `film`; area-light NEE is on when the scene has
     /// emissive triangles. Errors if `max_bounces` is 0 or its dimension
@@ -126,10 +136,7 @@ impl Integrand for PathTracing {
     }
 
     fn wgsl(&self) -> Wgsl {
-        scene_wgsl()
-            .constant("PATH_MAX_BOUNCES", self.max_bounces)
-            .constant("PATH_AREA_NEE", self.area_nee as u32)
-            .part(wgsl_file!("path.wgsl"))
+        source(self.max_bounces, self.area_nee)
     }
 
     fn layout(&self) -> &wgpu::BindGroupLayout {

@@ -42,19 +42,21 @@ const WORKGROUP_SIZE: u32 = 64;
 /// Uniform-buffer dynamic offsets must be multiples of this (WebGPU minimum).
 const PARAMS_STRIDE: u64 = 256;
 
+/// One chunk's uniform, `HaltonParams` in `wgsl/halton.wgsl` (public for
+/// `tests/shader_interfaces.rs`, which compares the two layouts).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
-struct HaltonParams {
-    width: u32,
-    height: u32,
-    dims: u32,
-    seed: u32,
-    spp: u32,
-    first_index: u32,
-    samples_per_invocation: u32,
-    slots: u32,
-    row_invocations: u32,
-    _pad: [u32; 3],
+pub struct HaltonParams {
+    pub width: u32,
+    pub height: u32,
+    pub dims: u32,
+    pub seed: u32,
+    pub spp: u32,
+    pub first_index: u32,
+    pub samples_per_invocation: u32,
+    pub slots: u32,
+    pub row_invocations: u32,
+    pub _pad: [u32; 3],
 }
 
 /// Progress callback: (samples per pixel done, spp).
@@ -89,22 +91,10 @@ impl Halton {
     fn layout(&mut self, gpu: &Gpu) -> wgpu::BindGroupLayout {
         self.layout
             .get_or_insert_with(|| {
-                let mut params = uniform_entry(0);
-                if let wgpu::BindingType::Buffer {
-                    has_dynamic_offset, ..
-                } = &mut params.ty
-                {
-                    *has_dynamic_offset = true;
-                }
                 gpu.device
                     .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                         label: Some("mdas.halton.layout"),
-                        entries: &[
-                            params,
-                            storage_entry(1, false),
-                            storage_entry(2, false),
-                            storage_entry(3, false),
-                        ],
+                        entries: &layout_entries(),
                     })
             })
             .clone()
@@ -116,7 +106,7 @@ impl Halton {
         integrand: &dyn Integrand,
     ) -> Result<(wgpu::ComputePipeline, wgpu::ComputePipeline)> {
         let layout = self.layout(gpu);
-        let source = with_halton_points(integrand, wgsl_file!("halton.wgsl"));
+        let source = source(integrand.wgsl());
         let key = (source.source(), integrand.layout().clone());
         if let Some(p) = self.pipelines.get(&key) {
             return Ok(p.clone());
@@ -132,12 +122,35 @@ impl Halton {
     }
 }
 
+/// Group 0 of both kernels (`wgsl/halton.wgsl`): the chunk's parameters
+/// at 0 (one uniform buffer, a dynamic offset per chunk), then the partial
+/// sums, the accumulators and their compensation, read-write.
+pub fn layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
+    let mut params = uniform_entry(0);
+    if let wgpu::BindingType::Buffer {
+        has_dynamic_offset, ..
+    } = &mut params.ty
+    {
+        *has_dynamic_offset = true;
+    }
+    vec![
+        params,
+        storage_entry(1, false),
+        storage_entry(2, false),
+        storage_entry(3, false),
+    ]
+}
+
+/// The Halton kernels' WGSL over an integrand's WGSL (`Integrand::wgsl`).
+pub fn source(integrand: Wgsl) -> Wgsl {
+    with_halton_points(integrand, wgsl_file!("halton.wgsl"))
+}
+
 /// The integrand's WGSL, then the shared Halton point functions, then
 /// `kernel`: the Halton kernel, or a test or bench kernel that replays the
 /// same points.
-pub fn with_halton_points(integrand: &dyn Integrand, kernel: (&'static str, &'static str)) -> Wgsl {
+pub fn with_halton_points(integrand: Wgsl, kernel: (&'static str, &'static str)) -> Wgsl {
     integrand
-        .wgsl()
         .include(
             &Wgsl::new()
                 .part(wgsl_file!("shared/rng.wgsl"))

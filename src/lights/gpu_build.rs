@@ -99,16 +99,17 @@ pub const PHASES: [&str; 5] = [
 const _: () = assert!(std::mem::size_of::<LightPrim>() == 64);
 const _: () = assert!(std::mem::size_of::<TreeNode>() == 32);
 
-/// Uniform of the tree kernels (`BuildParams` in `tree_bindings.wgsl`).
+/// Uniform of the tree kernels (`BuildParams` in `tree_bindings.wgsl`;
+/// public for `tests/shader_interfaces.rs`, which compares the layouts).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
-struct BuildParams {
-    n: u32,
-    leaf_count: u32,
-    zero: u32,
-    src_level: u32,
-    levels_up: u32,
-    _pad: [u32; 3],
+pub struct BuildParams {
+    pub n: u32,
+    pub leaf_count: u32,
+    pub zero: u32,
+    pub src_level: u32,
+    pub levels_up: u32,
+    pub _pad: [u32; 3],
 }
 
 /// Per-phase build times in milliseconds (GPU timestamps where the adapter
@@ -181,6 +182,24 @@ pub struct GpuLightTree {
 }
 
 impl GpuLightTree {
+    /// The WGSL of the build kernels in `kernel` (`lights/bounds.wgsl`,
+    /// `lights/morton.wgsl` or `lights/tree_build.wgsl`): the light structs
+    /// and the shared bindings first.
+    pub fn source(kernel: (&'static str, &'static str)) -> Wgsl {
+        prim_wgsl()
+            .constant("WG", WG)
+            .part(wgsl_file!("lights/tree_bindings.wgsl"))
+            .part(kernel)
+    }
+
+    /// The one layout of the build kernels (`lights/tree_bindings.wgsl`):
+    /// parameters, the lights (read-only), then five read-write buffers.
+    pub fn layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
+        let mut entries = vec![uniform_entry(0), storage_entry(1, true)];
+        entries.extend((2..=6).map(|b| storage_entry(b, false)));
+        entries
+    }
+
     /// Compiles the kernels and allocates a tree for up to `capacity`
     /// lights (`2P − 1` nodes of 32 bytes, `P = capacity` rounded up to a
     /// power of two, plus 20 bytes per light of scratch). Fails with a
@@ -198,25 +217,14 @@ impl GpuLightTree {
         }
         let sorter = RadixSort::new(gpu, capacity)?;
 
-        let base = prim_wgsl()
-            .constant("WG", WG)
-            .part(wgsl_file!("lights/tree_bindings.wgsl"));
         let layout = gpu
             .device
             .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                 label: Some("light_tree.layout"),
-                entries: &[
-                    uniform_entry(0),
-                    storage_entry(1, true),
-                    storage_entry(2, false),
-                    storage_entry(3, false),
-                    storage_entry(4, false),
-                    storage_entry(5, false),
-                    storage_entry(6, false),
-                ],
+                entries: &Self::layout_entries(),
             });
         let pipeline = |label: &str, part, entry: &str| {
-            gpu.compute_pipeline(label, &base.clone().part(part), entry, &[&layout])
+            gpu.compute_pipeline(label, &Self::source(part), entry, &[&layout])
         };
         let bounds_pipeline = pipeline(
             "light_tree.bounds",

@@ -64,16 +64,17 @@ const SCAN_WG: u32 = 256;
 /// Passes of a full 32-bit sort.
 const MAX_PASSES: u32 = 32 / RADIX_BITS;
 
-/// Per-pass uniform (`Params` in the WGSL).
+/// Per-pass uniform (`Params` in the WGSL; public for
+/// `tests/shader_interfaces.rs`, which compares the two layouts).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
-struct Params {
-    n: u32,
-    shift: u32,
-    mask: u32,
-    tiles: u32,
-    groups_x: u32,
-    _pad: [u32; 3],
+pub struct Params {
+    pub n: u32,
+    pub shift: u32,
+    pub mask: u32,
+    pub tiles: u32,
+    pub groups_x: u32,
+    pub _pad: [u32; 3],
 }
 
 /// Pipelines and scratch buffers for sorting up to `capacity` pairs.
@@ -94,6 +95,30 @@ pub fn passes(key_bits: u32) -> u32 {
 }
 
 impl RadixSort {
+    /// The WGSL of the three sort kernels.
+    pub fn source() -> Wgsl {
+        Wgsl::new()
+            .constant("RADIX", RADIX)
+            .constant("WG", WG)
+            .constant("ITEMS", ITEMS)
+            .constant("TILE", TILE)
+            .constant("SCAN_WG", SCAN_WG)
+            .part(wgsl_file!("lights/radix_sort.wgsl"))
+    }
+
+    /// Their one layout: the pass's parameters, keys and values in
+    /// (read-only), keys and values out and the tile histograms.
+    pub fn layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
+        vec![
+            uniform_entry(0),
+            storage_entry(1, true),
+            storage_entry(2, true),
+            storage_entry(3, false),
+            storage_entry(4, false),
+            storage_entry(5, false),
+        ]
+    }
+
     /// Compiles the kernels and allocates scratch for `capacity` pairs
     /// (two `capacity`-element u32 buffers and `16 · ⌈capacity / 2048⌉ + 16`
     /// tile counts).
@@ -103,25 +128,12 @@ impl RadixSort {
         if gy > gpu.limits.max_compute_workgroups_per_dimension {
             bail!("radix sort capacity {capacity} needs more workgroups ({tiles}) than this adapter can dispatch");
         }
-        let source = Wgsl::new()
-            .constant("RADIX", RADIX)
-            .constant("WG", WG)
-            .constant("ITEMS", ITEMS)
-            .constant("TILE", TILE)
-            .constant("SCAN_WG", SCAN_WG)
-            .part(wgsl_file!("lights/radix_sort.wgsl"));
+        let source = Self::source();
         let layout = gpu
             .device
             .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                 label: Some("lights.radix_sort.layout"),
-                entries: &[
-                    uniform_entry(0),
-                    storage_entry(1, true),
-                    storage_entry(2, true),
-                    storage_entry(3, false),
-                    storage_entry(4, false),
-                    storage_entry(5, false),
-                ],
+                entries: &Self::layout_entries(),
             });
         let pipeline = |entry: &str| {
             gpu.compute_pipeline(

@@ -15,13 +15,27 @@ pub struct TestIntegrand {
     bind_group: wgpu::BindGroup,
 }
 
+/// The WGSL of case `case` (device-free, for `tests/shader_interfaces.rs`).
+pub fn test_integrand_source(case: u32) -> Wgsl {
+    point_wgsl().constant("TEST_CASE", case).part((
+        "tests/kernels/test_integrands.wgsl",
+        include_str!("../kernels/test_integrands.wgsl"),
+    ))
+}
+
+/// Its group 1: one read-only buffer, empty (case 1 reads its length as an
+/// opaque zero).
+pub fn test_integrand_layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
+    vec![storage_entry(0, true)]
+}
+
 impl TestIntegrand {
     pub fn new(gpu: &Gpu, case: u32, dims: u32, film: Film) -> Self {
         let layout = gpu
             .device
             .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                 label: Some("test.integrand.layout"),
-                entries: &[storage_entry(0, true)],
+                entries: &test_integrand_layout_entries(),
             });
         let buffer = gpu
             .buffer_from::<u32>("test.integrand.unused", &[], wgpu::BufferUsages::STORAGE)
@@ -49,10 +63,7 @@ impl Integrand for TestIntegrand {
         self.film
     }
     fn wgsl(&self) -> Wgsl {
-        point_wgsl().constant("TEST_CASE", self.case).part((
-            "tests/kernels/test_integrands.wgsl",
-            include_str!("../kernels/test_integrands.wgsl"),
-        ))
+        test_integrand_source(self.case)
     }
     fn layout(&self) -> &wgpu::BindGroupLayout {
         &self.layout

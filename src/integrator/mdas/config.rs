@@ -22,7 +22,8 @@ use super::MAX_ITERATIONS_DEFAULT;
 use crate::film::Film;
 use crate::gpu::shader::Wgsl;
 use crate::gpu::Gpu;
-use crate::integrand::MAX_DIMS;
+use crate::integrand::{point_wgsl, MAX_DIMS};
+use crate::wgsl_file;
 use anyhow::{bail, Result};
 
 /// Parameters of the MDAS integrator (paper §5.1); defaults per the paper.
@@ -320,6 +321,18 @@ impl Config {
             );
         }
         Ok(())
+    }
+
+    /// What every MDAS kernel's WGSL starts from: [`Config::constants`],
+    /// the integrand point, random numbers, warps, Morton codes and
+    /// `mdas/common.wgsl` (each kernel module's `source` adds its file).
+    pub fn base_wgsl(&self) -> Wgsl {
+        point_wgsl()
+            .include(&self.constants())
+            .part(wgsl_file!("shared/rng.wgsl"))
+            .part(wgsl_file!("shared/sampling.wgsl"))
+            .part(wgsl_file!("shared/morton.wgsl"))
+            .part(wgsl_file!("mdas/common.wgsl"))
     }
 
     /// The generated WGSL constants every MDAS kernel is compiled with.

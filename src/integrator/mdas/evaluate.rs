@@ -12,9 +12,9 @@ use crate::gpu::shader::Wgsl;
 use crate::integrand::Integrand;
 use crate::wgsl_file;
 
-pub fn source(base: &Wgsl, integrand: &dyn Integrand) -> Wgsl {
+/// The kernel over an integrand's WGSL (`Integrand::wgsl`).
+pub fn source(base: &Wgsl, integrand: Wgsl) -> Wgsl {
     integrand
-        .wgsl()
         .include(base)
         .part(wgsl_file!("mdas/evaluate.wgsl"))
 }

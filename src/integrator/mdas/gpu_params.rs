@@ -1,6 +1,8 @@
 //! The uniform block every MDAS kernel reads (`Params` in
-//! `wgsl/mdas/common.wgsl`) and the dispatch arithmetic they share.
+//! `wgsl/mdas/common.wgsl`), the bind-group layouts they share and the
+//! dispatch arithmetic.
 
+use crate::gpu::shader::{storage_entry, uniform_entry};
 use crate::gpu::Gpu;
 
 /// Invocations per workgroup of every MDAS kernel.
@@ -29,6 +31,21 @@ pub struct GpuParams {
     pub inv_alpha: f32,
     pub epsilon: f32,
     pub _pad: [u32; 5],
+}
+
+/// Group 0 of every MDAS kernel (`wgsl/mdas/common.wgsl`): `params` at 0,
+/// eight read-write storage buffers at 1–8. Device-free, so that
+/// `tests/shader_interfaces.rs` checks the same entries the runtime uses.
+pub fn layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
+    let mut entries = vec![uniform_entry(0)];
+    entries.extend((1..=8).map(|b| storage_entry(b, false)));
+    entries
+}
+
+/// Group 1 of `prime` and `plan` (`wgsl/mdas/plan.wgsl`): the indirect
+/// arguments they write.
+pub fn args_layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
+    vec![storage_entry(0, false)]
 }
 
 /// A 2D grid of workgroups covering some invocations.

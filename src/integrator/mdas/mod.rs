@@ -101,10 +101,9 @@ pub mod stats;
 use super::{Integrator, Render};
 use crate::gpu::buffer::{Readback, STORAGE};
 use crate::gpu::profiler::{PhaseTimes, Profiler};
-use crate::gpu::shader::{storage_entry, uniform_entry, Wgsl};
+use crate::gpu::shader::Wgsl;
 use crate::gpu::Gpu;
-use crate::integrand::{point_wgsl, Integrand};
-use crate::wgsl_file;
+use crate::integrand::Integrand;
 use anyhow::Result;
 use config::Config;
 pub use config::MdasParams;
@@ -318,12 +317,10 @@ impl Mdas {
     fn layout(&mut self, gpu: &Gpu) -> wgpu::BindGroupLayout {
         self.layout
             .get_or_insert_with(|| {
-                let mut entries = vec![uniform_entry(0)];
-                entries.extend((1..=8).map(|b| storage_entry(b, false)));
                 gpu.device
                     .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                         label: Some("mdas.mdas.layout"),
-                        entries: &entries,
+                        entries: &gpu_params::layout_entries(),
                     })
             })
             .clone()
@@ -335,7 +332,7 @@ impl Mdas {
                 gpu.device
                     .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                         label: Some("mdas.mdas.args.layout"),
-                        entries: &[storage_entry(0, false)],
+                        entries: &gpu_params::args_layout_entries(),
                     })
             })
             .clone()
@@ -349,13 +346,8 @@ impl Mdas {
     ) -> Result<Pipelines> {
         let layout = self.layout(gpu);
         let args_layout = self.args_layout(gpu);
-        let base = point_wgsl()
-            .include(&cfg.constants())
-            .part(wgsl_file!("shared/rng.wgsl"))
-            .part(wgsl_file!("shared/sampling.wgsl"))
-            .part(wgsl_file!("shared/morton.wgsl"))
-            .part(wgsl_file!("mdas/common.wgsl"));
-        let eval_source = evaluate::source(&base, integrand);
+        let base = cfg.base_wgsl();
+        let eval_source = evaluate::source(&base, integrand.wgsl());
         let key = (eval_source.source(), integrand.layout().clone());
         if let Some(p) = self.pipelines.get(&key) {
             return Ok(p.clone());
