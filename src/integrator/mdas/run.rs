@@ -1,0 +1,343 @@
+//! One MDAS render: buffers, the initial pass, the GPU-driven iteration
+//! loop recorded in batches, statistics and reconstruction.
+
+use super::*;
+
+impl Mdas {
+    pub(super) fn run(
+        &mut self,
+        gpu: &Gpu,
+        integrand: &dyn Integrand,
+        mut observe: Option<&mut dyn FnMut(&Snapshot)>,
+        final_only: bool,
+    ) -> Result<Render> {
+        let cfg = self.config(integrand)?;
+        cfg.check_device(gpu)?;
+        let pipes = self.pipelines(gpu, &cfg, integrand)?;
+        let layout = self.layout(gpu);
+        let args_layout = self.args_layout(gpu);
+        let p = self.params;
+
+        let mut progress = self.progress.take();
+        let result = gpu.scoped("MDAS render", || {
+            let gp = GpuParams {
+                seed: p.seed,
+                budget: cfg.budget,
+                max_iterations: cfg.max_iterations,
+                max_groups: gpu.limits.max_compute_workgroups_per_dimension.max(1),
+                width: cfg.film.width,
+                height: cfg.film.height,
+                select_all: (p.alpha == 0.0) as u32,
+                scale_factor: p.scale_factor,
+                inv_alpha: if p.alpha > 0.0 { 1.0 / p.alpha } else { 0.0 },
+                epsilon: config::EPSILON,
+                ..Default::default()
+            };
+            let bufs = Buffers {
+                params: gpu.uniform("mdas.params", &gp),
+                leaves: gpu.buffer_zeroed("mdas.leaves", cfg.leaves_bytes(), STORAGE)?,
+                boxes: gpu.buffer_zeroed("mdas.boxes", cfg.boxes_bytes(), STORAGE)?,
+                samples: gpu.buffer_zeroed("mdas.samples", cfg.samples_bytes(), STORAGE)?,
+                values: gpu.buffer_zeroed("mdas.values", cfg.values_bytes(), STORAGE)?,
+                counters: gpu.buffer_zeroed("mdas.counters", Config::COUNTERS_BYTES, STORAGE)?,
+                state: gpu.buffer_zeroed("mdas.state", Config::STATE_BYTES, STORAGE)?,
+                accum: if cfg.accum_in_samples() {
+                    gpu.buffer_zeroed("mdas.placeholder", 16, STORAGE)?
+                } else {
+                    gpu.buffer_zeroed("mdas.accum", cfg.accum_bytes(), STORAGE)?
+                },
+            };
+            let partials = gpu.buffer_zeroed("mdas.partials", cfg.partials_bytes(), STORAGE)?;
+            let args = gpu.buffer_zeroed(
+                "mdas.args",
+                Config::ARGS_BYTES,
+                STORAGE | wgpu::BufferUsages::INDIRECT,
+            )?;
+            let group0 = crate::gpu::shader::bind_buffers(
+                gpu,
+                "mdas.group0",
+                &layout,
+                &[
+                    &bufs.params,
+                    &bufs.leaves,
+                    &bufs.samples,
+                    &bufs.values,
+                    &partials,
+                    &bufs.counters,
+                    &bufs.accum,
+                    &bufs.boxes,
+                    &bufs.state,
+                ],
+            );
+            // Reconstruction binds the accumulators in place of the samples'
+            // coordinates when they fit there (binding a buffer twice as
+            // writable storage is not allowed, so samples get a placeholder).
+            let accum = if cfg.accum_in_samples() {
+                &bufs.samples
+            } else {
+                &bufs.accum
+            };
+            let samples_in_rec = if cfg.accum_in_samples() {
+                &bufs.accum
+            } else {
+                &bufs.samples
+            };
+            let group_reconstruct = crate::gpu::shader::bind_buffers(
+                gpu,
+                "mdas.group0.reconstruct",
+                &layout,
+                &[
+                    &bufs.params,
+                    &bufs.leaves,
+                    samples_in_rec,
+                    &bufs.values,
+                    &partials,
+                    &bufs.counters,
+                    accum,
+                    &bufs.boxes,
+                    &bufs.state,
+                ],
+            );
+            let args_group =
+                crate::gpu::shader::bind_buffers(gpu, "mdas.args", &args_layout, &[&args]);
+            let mut k = Kernels {
+                pipes,
+                group0,
+                args,
+                args_group,
+            };
+            let mut profiler = Profiler::new(gpu);
+            let clock = profiler.clock();
+            let read_state =
+                || -> Result<State> { Ok(State(gpu.read_buffer(&bufs.state, state::LEN)?)) };
+            let read_counters =
+                || -> Result<Vec<u32>> { gpu.read_buffer(&bufs.counters, counter::LEN) };
+
+            // The iteration state before the first iteration: the grid's
+            // cells are the leaves, its samples are to be evaluated.
+            let mut initial_state = [0u32; state::LEN];
+            initial_state[state::LEAVES] = cfg.cells;
+            initial_state[state::SAMPLES] = cfg.initial_samples;
+            initial_state[state::ITERATION] = 1;
+            initial_state[state::EVAL_COUNT] = cfg.initial_samples;
+            initial_state[state::DONE] = (cfg.initial_samples >= cfg.budget) as u32;
+            gpu.queue
+                .write_buffer(&bufs.state, 0, bytemuck::cast_slice(&initial_state));
+
+            // Initial grid and its samples.
+            let mut batch = profiler.batch("mdas.initial");
+            batch.phase("initial", |e, ts| {
+                let mut pass = e.begin_compute_pass(&pass("mdas.initial", ts));
+                initial::record(&mut pass, &k, Grid::new(gpu, cfg.cells));
+                plan::record_prime(&mut pass, &k);
+            })?;
+            batch.phase("evaluate", |e, ts| {
+                evaluate::record(
+                    &mut e.begin_compute_pass(&pass("mdas.evaluate", ts)),
+                    &k,
+                    integrand,
+                )
+            })?;
+
+            let snapshot = |is_final: bool, state: &State| -> Result<Snapshot> {
+                let (n, leaves) = (state.samples(), state.leaves());
+                Ok(Snapshot {
+                    iteration: state.iteration(),
+                    is_final,
+                    params: p,
+                    dims: cfg.dims,
+                    film: cfg.film,
+                    budget: cfg.budget,
+                    leaf_count: leaves,
+                    sample_count: n,
+                    emax_bits: read_counters()?[counter::EMAX],
+                    inv_alpha: gp.inv_alpha,
+                    select_all: gp.select_all != 0,
+                    epsilon: gp.epsilon,
+                    // The snapshot keeps one record per leaf: meta, then box.
+                    leaves: {
+                        let meta: Vec<u32> =
+                            gpu.read_buffer(&bufs.leaves, (leaves * cfg.leaf_stride) as usize)?;
+                        let boxes: Vec<u32> =
+                            gpu.read_buffer(&bufs.boxes, (leaves * cfg.dims) as usize)?;
+                        meta.chunks(cfg.leaf_stride as usize)
+                            .zip(boxes.chunks(cfg.dims as usize))
+                            .flat_map(|(m, b)| m.iter().chain(b).copied())
+                            .collect()
+                    },
+                    samples: gpu.read_buffer(&bufs.samples, (n * cfg.sample_stride) as usize)?,
+                    values: gpu.read_buffer(&bufs.values, 4 * n as usize)?,
+                })
+            };
+
+            // Iterations error → adaptive → evaluate, recorded in batches
+            // that grow from FIRST_BATCH to MAX_BATCH; the host reads the
+            // state once per batch (progress and the stop test). An
+            // observer needs the state after each error pass, so it gets
+            // one iteration per batch and a submission after the error pass.
+            let observing = observe.is_some() && !final_only;
+            let mut batch_size = if observing { 1 } else { FIRST_BATCH };
+            let mut state = State(initial_state.to_vec());
+            while !state.done() {
+                for _ in 0..batch_size {
+                    batch.phase("error", |e, ts| {
+                        error::record(&mut e.begin_compute_pass(&pass("mdas.error", ts)), &k)
+                    })?;
+                    if observing {
+                        batch.submit();
+                        let state = read_state()?;
+                        if let Some(observe) = observe.as_mut() {
+                            observe(&snapshot(false, &state)?);
+                        }
+                        batch = profiler.batch("mdas.iteration");
+                    }
+                    // The adaptive phase in three timed parts (BENCHMARKS.md
+                    // splits them): count → scan → apply + plan.
+                    batch.phase("adaptive/count", |e, ts| {
+                        adapt::record_count(
+                            &mut e.begin_compute_pass(&pass("mdas.adapt.count", ts)),
+                            &k,
+                        )
+                    })?;
+                    batch.phase("adaptive/scan", |e, ts| {
+                        scan::record(&mut e.begin_compute_pass(&pass("mdas.scan", ts)), &k)
+                    })?;
+                    batch.phase("adaptive/apply", |e, ts| {
+                        let mut pass = e.begin_compute_pass(&pass("mdas.adapt.apply", ts));
+                        adapt::record_apply(&mut pass, &k);
+                        plan::record(&mut pass, &k);
+                    })?;
+                    batch.phase("evaluate", |e, ts| {
+                        evaluate::record(
+                            &mut e.begin_compute_pass(&pass("mdas.evaluate", ts)),
+                            &k,
+                            integrand,
+                        )
+                    })?;
+                }
+                batch.submit();
+                state = read_state()?;
+                if let Some(report) = progress.as_mut() {
+                    report(state.samples() as u64, cfg.budget as u64);
+                }
+                batch = profiler.batch("mdas.iteration");
+                batch_size = if observing {
+                    1
+                } else {
+                    (batch_size * 2).min(MAX_BATCH)
+                };
+            }
+            if let Some(observe) = observe.as_mut() {
+                observe(&snapshot(true, &state)?);
+            }
+
+            // Statistics of the samples, then reconstruction.
+            let (n, leaves) = (state.samples(), state.leaves());
+            batch.phase("reconstruction", |e, ts| {
+                stats::record(
+                    &mut e.begin_compute_pass(&pass("mdas.stats", ts)),
+                    &k,
+                    gpu,
+                    n,
+                )
+            })?;
+            batch.submit();
+            k.group0 = group_reconstruct;
+            let grid = Grid::new(gpu, leaves);
+            let mut gp = gp;
+            for pass_index in 0..cfg.reconstruct_passes {
+                gp.pass_offset = pass_index * config::PIXELS_PER_PASS;
+                gpu.queue
+                    .write_buffer(&bufs.params, 0, bytemuck::bytes_of(&gp));
+                profiler.phase("reconstruction", |e, ts| {
+                    if pass_index == 0 {
+                        e.clear_buffer(accum, 0, Some(cfg.accum_bytes()));
+                    }
+                    reconstruct::record(
+                        &mut e.begin_compute_pass(&pass("mdas.reconstruct", ts)),
+                        &k,
+                        grid,
+                    )
+                })?;
+            }
+            let passes = profiler.finish_detailed()?;
+            // One submission copies back the state (its fixed-point
+            // exponent, written by stats.wgsl), the counters and the sums.
+            let state = Readback::<u32>::new(gpu, &bufs.state, state::LEN)?;
+            let counters = Readback::<u32>::new(gpu, &bufs.counters, counter::LEN)?;
+            let sums = Readback::<u32>::new(gpu, accum, 8 * cfg.pixels() as usize)?;
+            let mut encoder = gpu.device.create_command_encoder(&Default::default());
+            for copy in [&state, &counters, &sums] {
+                copy.record(&mut encoder);
+            }
+            gpu.queue.submit([encoder.finish()]);
+            let state = State(state.finish(gpu)?);
+            let counters = counters.finish(gpu)?;
+            let words = sums.finish(gpu)?;
+            let image = reconstruct::resolve(&words, state.fixed_exp());
+            let stats = RunStats {
+                // No iteration runs when the initial samples are the budget.
+                iterations: if cfg.initial_samples < cfg.budget {
+                    state.iteration()
+                } else {
+                    0
+                },
+                leaves,
+                collapsed: counters[counter::COLLAPSED],
+                budget: cfg.budget,
+                initial_samples: cfg.initial_samples,
+            };
+            let render = Render {
+                film: cfg.film,
+                image,
+                samples: n as u64,
+                nonfinite: counters[counter::NONFINITE] as u64,
+                times: passes.folded(),
+                clock,
+                gpu_bytes: cfg.gpu_bytes(),
+            };
+            Ok((render, stats, passes))
+        });
+        self.progress = progress;
+        let (render, stats, passes) = result?;
+        self.last = Some(stats);
+        self.last_passes = Some(passes);
+        Ok(render)
+    }
+}
+
+/// The state buffer as read back.
+struct State(Vec<u32>);
+
+impl State {
+    fn leaves(&self) -> u32 {
+        self.0[state::LEAVES]
+    }
+
+    fn samples(&self) -> u32 {
+        self.0[state::SAMPLES]
+    }
+
+    fn iteration(&self) -> u32 {
+        self.0[state::ITERATION]
+    }
+
+    fn done(&self) -> bool {
+        self.0[state::DONE] != 0
+    }
+
+    /// The exponent the reconstruction scaled colours by (stats.wgsl).
+    fn fixed_exp(&self) -> i32 {
+        self.0[state::FIXED_EXP] as i32
+    }
+}
+
+fn pass<'a>(
+    label: &'static str,
+    ts: Option<wgpu::ComputePassTimestampWrites<'a>>,
+) -> wgpu::ComputePassDescriptor<'a> {
+    wgpu::ComputePassDescriptor {
+        label: Some(label),
+        timestamp_writes: ts,
+    }
+}

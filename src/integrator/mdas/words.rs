@@ -1,0 +1,59 @@
+//! The words of the counters and state buffers, one list each: their
+//! indices here are generated into every kernel as `C_*` / `S_*`
+//! constants ([`super::config::Config::constants`]).
+
+/// Declares `pub const NAME: usize = index;` for each listed word and
+/// `ALL`: the WGSL constant names (`prefix` + NAME) with their indices, which
+/// [`config::Config::constants`] generates into every kernel. One list, so
+/// a word's index exists once.
+macro_rules! word_indices {
+    ($prefix:literal; $($(#[$doc:meta])* $name:ident = $index:literal,)+) => {
+        $($(#[$doc])* pub const $name: usize = $index;)+
+        /// WGSL names and indices.
+        pub const ALL: &[(&str, usize)] = &[$((concat!($prefix, stringify!($name)), $name)),+];
+    };
+}
+
+/// Indices into the counters buffer: the words kernels update with atomics
+/// (reductions over many invocations), `C_<NAME>` in the WGSL.
+pub(crate) mod counter {
+    word_indices! { "C_";
+        /// E_max of the current error pass (f32 bits).
+        EMAX = 0,
+        /// Non-finite samples (stats.wgsl).
+        NONFINITE = 1,
+        /// Three words: largest finite |f| per channel (f32 bits, stats.wgsl).
+        MAXABS = 2,
+        /// Leaves marked collapsed.
+        COLLAPSED = 5,
+    }
+    pub const LEN: usize = 8;
+}
+
+/// Indices into the state buffer, `S_<NAME>` in the WGSL: the iteration
+/// state, written by one invocation at a time (scan.wgsl, plan.wgsl,
+/// stats.wgsl) and read by every invocation with plain loads (an atomic
+/// load of one word by millions of invocations serialises on a GPU).
+pub(crate) mod state {
+    word_indices! { "S_";
+        /// Leaves selected in the current iteration (scan.wgsl).
+        SELECTED = 0,
+        /// Of those, the ones that split.
+        SPLITS = 1,
+        /// Leaves in use.
+        LEAVES = 2,
+        /// Samples placed (evaluated by the end of the iteration).
+        SAMPLES = 3,
+        /// The current iteration, from 1; the iterations run once done.
+        ITERATION = 4,
+        /// First sample of the pending evaluate dispatch.
+        EVAL_FIRST = 5,
+        /// Samples of the pending evaluate dispatch.
+        EVAL_COUNT = 6,
+        /// 1 once no further iteration runs (plan.wgsl).
+        DONE = 7,
+        /// The reconstruction's fixed-point exponent (i32 bits, stats.wgsl).
+        FIXED_EXP = 8,
+    }
+    pub const LEN: usize = 16;
+}
