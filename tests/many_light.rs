@@ -295,3 +295,68 @@ fn many_light_scenes_render_under_halton_and_mdas() {
         }
     }
 }
+
+/// The frame time reaches the kernels (it is a uniform, not a shader
+/// constant): an occluder keyframed to sit under the only light at time 1
+/// and 100 units away at time 0 leaves the plane lit at `time = 0` and
+/// black at `time = 1` (camera and shadow rays are traced at the frame
+/// time; the occluder is black and, seen from the camera, covers only the
+/// film's centre, where the image is 0 either way).
+#[test]
+fn frame_time_moves_keyframed_occluders() {
+    let text = |time: f32| {
+        format!(
+            r#"
+[film]
+width = 16
+height = 16
+[camera]
+position = [0, 4, 0]
+look_at = [0, 0, 0]
+up = [0, 0, -1]
+fov_y = 40
+[[material]]
+name = "grey"
+albedo = [0.5, 0.5, 0.5]
+[[material]]
+name = "black"
+albedo = [0, 0, 0]
+[[shape]]
+type = "quad"
+material = "grey"
+corners = [[-20, 0, -20], [-20, 0, 20], [20, 0, 20], [20, 0, -20]]
+[[shape]]
+type = "quad"
+material = "black"
+corners = [[-0.2, 1.9, -0.2], [-0.2, 1.9, 0.2], [0.2, 1.9, 0.2], [0.2, 1.9, -0.2]]
+motion = [{{ time = 0, translate = [100, 0, 0] }}, {{ time = 1, translate = [0, 0, 0] }}]
+[[light]]
+type = "point"
+position = [0, 2, 0]
+intensity = [1, 1, 1]
+[integrand]
+type = "many_light"
+sampler = "uniform"
+time = {time}
+"#
+        )
+    };
+    let render = |time: f32| {
+        let file = mdas::scene_file::parse(&text(time), Path::new("moving.toml")).unwrap();
+        let film = file.scene.film;
+        let integrand = integrand(&file, film, SamplerKind::Uniform);
+        Halton::new(4, 1).render(gpu(), &integrand).unwrap()
+    };
+    let lit = render(0.0);
+    // Every pixel sees the plane lit by I·cosθ/d² ≥ 1·(2/√(2²+1.5²))/6.25
+    // times ρ/π: well above 0.
+    assert!(
+        lit.image.iter().all(|p| p[0] > 0.01),
+        "time 0: some pixel is dark"
+    );
+    let shadowed = render(1.0);
+    assert!(
+        shadowed.image.iter().all(|p| *p == [0.0; 3]),
+        "time 1: the occluder should shadow the whole visible plane"
+    );
+}

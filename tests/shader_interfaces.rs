@@ -110,7 +110,7 @@ fn integrands() -> Vec<Integrand> {
     for triangles in [false, true] {
         let name = format!("many_light[triangles={triangles}]");
         let dims = if triangles { 5 } else { 3 };
-        let wgsl = many_light::source(0.25, 3, triangles);
+        let wgsl = many_light::source(triangles);
         all.push(one(&name, dims, wgsl, many_light::layout_entries()));
     }
     for case in 0..=5 {
@@ -420,7 +420,7 @@ fn mirrors() -> BTreeMap<(&'static str, &'static str), Layout> {
         ((lights, "AliasEntry"), host!(AliasEntry { q, alias })),
         ((lights, "LightParams"), host!(LightParams {
             count, kind, levels, leaf_count, node_count, cut_size, block_size, blocks_per_row,
-            alias_count, interleave, frame, _pad,
+            alias_count, interleave, frame, time,
         })),
         (("lights/tree_bindings.wgsl", "BuildParams"), host!(BuildParams {
             n, leaf_count, zero, src_level, levels_up, _pad,

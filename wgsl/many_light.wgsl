@@ -4,11 +4,12 @@
 // ML_TRIANGLES = 1). One shadow ray; the estimate is
 //   L_e(x) + ρ(x)/π · C(y) · cosθ_x · V(x, y) / pmf(light),
 // C = I/d² (point) or L_e·cosθ_y·area/d² (one-sided triangle).
-// Constants from Rust: ML_TIME_BITS (frame time, f32 bits), ML_FRAME,
-// ML_TRIANGLES.
+// Constant from Rust: ML_TRIANGLES. The frame time and number are
+// uniforms (light_params.time, light_params.frame): a new frame compiles
+// no new shader.
 
 fn ml_time() -> f32 {
-    return bitcast<f32>(ML_TIME_BITS);
+    return light_params.time;
 }
 
 // The film pixel holding film point `film`, clamped to the film.

@@ -18,7 +18,7 @@ fn select_cuts(@builtin(global_invocation_id) gid: vec3<u32>,
     let size = vec2<u32>(scene.film_size);
     let origin_px = vec2<u32>(block % light_params.blocks_per_row, block / light_params.blocks_per_row) * k;
     let extent = min(vec2<u32>(k), size - origin_px);
-    let h = hash3(block, ML_FRAME, 0x6c69u);
+    let h = hash3(block, light_params.frame, 0x6c69u);
     let px = origin_px + vec2<u32>(h % extent.x, (h / extent.x) % extent.y);
 
     var cut: array<u32, MAX_CUT>;

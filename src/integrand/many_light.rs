@@ -59,7 +59,6 @@ const CUT_WG: u32 = 64;
 pub struct ManyLight {
     scene: Arc<GpuScene>,
     film: Film,
-    spec: ManyLightSpec,
     kind: SamplerKind,
     light_count: u32,
     triangles: bool,
@@ -71,15 +70,13 @@ pub struct ManyLight {
     _tree: Option<GpuLightTree>,
 }
 
-/// The integrand's WGSL at frame time `time` and frame number `frame`,
-/// with or without emissive triangles (dimensions 3–4). The sampler kind
-/// is a uniform (`LightParams::kind`), so one source serves every kind.
+/// The integrand's WGSL, with or without emissive triangles (dimensions
+/// 3–4). The sampler kind, the frame time and the frame number are
+/// uniforms (`LightParams`), so one source serves every kind and frame.
 /// Device-free, see [`super::path::source`].
-pub fn source(time: f32, frame: u32, triangles: bool) -> Wgsl {
+pub fn source(triangles: bool) -> Wgsl {
     scene_wgsl()
         .include(&GpuSamplerData::wgsl())
-        .constant("ML_TIME_BITS", time.to_bits())
-        .constant("ML_FRAME", frame)
         .constant("ML_TRIANGLES", triangles as u32)
         .part(wgsl_file!("many_light.wgsl"))
 }
@@ -127,7 +124,7 @@ impl ManyLight {
         let mut profiler = Profiler::new(gpu);
         let mut cpu_build_ms = None;
 
-        let (sampler, tree) = gpu.scoped("many_light set-up", || {
+        let (mut sampler, tree) = gpu.scoped("many_light set-up", || {
             let mut tree = None;
             let sampler = if kind.uses_perfect_tree() && n > 0 {
                 // The tree is built from the sampler's own copy of the
@@ -156,6 +153,7 @@ impl ManyLight {
             };
             Ok((sampler, tree))
         })?;
+        sampler.set_time(gpu, spec.time);
 
         let layout = gpu
             .device
@@ -176,7 +174,6 @@ impl ManyLight {
         let this = ManyLight {
             scene: gpu_scene,
             film,
-            spec: spec.clone(),
             kind,
             light_count: n,
             triangles,
@@ -283,7 +280,7 @@ impl Integrand for ManyLight {
     }
 
     fn wgsl(&self) -> Wgsl {
-        source(self.spec.time, self.spec.frame, self.triangles)
+        source(self.triangles)
     }
 
     fn layout(&self) -> &wgpu::BindGroupLayout {

@@ -35,7 +35,7 @@ pub const FIRST_BINDING: u32 = 16;
 /// `light_params` (binding 21), mirrored by `LightParams` in
 /// `wgsl/lights/bindings.wgsl`.
 #[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct LightParams {
     /// N.
     pub count: u32,
@@ -53,9 +53,12 @@ pub struct LightParams {
     pub alias_count: u32,
     /// Interleaved sampling (paper §3.4): sub-block side m (1 = off).
     pub interleave: u32,
-    /// Frame number: rotates the sub-block assignment, p = (i + frame) mod m².
+    /// Frame number: rotates the sub-block assignment, p = (i + frame) mod m²,
+    /// and the cut pre-pass's representative pixels.
     pub frame: u32,
-    pub _pad: u32,
+    /// Frame time in scene time units (shading and shadow rays are traced
+    /// at it); a uniform, so a new frame time compiles no new shader.
+    pub time: f32,
 }
 
 /// How the film is tiled into cut-sharing blocks (§3.3).
@@ -268,6 +271,13 @@ impl GpuSamplerData {
             cuts: gpu.buffer_from(&label("cuts"), &cut_entries, STORAGE)?,
             uniform: gpu.uniform(&label("params"), &params),
         })
+    }
+
+    /// Sets the frame time the kernels read from `light_params.time`.
+    pub fn set_time(&mut self, gpu: &Gpu, time: f32) {
+        self.params.time = time;
+        gpu.queue
+            .write_buffer(&self.uniform, 0, bytemuck::bytes_of(&self.params));
     }
 
     /// Uploads cuts: `cut_size` node indices per block (`NO_LIGHT`-padded),

@@ -43,7 +43,8 @@ struct LightParams {
     // Interleaved sampling (§3.4): sub-block side m (1 = off), frame number.
     interleave: u32,
     frame: u32,
-    _pad0: u32,
+    // Frame time (scene time units).
+    time: f32,
 }
 
 @group(1) @binding(16) var<storage, read> light_nodes: array<TreeNode>;
