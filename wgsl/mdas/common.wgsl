@@ -2,7 +2,8 @@
 // src/integrator/mdas/mod.rs documents the layout and generates the
 // constants used here: DIMS, BITS_PER_DIM, EXTRA_BITS, SAMPLES_PER_CELL,
 // MAX_PER_LEAF, CANDIDATES, COORD_WORDS, SAMPLE_STRIDE, LEAF_STRIDE, WG,
-// STATS_PER_INVOCATION, PIXELS_PER_PASS and
+// STATS_PER_INVOCATION, PIXELS_PER_PASS, the leaf header's NIL,
+// COUNT_SHIFT, COLLAPSED_BIT and DIRTY (src/integrator/mdas/words.rs) and
 // the indices C_* (counters) and S_* (state). Needs shared/rng.wgsl and shared/morton.wgsl.
 //
 // The iteration state (leaf and sample counts, iteration number, the
@@ -12,7 +13,7 @@
 // iterations in one submission and never waits inside the loop.
 //
 // leaves[k·LEAF_STRIDE + …] (LEAF_STRIDE = 3): 0 Morton cell, 1 header
-// (head sample | count << 27 | collapsed << 31), 2 error bits (DIRTY =
+// (head sample | count << COUNT_SHIFT | collapsed << 31), 2 error bits (DIRTY =
 // recompute). boxes[k·DIMS + a]: the box along axis a (lo | hi << 16,
 // inclusive quanta of the cell, 2^16 each). Two buffers so that neither
 // binding outgrows 128 MiB as soon as the samples' values do.
@@ -53,10 +54,6 @@ struct Params {
 @group(0) @binding(7) var<storage, read_write> boxes: array<u32>;
 @group(0) @binding(8) var<storage, read_write> state: array<u32>;
 
-const NIL: u32 = 0x7ffffffu;
-const DIRTY: u32 = 0xffffffffu;
-const COUNT_SHIFT: u32 = 27u;
-const COLLAPSED_BIT: u32 = 0x80000000u;
 const QUANTUM_BITS: u32 = 16u;
 
 // counters[C_*]: words updated with atomics by many invocations;

@@ -58,12 +58,12 @@ impl Default for MdasParams {
 
 /// Sample indices live in 27 bits of a leaf header (the rest: a 4-bit
 /// count and the collapsed flag), and 0x7ffffff marks the end of a list.
-pub const SAMPLE_LIMIT: u64 = (1 << 27) - 1;
+pub const SAMPLE_LIMIT: u64 = super::words::leaf::NIL as u64;
 /// Widest Morton code: every cell is a leaf and holds at least one sample.
 pub const MORTON_BITS_MAX: u32 = 27;
 /// A leaf's count has 4 bits and may reach m + 1 after the trimmed last
 /// iteration.
-pub const MAX_SAMPLES_PER_LEAF: u32 = 14;
+pub const MAX_SAMPLES_PER_LEAF: u32 = super::words::leaf::COUNT_MASK - 1;
 pub const MAX_CANDIDATES: u32 = 64;
 pub const MAX_ALPHA: f32 = 64.0;
 /// Pixels one reconstruction invocation splats per dispatch.
@@ -341,6 +341,9 @@ impl Config {
         let counters = indices.fold(Wgsl::new(), |w, &(name, index)| {
             w.constant(name, index as u32)
         });
+        let counters = super::words::leaf::ALL
+            .iter()
+            .fold(counters, |w, &(name, value)| w.constant(name, value));
         counters
             .constant("DIMS", self.dims)
             .constant("BITS_PER_DIM", self.params.bits_per_dim)

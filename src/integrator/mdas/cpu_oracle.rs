@@ -5,7 +5,8 @@
 //! and E_max from the snapshot drive the decisions; [`leaf_error`]
 //! recomputes them independently for comparison.
 
-use super::debug::{Snapshot, DIRTY, NIL};
+use super::debug::Snapshot;
+use super::words::leaf::{self, COLLAPSED_BIT, DIRTY, NIL};
 
 pub fn hash_u32(mut x: u32) -> u32 {
     x ^= x >> 16;
@@ -222,7 +223,7 @@ pub fn step(before: &Snapshot) -> Predicted {
         let base = k * ls;
         let h = leaves[base + 1];
         if d.collapse {
-            leaves[base + 1] = h | 0x8000_0000;
+            leaves[base + 1] = h | COLLAPSED_BIT;
         }
         if !d.selected {
             continue;
@@ -249,10 +250,10 @@ pub fn step(before: &Snapshot) -> Predicted {
         }
         samples[slot as usize * ss..][..ss].copy_from_slice(&words);
         let head = h & NIL;
-        let count = (h >> 27) & 15;
+        let count = leaf::count(h);
         if !d.split || truncate {
             next[slot as usize] = head;
-            leaves[base + 1] = slot | ((count + 1) << 27);
+            leaves[base + 1] = leaf::header(slot, count + 1);
             continue;
         }
         // Relink exactly as the kernel does (new sample first, then the list).
@@ -284,9 +285,9 @@ pub fn step(before: &Snapshot) -> Predicted {
         let (lo, hi) = (word & 0xffff, (word >> 16) + 1);
         leaves[base + 3 + d.axis as usize] = lo | ((d.plane - 1) << 16);
         leaves[right * ls + 3 + d.axis as usize] = d.plane | ((hi - 1) << 16);
-        leaves[base + 1] = lh | (lc << 27);
+        leaves[base + 1] = leaf::header(lh, lc);
         leaves[right * ls] = leaves[base];
-        leaves[right * ls + 1] = rh | (rc << 27);
+        leaves[right * ls + 1] = leaf::header(rh, rc);
         leaves[right * ls + 2] = DIRTY;
     }
     Predicted {

@@ -5,8 +5,8 @@
 use super::MdasParams;
 use crate::film::Film;
 
-pub const NIL: u32 = 0x7ff_ffff;
-pub const DIRTY: u32 = u32::MAX;
+use super::words::leaf::{self, COLLAPSED_BIT};
+pub use super::words::leaf::{DIRTY, NIL};
 
 /// The state after an error pass (errors current, `emax_bits` set), or
 /// after the last iteration (`is_final`: errors of changed leaves DIRTY).
@@ -58,8 +58,8 @@ impl Snapshot {
         Leaf {
             cell: w[0],
             head: w[1] & NIL,
-            count: (w[1] >> 27) & 15,
-            collapsed: w[1] >> 31 != 0,
+            count: leaf::count(w[1]),
+            collapsed: w[1] & COLLAPSED_BIT != 0,
             error_bits: w[2],
             bounds: (0..self.dims as usize)
                 .map(|a| (w[3 + a] & 0xffff, (w[3 + a] >> 16) + 1))

@@ -57,3 +57,37 @@ pub(crate) mod state {
     }
     pub const LEN: usize = 16;
 }
+
+/// The leaf record's header word, `head | count << COUNT_SHIFT |
+/// collapsed << 31`, and the error word's DIRTY mark: one definition,
+/// generated into every kernel ([`super::config::Config::constants`]) and
+/// used by the CPU oracle and the snapshot reader.
+pub mod leaf {
+    /// Bits of the head sample index; all ones ends a sample list.
+    pub const NIL: u32 = (1 << 27) - 1;
+    /// The leaf's sample count sits above the head index.
+    pub const COUNT_SHIFT: u32 = 27;
+    /// Four bits of count: up to m + 1 = 15 after the trimmed last iteration.
+    pub const COUNT_MASK: u32 = 15;
+    pub const COLLAPSED_BIT: u32 = 1 << 31;
+    /// The error word of a leaf whose error must be recomputed.
+    pub const DIRTY: u32 = u32::MAX;
+
+    /// The header of a leaf whose list starts at `head` with `count` samples.
+    pub const fn header(head: u32, count: u32) -> u32 {
+        head | (count << COUNT_SHIFT)
+    }
+
+    /// The sample count of a header.
+    pub const fn count(header: u32) -> u32 {
+        (header >> COUNT_SHIFT) & COUNT_MASK
+    }
+
+    /// WGSL names and values.
+    pub const ALL: &[(&str, u32)] = &[
+        ("NIL", NIL),
+        ("COUNT_SHIFT", COUNT_SHIFT),
+        ("COLLAPSED_BIT", COLLAPSED_BIT),
+        ("DIRTY", DIRTY),
+    ];
+}
