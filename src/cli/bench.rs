@@ -1,0 +1,55 @@
+//! `mdas bench`: MDAS against Halton at equal samples, phase by phase.
+
+use super::*;
+
+#[derive(clap::Args)]
+pub(crate) struct BenchArgs {
+    /// Scene files (TOML).
+    #[arg(required = true)]
+    pub(crate) scenes: Vec<PathBuf>,
+    /// Render at this fraction of each scene's film size.
+    #[arg(long, default_value_t = 0.25)]
+    pub(crate) scale: f32,
+    /// Samples per pixel for both methods (default: the scene's [mdas]
+    /// spp, which must then be a whole number).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    pub(crate) spp: Option<u32>,
+    /// Timed rounds (one MDAS and one Halton render each) after the warm-up.
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..))]
+    pub(crate) repeats: u32,
+    /// Also write the figures as JSON to this file.
+    #[arg(long)]
+    pub(crate) json: Option<PathBuf>,
+}
+
+pub(crate) fn run(args: BenchArgs) -> Result<()> {
+    let BenchArgs {
+        scenes,
+        scale,
+        spp,
+        repeats,
+        json,
+    } = args;
+    if let Some(path) = &json {
+        ensure_parent(path)?;
+    }
+    let gpu = Gpu::shared()?;
+    eprintln!("adapter {}", gpu.info.name);
+    let mut rows = Vec::new();
+    for scene in &scenes {
+        eprintln!(
+            "{}: warm-up, then {repeats} interleaved rounds",
+            scene.display()
+        );
+        rows.push(mdas::compare::phases::bench_scene(
+            gpu, scene, scale, spp, repeats,
+        )?);
+    }
+    print!("{}", mdas::compare::phases::table(&rows));
+    if let Some(path) = &json {
+        let text = serde_json::to_string_pretty(&rows)?;
+        image_io::write_atomic(path, |tmp| Ok(std::fs::write(tmp, &text)?))?;
+        eprintln!("wrote {}", path.display());
+    }
+    Ok(())
+}

@@ -1,0 +1,86 @@
+//! `mdas compare`: MDAS against Halton at equal time (or light samplers
+//! against each other with `--samplers`).
+
+use super::*;
+
+#[derive(clap::Args)]
+pub(crate) struct CompareArgs {
+    /// Scene file (TOML).
+    pub(crate) scene: PathBuf,
+    /// MDAS samples per pixel (average, may be fractional; default: the
+    /// scene's [mdas] spp). Its measured time is the equal-time target.
+    #[arg(long, conflicts_with = "time_ms")]
+    pub(crate) spp: Option<f32>,
+    /// Instead of MDAS's time at --spp, give both methods (with
+    /// --samplers: every method) this budget (milliseconds; every spp
+    /// is searched).
+    #[arg(long)]
+    pub(crate) time_ms: Option<f64>,
+    /// Light sampler of the compared renders of a many_light scene,
+    /// overriding its [integrand] sampler (an error for other
+    /// integrands); the reference keeps the scene's own.
+    #[arg(long, value_name = "NAME", conflicts_with = "samplers")]
+    pub(crate) sampler: Option<SamplerKind>,
+    /// Compare these light samplers (comma-separated: uniform, power,
+    /// tree_nocut, tree, unbalanced, unbalanced_nocut) under Halton at
+    /// equal time; MDAS with `tree` sets the target (or --time-ms). The
+    /// scene's integrand must be many_light.
+    #[arg(long, value_name = "NAMES", value_delimiter = ',')]
+    pub(crate) samplers: Option<Vec<SamplerKind>>,
+    #[command(flatten)]
+    pub(crate) common: ExperimentArgs,
+    /// Also print report.json to stdout (the table goes to stderr).
+    #[arg(long)]
+    pub(crate) json: bool,
+}
+
+pub(crate) fn run(args: CompareArgs) -> Result<()> {
+    let CompareArgs {
+        scene,
+        spp,
+        time_ms,
+        sampler,
+        samplers,
+        common,
+        json,
+    } = args;
+    let out = common
+        .out
+        .clone()
+        .unwrap_or_else(|| default_dir(&scene, "compare"));
+    let mdas_params = |p: MdasParams| common.mdas.params(p, common.scale, spp, common.seed);
+    let setup = common.setup(scene, out.clone(), &mdas_params);
+    let budget = time_ms.map_or(
+        mdas::compare::Budget::MdasSpp,
+        mdas::compare::Budget::TimeMs,
+    );
+    let report = match samplers {
+        Some(samplers) => mdas::compare::compare_samplers(
+            Gpu::shared()?,
+            &mdas::compare::SamplersSpec {
+                setup,
+                budget,
+                max_spp: common.max_spp,
+                samplers,
+            },
+        )?,
+        None => mdas::compare::compare_with(
+            Gpu::shared()?,
+            &mdas::compare::CompareSpec {
+                setup,
+                budget,
+                max_spp: common.max_spp,
+            },
+            IntegrandOverrides { sampler },
+        )?,
+    };
+    let table = mdas::compare::report::table(&report);
+    if json {
+        eprint!("{table}");
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    } else {
+        print!("{table}");
+        println!("wrote {} files to {}", report.files.len(), out.display());
+    }
+    Ok(())
+}

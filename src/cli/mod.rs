@@ -1,0 +1,221 @@
+//! The command line: clap types shared by the subcommands, one module per
+//! subcommand (its arguments and its `run`), and small helpers for output
+//! paths. `main.rs` only parses and dispatches.
+
+pub(crate) mod bench;
+pub(crate) mod compare;
+pub(crate) mod reference;
+pub(crate) mod render;
+pub(crate) mod sweep;
+
+pub(crate) use anyhow::{bail, Result};
+pub(crate) use clap::{Parser, Subcommand, ValueEnum};
+pub(crate) use indicatif::{ProgressBar, ProgressStyle};
+pub(crate) use mdas::app::{self, IntegrandOverrides, ReferenceSpec};
+pub(crate) use mdas::gpu::Gpu;
+pub(crate) use mdas::integrator::mdas::MdasParams;
+pub(crate) use mdas::integrator::{Halton, Integrator, Mdas, Render};
+pub(crate) use mdas::lights::sampler::SamplerKind;
+pub(crate) use mdas::{image_io, metrics};
+pub(crate) use std::path::{Path, PathBuf};
+
+#[derive(Parser)]
+#[command(
+    name = "mdas",
+    version,
+    about = "GPU multidimensional adaptive sampling and Halton QMC renderer (wgpu/WGSL)",
+    long_about = "Renders TOML scenes by Monte Carlo integration on the GPU (any wgpu adapter: a \
+                  real GPU, or Mesa's lavapipe CPU driver) and measures error against references.\n\n\
+                  Conventions (shared/DESIGN.md): a pixel's value is the mean radiance over its \
+                  footprint; images are linear RGB in EXR (a sRGB PNG is written beside for eyes); \
+                  RelMSE = mean over pixels and channels of (x − ref)² / (ref² + 0.01).\n\n\
+                  Environment: MDAS_ADAPTER=<substring> picks an adapter by name; WGPU_BACKEND \
+                  restricts backends (e.g. vulkan)."
+)]
+pub(crate) struct Cli {
+    #[command(subcommand)]
+    pub(crate) command: Command,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, ValueEnum)]
+pub(crate) enum IntegratorKind {
+    /// Halton quasi-Monte Carlo with per-pixel Cranley–Patterson shifts.
+    Halton,
+    /// Multidimensional adaptive sampling (parameters from the scene's [mdas] table).
+    Mdas,
+}
+
+impl IntegratorKind {
+    pub(crate) fn name(self) -> &'static str {
+        match self {
+            IntegratorKind::Halton => "halton",
+            IntegratorKind::Mdas => "mdas",
+        }
+    }
+}
+
+/// Overrides of the scene's `[mdas]` table (MDAS paper §5.1).
+#[derive(clap::Args, Debug, Default)]
+pub(crate) struct MdasArgs {
+    /// MDAS: Morton bits per dimension of the initial grid (b).
+    #[arg(long)]
+    pub(crate) bits_per_dim: Option<u32>,
+    /// MDAS: extra Morton bits of the two film axes (e). Without it, the
+    /// scene's e is lowered by round(log2(1/F)) at --scale F.
+    #[arg(long)]
+    pub(crate) extra_image_bits: Option<u32>,
+    /// MDAS: samples per initial grid cell (l).
+    #[arg(long)]
+    pub(crate) initial_samples_per_cell: Option<u32>,
+    /// MDAS: scale sf of the film axes in the sampling domain (not the film --scale).
+    #[arg(long)]
+    pub(crate) scale_factor: Option<f32>,
+    /// MDAS: exponent α of the stochastic leaf selection (E/E_max)^α ≥ ξ.
+    #[arg(long)]
+    pub(crate) alpha: Option<f32>,
+    /// MDAS: best-candidate tries per inserted sample.
+    #[arg(long)]
+    pub(crate) candidates: Option<u32>,
+    /// MDAS: samples a leaf holds before it splits.
+    #[arg(long)]
+    pub(crate) max_samples_per_leaf: Option<u32>,
+}
+
+impl MdasArgs {
+    /// The scene's parameters (adjusted for `scale`) with the flags applied.
+    pub(crate) fn params(
+        &self,
+        scene: MdasParams,
+        scale: f32,
+        spp: Option<f32>,
+        seed: Option<u32>,
+    ) -> MdasParams {
+        let p = app::mdas_params_at_scale(scene, scale);
+        MdasParams {
+            bits_per_dim: self.bits_per_dim.unwrap_or(p.bits_per_dim),
+            extra_image_bits: self.extra_image_bits.unwrap_or(p.extra_image_bits),
+            initial_samples_per_cell: self
+                .initial_samples_per_cell
+                .unwrap_or(p.initial_samples_per_cell),
+            scale_factor: self.scale_factor.unwrap_or(p.scale_factor),
+            alpha: self.alpha.unwrap_or(p.alpha),
+            candidates: self.candidates.unwrap_or(p.candidates),
+            max_samples_per_leaf: self.max_samples_per_leaf.unwrap_or(p.max_samples_per_leaf),
+            spp: spp.unwrap_or(p.spp),
+            seed: seed.unwrap_or(p.seed),
+        }
+    }
+}
+
+#[derive(Subcommand)]
+pub(crate) enum Command {
+    /// Render a scene and write OUT.exr (linear) and OUT.png (sRGB).
+    Render(render::RenderArgs),
+    /// Render (or fetch from the cache) a high-spp Halton reference image.
+    Reference(reference::ReferenceArgs),
+    /// MDAS against Halton at equal time: images, RelMSE heat maps, MDAS
+    /// sample density and report.json in --out (DESIGN.md "Equal time").
+    /// With --samplers: light samplers of a many_light scene against each
+    /// other under Halton at MDAS+tree's time (halton-<sampler> and
+    /// mdas-tree images, RelMSE heat maps, report.json).
+    Compare(compare::CompareArgs),
+    /// RelMSE against time for MDAS and Halton over a range of budgets:
+    /// sweep.csv and a log-log plot, sweep.svg and sweep.png, in --out.
+    Sweep(sweep::SweepArgs),
+    /// Time MDAS against Halton at the same sample count, phase by phase:
+    /// one warm-up render each, then interleaved rounds; medians of GPU
+    /// time per phase and of the wall clock (a Markdown table on stdout).
+    Bench(bench::BenchArgs),
+    /// Print the GPU adapter, backend, features in use and key limits.
+    Info,
+}
+
+/// Options shared by `compare` and `sweep`.
+#[derive(clap::Args, Debug)]
+pub(crate) struct ExperimentArgs {
+    /// Render at this fraction of the scene's film size (same camera);
+    /// the reference uses the same scale.
+    #[arg(long, default_value_t = 1.0)]
+    pub(crate) scale: f32,
+    /// Samples per pixel of the Halton reference.
+    #[arg(long, default_value_t = 65536, value_parser = clap::value_parser!(u32).range(1..))]
+    pub(crate) ref_spp: u32,
+    /// Seed of the reference (differs from the compared Halton's by default,
+    /// so their errors are independent).
+    #[arg(long, default_value_t = 1)]
+    pub(crate) ref_seed: u32,
+    /// Reference cache directory (as `mdas reference --cache`).
+    #[arg(long, default_value = ".cache/references")]
+    pub(crate) cache: PathBuf,
+    /// Seed of the compared renders (default: 0 for Halton, the scene's
+    /// [mdas] seed for MDAS).
+    #[arg(long)]
+    pub(crate) seed: Option<u32>,
+    /// Timed runs per measurement, after one warm-up; times are medians.
+    #[arg(long, default_value_t = 3)]
+    pub(crate) repeats: u32,
+    /// Largest spp a budget search may try.
+    #[arg(long, default_value_t = 65536)]
+    pub(crate) max_spp: u32,
+    /// Output directory. Default: out/compare-<scene> (sweep: out/sweep-<scene>).
+    #[arg(long)]
+    pub(crate) out: Option<PathBuf>,
+    #[command(flatten)]
+    pub(crate) mdas: MdasArgs,
+}
+
+impl ExperimentArgs {
+    /// The shared inputs of `compare` and `sweep`.
+    pub(crate) fn setup<'a>(
+        &self,
+        scene: PathBuf,
+        out: PathBuf,
+        mdas_params: &'a dyn Fn(MdasParams) -> MdasParams,
+    ) -> mdas::compare::Setup<'a> {
+        mdas::compare::Setup {
+            scene,
+            scale: self.scale,
+            ref_spp: self.ref_spp,
+            ref_seed: self.ref_seed,
+            cache_dir: self.cache.clone(),
+            halton_seed: self.seed.unwrap_or(0),
+            repeats: self.repeats,
+            out,
+            progress: true,
+            mdas_params,
+        }
+    }
+}
+
+pub(crate) fn default_dir(scene: &Path, what: &str) -> PathBuf {
+    let stem = scene
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or("scene");
+    PathBuf::from("out").join(format!("{what}-{stem}"))
+}
+
+pub(crate) fn default_output(scene: &Path, integrator: &str) -> PathBuf {
+    let stem = scene
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or("render");
+    PathBuf::from("out").join(format!("{stem}-{integrator}.exr"))
+}
+
+/// An output must be an `.exr` path whose directory exists or can be made.
+pub(crate) fn check_output(path: &Path) -> Result<()> {
+    app::check_exr_path(path)?;
+    ensure_parent(path)
+}
+
+pub(crate) fn ensure_parent(path: &Path) -> Result<()> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        if !dir.exists() {
+            std::fs::create_dir_all(dir).map_err(|e| {
+                anyhow::anyhow!("cannot create output directory {}: {e}", dir.display())
+            })?;
+        }
+    }
+    Ok(())
+}
