@@ -5,8 +5,8 @@
 mod common;
 
 use mdas::gpu::buffer::STORAGE;
+use mdas::gpu::radix_sort::RadixSort;
 use mdas::gpu::Gpu;
-use mdas::lights::radix_sort::RadixSort;
 use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
 

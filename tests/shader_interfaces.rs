@@ -37,6 +37,7 @@ use mdas::accel::{
     SceneUniforms, TraceKernel,
 };
 use mdas::film::Film;
+use mdas::gpu::radix_sort;
 use mdas::gpu::shader::Wgsl;
 use mdas::integrand::{
     ambient_occlusion, area_light, depth_of_field, many_light, motion_blur, path,
@@ -47,7 +48,7 @@ use mdas::integrator::mdas::{
     adapt, config::Config, error, evaluate, gpu_params, initial, plan, reconstruct, scan, stats,
 };
 use mdas::lights::gpu_build::{BuildParams, GpuLightTree};
-use mdas::lights::{alias::AliasEntry, gpu_sampler::LightParams, radix_sort, LightPrim, TreeNode};
+use mdas::lights::{alias::AliasEntry, gpu_sampler::LightParams, LightPrim, TreeNode};
 use mdas::wgsl_file;
 use naga::valid::{Capabilities, ModuleInfo, ValidationFlags, Validator};
 use naga::{AddressSpace, Handle, Module, SourceLocation, Type};
@@ -425,7 +426,7 @@ fn mirrors() -> BTreeMap<(&'static str, &'static str), Layout> {
         (("lights/tree_bindings.wgsl", "BuildParams"), host!(BuildParams {
             n, leaf_count, zero, src_level, levels_up, _pad,
         })),
-        (("lights/radix_sort.wgsl", "Params"), host!(radix_sort::Params {
+        (("gpu/radix_sort.wgsl", "Params"), host!(radix_sort::Params {
             n, shift, mask, tiles, groups_x, _pad,
         })),
     ])

@@ -16,9 +16,16 @@
 //! Every piece of GPU work that can fail validation runs inside
 //! [`Gpu::scoped`], which turns a wgpu validation, out-of-memory or internal
 //! error into a Rust error instead of a zeroed read-back.
+//!
+//! Beside the runtime: [`buffer`] (uploads and read-backs), [`shader`]
+//! (WGSL assembly, layout entries), [`profiler`] (timestamps) and
+//! [`radix_sort`], the one general-purpose kernel (a stable key-value sort
+//! the light tree uses; MDAS's scan is specific to its allocation and
+//! stays with it).
 
 pub mod buffer;
 pub mod profiler;
+pub mod radix_sort;
 pub mod shader;
 
 use anyhow::{anyhow, bail, Context, Result};

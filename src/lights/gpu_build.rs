@@ -12,7 +12,7 @@
 //! |---|---|---|
 //! | `light_tree.bounds` | `wgsl/lights/bounds.wgsl` | global centroid bounds: per-workgroup min/max, then one `atomicMax` per axis on order-preserving bits |
 //! | `light_tree.morton` | `wgsl/lights/morton.wgsl` | 30-bit Morton code of every centroid (the exact rule of [`super::morton`]), light ids as values |
-//! | `light_tree.sort` | `wgsl/lights/radix_sort.wgsl` | stable radix sort of (code, id) over 30 bits ([`RadixSort`]) |
+//! | `light_tree.sort` | `wgsl/gpu/radix_sort.wgsl` | stable radix sort of (code, id) over 30 bits ([`RadixSort`]) |
 //! | `light_tree.leaves` | `wgsl/lights/tree_build.wgsl` `leaves` | leaf slot `s < N` = leaf of light `sorted[s]`, slots `N..P` bogus ([`TreeNode::EMPTY`]), `leaf_of_light[sorted[s]] = s` |
 //! | `light_tree.internal` | `wgsl/lights/tree_build.wgsl` `internal` | levels bottom-up, up to 7 per dispatch from one source level |
 //!
@@ -70,10 +70,10 @@
 //! (commutative), the sort is reduce-then-scan without spin-waits, and every
 //! other write goes to a position computed from the input alone.
 
-use super::radix_sort::RadixSort;
 use super::{luminance, LightPrim, TreeNode, KIND_TRIANGLE, NO_LIGHT};
 use crate::gpu::buffer::STORAGE;
 use crate::gpu::profiler::PhaseTimes;
+use crate::gpu::radix_sort::RadixSort;
 use crate::gpu::shader::{storage_entry, uniform_entry, Wgsl};
 use crate::gpu::{Gpu, Profiler};
 use crate::wgsl_file;

@@ -50,7 +50,6 @@ pub mod gpu_sampler;
 pub mod importance;
 pub mod morton;
 pub mod perfect;
-pub mod radix_sort;
 pub mod sampler;
 pub mod scene_lights;
 

@@ -1,5 +1,5 @@
 //! Stable GPU LSD radix sort of `(u32 key, u32 value)` pairs:
-//! `wgsl/lights/radix_sort.wgsl`. The light tree sorts its lights by
+//! `wgsl/gpu/radix_sort.wgsl`. The light tree sorts its lights by
 //! (Morton code, light id) with it (real-time stochastic lightcuts §4 uses a
 //! bitonic sort; any stable sort of the codes with the ids as values gives
 //! the same order).
@@ -43,8 +43,8 @@
 //! SCAN_WG⌉)` times per invocation (lavapipe's 65,535-iteration cap: fine
 //! for 2^31 keys). Large inputs use 2D dispatches ([`Gpu::dispatch_dims`]).
 
-use crate::gpu::shader::{storage_entry, uniform_entry, Wgsl};
-use crate::gpu::Gpu;
+use super::shader::{storage_entry, uniform_entry, Wgsl};
+use super::Gpu;
 use crate::wgsl_file;
 use anyhow::{bail, Result};
 use bytemuck::{Pod, Zeroable};
@@ -103,7 +103,7 @@ impl RadixSort {
             .constant("ITEMS", ITEMS)
             .constant("TILE", TILE)
             .constant("SCAN_WG", SCAN_WG)
-            .part(wgsl_file!("lights/radix_sort.wgsl"))
+            .part(wgsl_file!("gpu/radix_sort.wgsl"))
     }
 
     /// Their one layout: the pass's parameters, keys and values in
@@ -143,7 +143,7 @@ impl RadixSort {
                 &[&layout],
             )
         };
-        let usage = crate::gpu::buffer::STORAGE;
+        let usage = super::buffer::STORAGE;
         let bytes = 4 * capacity as u64;
         Ok(RadixSort {
             capacity,

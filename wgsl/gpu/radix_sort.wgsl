@@ -1,6 +1,6 @@
 // Stable LSD radix sort of (u32 key, u32 value) pairs, one RADIX_BITS-bit
 // digit per pass, reduce-then-scan (DESIGN.md: no decoupled look-back, no
-// spin-waits). src/lights/radix_sort.rs documents the algorithm and owns the
+// spin-waits). src/gpu/radix_sort.rs documents the algorithm and owns the
 // constants WG, ITEMS, TILE = WG·ITEMS, RADIX = 2^RADIX_BITS, SCAN_WG.
 //
 // Per pass, three entry points over the same bindings:
