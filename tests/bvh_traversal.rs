@@ -21,11 +21,13 @@
 //!
 //! The GPU tests fail, never skip, without an adapter (lavapipe is fine).
 
+mod common;
+
+use common::gpu;
 use glam::{Quat, Vec3};
 use mdas::accel::cpu::{ray_t_min, ShearedRay};
 use mdas::accel::{BuiltScene, GpuScene, HitRecord, Ray, TraceKernel, BVH_MAX_STEPS, MISS};
 use mdas::film::Film;
-use mdas::gpu::Gpu;
 use mdas::scene::shapes::{self, TriMesh};
 use mdas::scene::{Camera, Checker, Keyframe, Light, Material, Mesh, Scene};
 use rand::rngs::StdRng;
@@ -45,10 +47,6 @@ const T_TOL: f32 = 1e-4;
 /// boundary to within rounding of U, V, W (relative error ~1e-6 for well
 /// shaped triangles, larger for slivers).
 const BARY_TOL: f32 = 1e-4;
-
-fn gpu() -> &'static Gpu {
-    Gpu::shared().expect("no GPU adapter: these tests need one (Mesa lavapipe is enough)")
-}
 
 // ---------------------------------------------------------------- scenes
 
@@ -874,44 +872,6 @@ fn scene_bindings_read_back_in_wgsl() {
         assert_eq!(stored, indices.map(|i| mesh.positions[i as usize]));
     }
 
-    const DUMP: &str = r#"
-struct Query { prim: u32, time: f32 }
-@group(0) @binding(0) var<storage, read> queries: array<Query>;
-@group(0) @binding(1) var<storage, read_write> out: array<f32>;
-const HEADER: u32 = 64u;
-@compute @workgroup_size(1)
-fn dump(@builtin(workgroup_id) id: vec3<u32>) {
-  if id.x == 0u {
-    let s = scene;
-    let u = array<f32, 28>(s.cam_position.x, s.cam_position.y, s.cam_position.z, s.cam_lens_radius,
-      s.cam_forward.x, s.cam_forward.y, s.cam_forward.z, s.cam_focus_distance,
-      s.cam_right.x, s.cam_right.y, s.cam_right.z, s.cam_tan_half_fov_y,
-      s.cam_up.x, s.cam_up.y, s.cam_up.z, s.cam_aspect,
-      s.film_size.x, s.film_size.y, s.shutter.x, s.shutter.y,
-      s.background.x, s.background.y, s.background.z, bitcast<f32>(s.emitter_count),
-      bitcast<f32>(s.light_count), bitcast<f32>(s.instance_count), bitcast<f32>(s.tlas_root), bitcast<f32>(s.triangle_count));
-    for (var i = 0u; i < 28u; i++) { out[i] = u[i]; }
-    let m = materials[arrayLength(&materials) - 1u];
-    let mm = array<f32, 10>(m.albedo.x, m.albedo.y, m.albedo.z, m.checker_scale, m.emission.x, m.emission.y, m.emission.z, m.albedo2.x, m.albedo2.y, m.albedo2.z);
-    for (var i = 0u; i < 10u; i++) { out[28u + i] = mm[i]; }
-    let e = emitters[1];
-    out[38] = bitcast<f32>(e.prim); out[39] = e.cdf; out[40] = e.pmf; out[41] = e.area;
-    for (var l = 0u; l < 2u; l++) {
-      let li = lights[l];
-      out[42u + 7u * l] = bitcast<f32>(li.kind);
-      out[43u + 7u * l] = li.position.x; out[44u + 7u * l] = li.position.y; out[45u + 7u * l] = li.position.z;
-      out[46u + 7u * l] = li.intensity.x; out[47u + 7u * l] = li.intensity.y; out[48u + 7u * l] = li.intensity.z;
-    }
-  }
-  let q = queries[id.x];
-  let v = triangle_world(q.prim, q.time);
-  let base = HEADER + 10u * id.x;
-  for (var k = 0u; k < 3u; k++) {
-    out[base + 3u * k] = v[k].x; out[base + 3u * k + 1u] = v[k].y; out[base + 3u * k + 2u] = v[k].z;
-  }
-  out[base + 9u] = bitcast<f32>(triangle_material(q.prim));
-}
-"#;
     let mut rng = StdRng::seed_from_u64(8);
     let queries: Vec<[u32; 2]> = (0..256)
         .map(|_| {
@@ -921,7 +881,10 @@ fn dump(@builtin(workgroup_id) id: vec3<u32>) {
             ]
         })
         .collect();
-    let source = GpuScene::wgsl().part(("bvh_traversal_test_dump.wgsl", DUMP));
+    let source = GpuScene::wgsl().part((
+        "tests/kernels/scene_dump.wgsl",
+        include_str!("kernels/scene_dump.wgsl"),
+    ));
     let out = gpu
         .scoped("scene dump", || {
             use mdas::gpu::buffer::STORAGE;
@@ -987,55 +950,6 @@ fn dump(@builtin(workgroup_id) id: vec3<u32>) {
         }
         assert_eq!(got[9].to_bits(), built.triangle_material(q[0]));
     }
-}
-
-/// The trig-free slerp agrees with glam's slerp to ~1e-6 and keeps the
-/// shortest arc; keyframe clamping and segment choice follow the scene's
-/// definition.
-#[test]
-fn keyframe_interpolation_matches_slerp() {
-    use glam::Vec4;
-    use mdas::scene::motion::{quat_slerp, transform_at};
-    let mut rng = StdRng::seed_from_u64(10);
-    for _ in 0..2000 {
-        let a = Quat::from_axis_angle(random_unit(&mut rng), rng.random_range(-3.1..3.1));
-        let b = Quat::from_axis_angle(random_unit(&mut rng), rng.random_range(-3.1..3.1));
-        let s = rng.random::<f32>();
-        let ours = quat_slerp(Vec4::from(a), Vec4::from(b), s);
-        let glam = Vec4::from(a.slerp(b, s));
-        assert!(
-            ours.dot(glam).abs() > 1.0 - 1e-6,
-            "slerp({a}, {b}, {s}) = {ours} vs glam {glam}"
-        );
-    }
-    let keys = vec![
-        Keyframe {
-            time: 0.2,
-            translation: Vec3::X,
-            rotation: Quat::IDENTITY,
-        },
-        Keyframe {
-            time: 0.5,
-            translation: Vec3::Y,
-            rotation: Quat::from_rotation_z(1.0),
-        },
-        Keyframe {
-            time: 0.6,
-            translation: Vec3::Z,
-            rotation: Quat::from_rotation_z(2.0),
-        },
-    ];
-    assert_eq!(transform_at(&keys, -1.0).translation, Vec3::X);
-    assert_eq!(transform_at(&keys, 5.0).translation, Vec3::Z);
-    let mid = transform_at(&keys, 0.35);
-    assert!((mid.translation - Vec3::new(0.5, 0.5, 0.0)).length() < 1e-6);
-    assert!(
-        (mid.apply_vector(Vec3::X) - Vec3::new(0.5f32.cos(), 0.5f32.sin(), 0.0)).length() < 1e-6
-    );
-    let late = transform_at(&keys, 0.55);
-    assert!(
-        (late.apply_vector(Vec3::X) - Vec3::new(1.5f32.cos(), 1.5f32.sin(), 0.0)).length() < 1e-6
-    );
 }
 
 /// Swept instance bounds contain the moving object at every time.
