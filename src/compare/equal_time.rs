@@ -28,11 +28,24 @@ use anyhow::{bail, Result};
 pub struct Measured {
     pub render: Render,
     pub times: PhaseTimes,
+    /// Each timed repeat's total, in run order.
+    pub repeat_ms: Vec<f64>,
 }
 
 impl Measured {
     pub fn total_ms(&self) -> f64 {
         self.times.total()
+    }
+
+    /// (max − min) / median of the repeats' totals: 0 for one repeat.
+    pub fn spread(&self) -> f64 {
+        let lo = self.repeat_ms.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = self.repeat_ms.iter().copied().fold(0.0, f64::max);
+        if self.repeat_ms.len() < 2 || self.total_ms() <= 0.0 {
+            0.0
+        } else {
+            (hi - lo) / self.total_ms()
+        }
     }
 }
 
@@ -71,7 +84,12 @@ pub fn measure(
         runs.push(render.times.clone());
     }
     let times = median_times(&runs);
-    Ok(Measured { render, times })
+    let repeat_ms = runs.iter().map(PhaseTimes::total).collect();
+    Ok(Measured {
+        render,
+        times,
+        repeat_ms,
+    })
 }
 
 /// One run of an equal-time search (Halton's, or any method's through
@@ -206,6 +224,92 @@ pub fn search_equal_time(
     })
 }
 
+/// Repeat spreads above this fraction of the median are flagged: the
+/// machine was busy or the clock is coarse for such short renders.
+pub const MAX_SPREAD: f64 = 0.25;
+
+/// Halton's time as a straight line in spp, t ≈ a + b·spp, fitted by least
+/// squares to every run of a budget search (each a median over repeats),
+/// so the equal-time budget rests on all of them rather than on the two
+/// that bracket the target. Rendering time is linear in the sample count
+/// up to fixed costs, which `a` absorbs.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct TimeFit {
+    /// Fixed cost, ms.
+    pub a: f64,
+    /// Cost per spp, ms.
+    pub b: f64,
+    /// The runs it was fitted to, (spp, ms), by spp.
+    pub points: Vec<(u32, f64)>,
+    /// Largest |measured − fitted| / fitted over the points.
+    pub max_residual: f64,
+    /// What makes the fit or its runs suspect (empty when none).
+    pub flags: Vec<String>,
+}
+
+impl TimeFit {
+    /// Fits `runs` (spp, median ms, repeat spread); `None` with fewer than
+    /// two distinct spp.
+    pub fn new(runs: &[(u32, f64, f64)]) -> Option<TimeFit> {
+        let mut points: Vec<(u32, f64)> = runs.iter().map(|&(s, t, _)| (s, t)).collect();
+        points.sort_by_key(|p| p.0);
+        points.dedup_by_key(|p| p.0);
+        if points.len() < 2 {
+            return None;
+        }
+        let n = points.len() as f64;
+        let mx = points.iter().map(|p| p.0 as f64).sum::<f64>() / n;
+        let my = points.iter().map(|p| p.1).sum::<f64>() / n;
+        let sxx: f64 = points.iter().map(|p| (p.0 as f64 - mx).powi(2)).sum();
+        let sxy: f64 = points.iter().map(|p| (p.0 as f64 - mx) * (p.1 - my)).sum();
+        let b = sxy / sxx;
+        let a = my - b * mx;
+        let max_residual = points
+            .iter()
+            .map(|&(s, t)| {
+                let f = a + b * s as f64;
+                (t - f).abs() / f.abs().max(1e-12)
+            })
+            .fold(0.0, f64::max);
+        let mut flags = Vec::new();
+        if b <= 0.0 {
+            flags.push(format!(
+                "time does not grow with spp (fitted {b:.4} ms per spp)"
+            ));
+        }
+        for w in points.windows(2) {
+            if w[1].1 < w[0].1 {
+                flags.push(format!(
+                    "{} spp took {:.3} ms, less than {} spp's {:.3} ms",
+                    w[1].0, w[1].1, w[0].0, w[0].1
+                ));
+            }
+        }
+        for &(s, _, spread) in runs {
+            if spread > MAX_SPREAD {
+                flags.push(format!(
+                    "{s} spp: repeat times spread {:.0}% of their median (limit {:.0}%)",
+                    100.0 * spread,
+                    100.0 * MAX_SPREAD
+                ));
+            }
+        }
+        Some(TimeFit {
+            a,
+            b,
+            points,
+            max_residual,
+            flags,
+        })
+    }
+
+    /// The (real) spp whose fitted time is `ms`; `None` when the fit does
+    /// not grow with spp.
+    pub fn spp_at(&self, ms: f64) -> Option<f64> {
+        (self.b > 0.0).then(|| (ms - self.a) / self.b)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -231,5 +335,25 @@ mod tests {
         let m = median_times(&runs);
         assert_eq!(m.get("a"), Some(2.0));
         assert_eq!(m.get("b"), Some(20.0));
+    }
+
+    /// An injected timing table: a clean line fits exactly; a bracket whose
+    /// time falls as spp grows (56 spp 28.5 ms, 57 spp 53.7 ms reversed, as
+    /// seen in the wild) and a wide repeat spread are flagged.
+    #[test]
+    fn time_fit_and_its_flags() {
+        let clean = TimeFit::new(&[(1, 3.0, 0.01), (4, 9.0, 0.02), (8, 17.0, 0.0)]).unwrap();
+        assert!((clean.a - 1.0).abs() < 1e-12 && (clean.b - 2.0).abs() < 1e-12);
+        assert!(clean.flags.is_empty(), "{:?}", clean.flags);
+        assert!(clean.max_residual < 1e-12);
+        assert_eq!(clean.spp_at(11.0), Some(5.0));
+        let bad = TimeFit::new(&[(1, 5.0, 0.1), (56, 53.7, 0.1), (57, 28.5, 0.6)]).unwrap();
+        assert_eq!(bad.flags.len(), 2, "{:?}", bad.flags);
+        assert!(bad.flags[0].contains("57 spp took 28.500 ms, less than 56 spp"));
+        assert!(bad.flags[1].contains("57 spp: repeat times spread 60%"));
+        let flat = TimeFit::new(&[(2, 10.0, 0.0), (4, 9.0, 0.0)]).unwrap();
+        assert!(flat.flags[0].contains("does not grow"));
+        assert_eq!(flat.spp_at(10.0), None);
+        assert!(TimeFit::new(&[(3, 1.0, 0.0), (3, 2.0, 0.0)]).is_none());
     }
 }

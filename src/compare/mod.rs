@@ -12,6 +12,7 @@ pub mod phases;
 pub mod plot;
 pub mod report;
 pub mod samplers;
+pub mod seeds;
 pub mod sweep;
 
 pub use equal_time::{
