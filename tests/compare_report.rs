@@ -44,6 +44,7 @@ fn spec<'a>(
         setup: setup(scene, scale, out, params),
         budget,
         max_spp: 1 << 12,
+        seeds: 2,
     }
 }
 
@@ -137,6 +138,7 @@ fn check_report(out: &Path) -> Value {
     let eq = &json["equal_time"];
     let target = eq["target_ms"].as_f64().unwrap();
     let check_search = |s: &Value| {
+        let target = s["target_ms"].as_f64().unwrap();
         let (lo, hi) = (&s["lo"], &s["hi"]);
         let (lo_spp, hi_spp) = (lo["spp"].as_u64().unwrap(), hi["spp"].as_u64().unwrap());
         let (lo_t, hi_t) = (
@@ -166,8 +168,32 @@ fn check_report(out: &Path) -> Value {
     let mdas_relmse = eq["mdas_relmse"].as_f64().unwrap();
     match eq["mode"].as_str().unwrap() {
         "mdas" => {
-            assert_eq!(target, methods[0]["time_ms"]["total"].as_f64().unwrap());
+            // The search looked for MDAS's measured time; the target is
+            // MDAS's median over the interleaved rounds.
+            let search_target = eq["halton"]["target_ms"].as_f64().unwrap();
+            assert_eq!(
+                search_target,
+                methods[0]["time_ms"]["total"].as_f64().unwrap()
+            );
+            let mut rounds: Vec<f64> = eq["interleaved"]["mdas_ms"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|v| v.as_f64().unwrap())
+                .collect();
+            rounds.sort_by(f64::total_cmp);
+            assert!(rounds.len() >= 5 && rounds.len() % 2 == 1);
+            assert_eq!(target, rounds[rounds.len() / 2]);
             assert_eq!(mdas_relmse, methods[0]["relmse"].as_f64().unwrap());
+            // Equal samples and the ratio's interval are reported.
+            let q = &eq["equal_samples"];
+            assert!(close(
+                q["relmse_ratio"].as_f64().unwrap(),
+                q["mdas_relmse"].as_f64().unwrap() / q["halton_relmse"].as_f64().unwrap(),
+                1e-12
+            ));
+            let ci = eq["relmse_ratio_ci95"].as_array().unwrap();
+            assert!(ci[0].as_f64().unwrap() <= ci[1].as_f64().unwrap());
         }
         _ => check_search(&eq["mdas"]),
     }

@@ -390,6 +390,7 @@ fn compare_with_a_sampler_override_reports_it() {
         setup: spec(SCENE, &out, vec![], &params).setup,
         budget: Budget::MdasSpp,
         max_spp: 1 << 12,
+        seeds: 1,
     };
     let report = mdas::compare::compare_with(
         gpu(),

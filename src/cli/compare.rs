@@ -27,6 +27,13 @@ pub(crate) struct CompareArgs {
     /// scene's integrand must be many_light.
     #[arg(long, value_name = "NAMES", value_delimiter = ',')]
     pub(crate) samplers: Option<Vec<SamplerKind>>,
+    /// Seeds per method (MDAS from its seed on, Halton from --seed on,
+    /// skipping the reference's): the report gives each method's mean
+    /// RelMSE with a 95% interval, its bias and variance, and the ratio's
+    /// interval. Not with --samplers (one seed each there).
+    #[arg(long, default_value_t = 3, conflicts_with = "samplers",
+          value_parser = clap::value_parser!(u32).range(1..=64))]
+    pub(crate) seeds: u32,
     #[command(flatten)]
     pub(crate) common: ExperimentArgs,
     /// Also print report.json to stdout (the table goes to stderr).
@@ -41,6 +48,7 @@ pub(crate) fn run(args: CompareArgs) -> Result<()> {
         time_ms,
         sampler,
         samplers,
+        seeds,
         common,
         json,
     } = args;
@@ -70,6 +78,7 @@ pub(crate) fn run(args: CompareArgs) -> Result<()> {
                 setup,
                 budget,
                 max_spp: common.max_spp,
+                seeds,
             },
             IntegrandOverrides { sampler },
         )?,

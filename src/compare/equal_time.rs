@@ -228,11 +228,25 @@ pub fn search_equal_time(
 /// machine was busy or the clock is coarse for such short renders.
 pub const MAX_SPREAD: f64 = 0.25;
 
-/// Halton's time as a straight line in spp, t ≈ a + b·spp, fitted by least
-/// squares to every run of a budget search (each a median over repeats),
-/// so the equal-time budget rests on all of them rather than on the two
-/// that bracket the target. Rendering time is linear in the sample count
-/// up to fixed costs, which `a` absorbs.
+/// The median of `v` (reordered), the mean of the middle two for an even
+/// count; `v` must not be empty.
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+/// Halton's time as a straight line in spp, t ≈ a + b·spp, fitted to every
+/// run of a budget search (each a median over repeats), so the equal-time
+/// budget rests on all of them rather than on the two that bracket the
+/// target. Rendering time is linear in the sample count up to fixed costs,
+/// which `a` absorbs. The fit is Theil–Sen (b the median of the pairwise
+/// slopes, a the median of t − b·spp), which one slow run out of five (a
+/// busy CPU driver) does not move, where least squares would.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct TimeFit {
     /// Fixed cost, ms.
@@ -257,13 +271,19 @@ impl TimeFit {
         if points.len() < 2 {
             return None;
         }
-        let n = points.len() as f64;
-        let mx = points.iter().map(|p| p.0 as f64).sum::<f64>() / n;
-        let my = points.iter().map(|p| p.1).sum::<f64>() / n;
-        let sxx: f64 = points.iter().map(|p| (p.0 as f64 - mx).powi(2)).sum();
-        let sxy: f64 = points.iter().map(|p| (p.0 as f64 - mx) * (p.1 - my)).sum();
-        let b = sxy / sxx;
-        let a = my - b * mx;
+        let mut slopes = Vec::new();
+        for (i, p) in points.iter().enumerate() {
+            for q in &points[i + 1..] {
+                slopes.push((q.1 - p.1) / (q.0 as f64 - p.0 as f64));
+            }
+        }
+        let b = median(&mut slopes);
+        let a = median(
+            &mut points
+                .iter()
+                .map(|p| p.1 - b * p.0 as f64)
+                .collect::<Vec<_>>(),
+        );
         let max_residual = points
             .iter()
             .map(|&(s, t)| {
@@ -351,6 +371,20 @@ mod tests {
         assert_eq!(bad.flags.len(), 2, "{:?}", bad.flags);
         assert!(bad.flags[0].contains("57 spp took 28.500 ms, less than 56 spp"));
         assert!(bad.flags[1].contains("57 spp: repeat times spread 60%"));
+        // One slow run of five leaves the fit on the other four's line.
+        let outlier = TimeFit::new(&[
+            (1, 3.0, 0.0),
+            (2, 5.0, 0.0),
+            (4, 9.0, 0.0),
+            (5, 30.0, 0.0),
+            (8, 17.0, 0.0),
+        ])
+        .unwrap();
+        assert!(
+            (outlier.b - 2.0).abs() < 1e-12 && (outlier.a - 1.0).abs() < 1e-12,
+            "{outlier:?}"
+        );
+        assert!((outlier.max_residual - 19.0 / 11.0).abs() < 1e-12);
         let flat = TimeFit::new(&[(2, 10.0, 0.0), (4, 9.0, 0.0)]).unwrap();
         assert!(flat.flags[0].contains("does not grow"));
         assert_eq!(flat.spp_at(10.0), None);

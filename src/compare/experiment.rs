@@ -24,6 +24,7 @@
 
 use super::equal_time::{measure, search_equal_time, EqualTime, HaltonRun};
 use super::heatmap;
+use super::intervals;
 use super::report::*;
 use crate::app::{self, IntegrandOverrides, ReferenceSpec};
 use crate::gpu::profiler::Clock;
@@ -93,6 +94,8 @@ pub struct CompareSpec<'a> {
     pub budget: Budget,
     /// Upper end of the spp searches.
     pub max_spp: u32,
+    /// Seeds per method (`--seeds`, [`super::intervals`]).
+    pub seeds: u32,
 }
 
 /// The compared Halton render must not reuse the reference's random
@@ -377,6 +380,12 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
     let film = prepared.film;
     let params = (spec.setup.mdas_params)(prepared.scene.mdas);
     let min_spp = check_mdas(params, spec.budget, integrand, &spec.setup.scene)?;
+    let (mdas_seeds, halton_seeds) = intervals::seed_plan(
+        spec.seeds,
+        params.seed,
+        spec.setup.halton_seed,
+        spec.setup.ref_seed,
+    )?;
     check_out_dir(&spec.setup.out)?;
 
     // 2. Reference.
@@ -412,6 +421,107 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
         "halton",
     )?;
     let halton_main = nearer(&halton_eq).clone();
+
+    // 3b. Interleaved timing around the bracket (module docs of
+    // `intervals`): the target and Halton's time fit.
+    status.set_message("interleaved timing");
+    let mdas_at_spp = MdasParams {
+        spp: mdas_spp as f32,
+        ..params
+    };
+    let mut timed_mdas = match spec.budget {
+        Budget::MdasSpp => Some(Mdas::new(mdas_at_spp)?),
+        Budget::TimeMs(_) => None,
+    };
+    let timing = intervals::interleaved(
+        gpu,
+        timed_mdas.as_mut(),
+        spec.setup.halton_seed,
+        &intervals::budgets_around(halton_eq.hi.spp, spec.max_spp),
+        spec.setup.repeats.max(intervals::MIN_ROUNDS),
+        integrand,
+    )?;
+    let halton_fit = timing.fit();
+    let (target_ms, target_times) = match spec.budget {
+        Budget::MdasSpp => (timing.mdas_median(), timing.mdas_ms.clone()),
+        Budget::TimeMs(t) => (t, vec![t]),
+    };
+    let mut flags = Vec::new();
+    let halton_spp =
+        intervals::spp_at_target(&halton_eq, halton_fit.as_ref(), target_ms, &mut flags);
+    flags.extend(halton_fit.iter().flat_map(|f| f.flags.clone()));
+
+    // 3c. Seeds: MDAS at its run's budget, Halton at the written run's
+    // budget, at the whole spp either side of the target's and at MDAS's
+    // spp (equal samples), each over `spec.seeds` seeds.
+    status.set_message(format!("seeds ({} per method)", spec.seeds));
+    let mdas_stats = intervals::mdas_over_seeds(
+        gpu,
+        mdas_at_spp,
+        &mdas_main.measured.render.image,
+        &mdas_seeds,
+        integrand,
+        &reference,
+    )?;
+    let mut cache: BTreeMap<u32, super::seeds::SeedStats> = BTreeMap::new();
+    let mut halton_stats = |spp: u32,
+                            first: Option<&[[f32; 3]]>|
+     -> Result<super::seeds::SeedStats> {
+        if let Some(s) = cache.get(&spp) {
+            return Ok(s.clone());
+        }
+        let s =
+            intervals::halton_over_seeds(gpu, spp, first, &halton_seeds, integrand, &reference)?;
+        cache.insert(spp, s.clone());
+        Ok(s)
+    };
+    let main_stats = halton_stats(halton_main.spp, Some(&halton_main.measured.render.image))?;
+    let n0 = halton_spp.floor().max(1.0) as u32;
+    let (n0_stats, n1_stats) = (halton_stats(n0, None)?, halton_stats(n0 + 1, None)?);
+    let halton_relmse = intervals::halton_at_target(halton_spp, &n0_stats, &n1_stats);
+    let ratio_ci95 = intervals::ratio_ci95(
+        halton_fit.as_ref(),
+        halton_spp,
+        &target_times,
+        &mdas_stats,
+        &n0_stats,
+        &n1_stats,
+    );
+    let equal_spp = (mdas_spp.round() as u32).max(1);
+    let equal_stats = halton_stats(equal_spp, None)?;
+    let equal_samples = EqualSamplesReport {
+        spp: equal_spp,
+        mdas_relmse: mdas_stats.relmse,
+        mdas_relmse_ci95: mdas_stats.relmse_ci95,
+        halton_relmse: equal_stats.relmse,
+        halton_relmse_ci95: equal_stats.relmse_ci95,
+        relmse_ratio: mdas_stats.relmse / equal_stats.relmse,
+        relmse_ratio_ci95: super::seeds::bootstrap_ratio(
+            &[&mdas_stats.relmse_per_seed, &equal_stats.relmse_per_seed],
+            |m| m[0] / m[1],
+        ),
+    };
+    let (ref_estimate, ref_flag) = intervals::reference_check(
+        &n0_stats,
+        n0,
+        spec.setup.ref_spp,
+        mdas_stats.relmse.min(halton_relmse),
+    );
+    let target_spread = match spec.budget {
+        Budget::MdasSpp => {
+            let s = timing.mdas_spread();
+            if s > super::equal_time::MAX_SPREAD {
+                flags.push(format!(
+                    "MDAS's timed rounds spread {:.0}% of their median (limit {:.0}%)",
+                    100.0 * s,
+                    100.0 * super::equal_time::MAX_SPREAD
+                ));
+            }
+            Some(s)
+        }
+        Budget::TimeMs(_) => None,
+    };
+    flags.extend(ref_flag.clone());
 
     // 4. Sample density of the MDAS run (untimed; same seed, same image).
     status.set_message("mdas sample density");
@@ -461,9 +571,9 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
 
     let halton_report = SearchReport::new(&halton_eq);
     let mdas_report = mdas_search.as_ref().map(SearchReport::new);
-    let mdas_relmse = mdas_report
-        .as_ref()
-        .map_or(mdas_main.error.relmse, |m| m.relmse);
+    // MDAS at the target: the seed mean (its own run's budget in mode
+    // "mdas"; the nearer bracketing run's under a time budget).
+    let mdas_relmse = mdas_stats.relmse;
     let report = Report {
         scene: spec.setup.scene.display().to_string(),
         scale: spec.setup.scale,
@@ -484,13 +594,17 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
         repeats: spec.setup.repeats,
         reference: ReferenceReport {
             spp: spec.setup.ref_spp,
+            relmse_estimate: Some(ref_estimate),
+            flag: ref_flag,
             path: ref_path.display().to_string(),
             cached,
             sampler: reference_sampler.map(|k| k.to_string()),
         },
         methods: vec![
-            MethodReport::new("mdas", mdas_spp, &mdas_main, "mdas.exr"),
-            MethodReport::new("halton", halton_main.spp as f64, &halton_main, "halton.exr"),
+            MethodReport::new("mdas", mdas_spp, &mdas_main, "mdas.exr")
+                .with_seeds(&mdas_seeds, &mdas_stats),
+            MethodReport::new("halton", halton_main.spp as f64, &halton_main, "halton.exr")
+                .with_seeds(&halton_seeds, &main_stats),
         ],
         equal_time: EqualTimeReport {
             mode: match spec.budget {
@@ -500,12 +614,19 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
             .into(),
             target_ms,
             mdas_relmse,
-            halton_relmse: halton_eq.relmse,
-            relmse_ratio: mdas_relmse / halton_eq.relmse,
+            halton_relmse,
+            relmse_ratio: mdas_relmse / halton_relmse,
             halton: halton_report,
             mdas: mdas_report,
             baseline: None,
             samplers: None,
+            relmse_ratio_ci95: Some(ratio_ci95),
+            halton_fit,
+            halton_spp: Some(halton_spp),
+            interleaved: Some(timing),
+            target_spread,
+            flags,
+            equal_samples: Some(equal_samples),
         },
         maps: MapsReport {
             colormap: "viridis, log scale",

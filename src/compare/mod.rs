@@ -8,6 +8,7 @@
 pub mod equal_time;
 pub mod experiment;
 pub mod heatmap;
+pub mod intervals;
 pub mod phases;
 pub mod plot;
 pub mod report;

@@ -7,7 +7,9 @@
 //! phases. `relmse`/`mse` follow `metrics::compare`; `nonfinite` counts
 //! non-finite samples and `nonfinite_pixels` non-finite pixels.
 
-use super::equal_time::{interpolate_log_log, EqualTime, HaltonRun};
+use super::equal_time::{interpolate_log_log, EqualTime, HaltonRun, TimeFit};
+use super::intervals::Interleaved;
+use super::seeds::SeedStats;
 use crate::gpu::profiler::PhaseTimes;
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -69,6 +71,14 @@ pub struct Seeds {
 #[derive(Clone, Debug, Serialize)]
 pub struct ReferenceReport {
     pub spp: u32,
+    /// Its own RelMSE, estimated from Halton's at the equal-time bracket
+    /// scaled by spp / ref_spp (the Monte Carlo rate; quasi-Monte Carlo
+    /// converges faster, so this errs high).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub relmse_estimate: Option<f64>,
+    /// Set when that estimate is not far below the compared methods'.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub flag: Option<String>,
     /// The cached reference EXR this comparison used.
     pub path: String,
     pub cached: bool,
@@ -89,8 +99,19 @@ pub struct MethodReport {
     /// Median milliseconds per phase, and `total`.
     pub time_ms: BTreeMap<String, f64>,
     pub samples_per_s: f64,
+    /// RelMSE and MSE: the mean over `seeds` when several were rendered,
+    /// else the written image's own (= `image_relmse`, `image_mse`).
     pub relmse: f64,
     pub mse: f64,
+    /// The written image's own RelMSE and MSE (its seed is `seeds[0]`).
+    pub image_relmse: f64,
+    pub image_mse: f64,
+    /// The seeds rendered, the written image's first (`mdas compare`).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub seeds: Vec<u32>,
+    /// Bias and noise over `seeds` (`compare::seeds`).
+    #[serde(flatten, skip_serializing_if = "Option::is_none")]
+    pub over_seeds: Option<OverSeeds>,
     /// Non-finite samples.
     pub nonfinite: u64,
     pub nonfinite_pixels: u64,
@@ -110,6 +131,10 @@ impl MethodReport {
             samples_per_s: r.samples as f64 / (total / 1e3).max(1e-12),
             relmse: run.error.relmse,
             mse: run.error.mse,
+            image_relmse: run.error.relmse,
+            image_mse: run.error.mse,
+            seeds: Vec::new(),
+            over_seeds: None,
             nonfinite: r.nonfinite,
             nonfinite_pixels: run.error.nonfinite_pixels,
             image: image.to_string(),
@@ -119,6 +144,40 @@ impl MethodReport {
     pub fn total_ms(&self) -> f64 {
         self.time_ms["total"]
     }
+
+    /// This method over several seeds: `relmse` and `mse` become the means.
+    pub fn with_seeds(mut self, seeds: &[u32], s: &SeedStats) -> MethodReport {
+        self.seeds = seeds.to_vec();
+        self.relmse = s.relmse;
+        self.mse = s.mse;
+        self.over_seeds = Some(OverSeeds {
+            relmse_per_seed: s.relmse_per_seed.clone(),
+            relmse_ci95: s.relmse_ci95,
+            relative_bias: s.relative_bias,
+            relative_bias_ci95: s.relative_bias_ci95,
+            mse_bias2: s.mse_bias2,
+            mse_variance: s.mse_variance,
+            excluded_pixels: s.excluded_pixels,
+        });
+        self
+    }
+}
+
+/// A method's error over seeds, as reported (definitions in
+/// `compare::seeds`).
+#[derive(Clone, Debug, Serialize)]
+pub struct OverSeeds {
+    pub relmse_per_seed: Vec<f64>,
+    /// 95% interval of the mean RelMSE (Student t over seeds).
+    pub relmse_ci95: [f64; 2],
+    /// Per channel: mean image over reference, minus 1, and its interval.
+    pub relative_bias: [f64; 3],
+    pub relative_bias_ci95: [[f64; 2]; 3],
+    /// The mean MSE split into squared bias and variance over seeds.
+    pub mse_bias2: f64,
+    pub mse_variance: f64,
+    /// Pixels non-finite in some seed's image, left out of the split.
+    pub excluded_pixels: u64,
 }
 
 /// Phases by name plus `total` (their sum).
@@ -153,6 +212,9 @@ impl From<&HaltonRun> for BracketRun {
 /// A method's budget search at the target time.
 #[derive(Clone, Debug, Serialize)]
 pub struct SearchReport {
+    /// The time the search looked for (mode `"mdas"`: MDAS's first timed
+    /// run; the equal-time target itself comes from the interleaved rounds).
+    pub target_ms: f64,
     /// Largest spp measured at or below the target time.
     pub lo: BracketRun,
     /// Smallest spp measured above it (= `lo` when the target lies outside
@@ -174,6 +236,7 @@ impl SearchReport {
         let t = eq.target_ms;
         let (lo, hi) = (eq.lo.measured.total_ms(), eq.hi.measured.total_ms());
         SearchReport {
+            target_ms: t,
             lo: (&eq.lo).into(),
             hi: (&eq.hi).into(),
             bracketed: lo <= t && t <= hi,
@@ -216,6 +279,44 @@ pub struct EqualTimeReport {
     /// target time, in the order listed.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub samplers: Option<Vec<SamplerReport>>,
+    /// 95% interval of `relmse_ratio`: percentile bootstrap over both
+    /// methods' seeds and (mode `"mdas"`) MDAS's timing rounds.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub relmse_ratio_ci95: Option<[f64; 2]>,
+    /// Halton's time against spp, fitted to every run of its search.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub halton_fit: Option<TimeFit>,
+    /// The (real) Halton spp the fit gives at the target; `halton_relmse`
+    /// is the seed means at the whole spp either side, interpolated log–log
+    /// in spp at it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub halton_spp: Option<f64>,
+    /// The interleaved timing rounds the target and the fit come from.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub interleaved: Option<Interleaved>,
+    /// (max − min) / median of MDAS's round times (mode `"mdas"`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub target_spread: Option<f64>,
+    /// What makes this measurement suspect (empty: nothing noticed).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub flags: Vec<String>,
+    /// The same methods at equal samples per pixel.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub equal_samples: Option<EqualSamplesReport>,
+}
+
+/// MDAS against Halton at the same samples per pixel (Halton at MDAS's spp,
+/// rounded to a whole number), over the same number of seeds.
+#[derive(Clone, Debug, Serialize)]
+pub struct EqualSamplesReport {
+    pub spp: u32,
+    pub mdas_relmse: f64,
+    pub mdas_relmse_ci95: [f64; 2],
+    pub halton_relmse: f64,
+    pub halton_relmse_ci95: [f64; 2],
+    /// `mdas_relmse / halton_relmse`, and its bootstrap interval.
+    pub relmse_ratio: f64,
+    pub relmse_ratio_ci95: [f64; 2],
 }
 
 /// One light sampler under Halton at the equal-time target
@@ -300,7 +401,7 @@ pub fn table(report: &Report) -> String {
         None => ("MDAS", "Halton"),
     };
     out += &format!(
-        "equal time {:.3} ms ({}): {halton_name} brackets {} spp ({:.3} ms, RelMSE {:.4e}) and {} spp ({:.3} ms, RelMSE {:.4e}), interpolated RelMSE {:.4e}\n",
+        "equal time {:.3} ms ({}): {halton_name}'s search brackets {} spp ({:.3} ms, RelMSE {:.4e}) and {} spp ({:.3} ms, RelMSE {:.4e}){}; {halton_name} RelMSE at the target {:.4e}\n",
         e.target_ms,
         e.mode,
         h.lo.spp,
@@ -309,6 +410,11 @@ pub fn table(report: &Report) -> String {
         h.hi.spp,
         h.hi.time_ms,
         h.hi.relmse,
+        if h.target_ms == e.target_ms {
+            String::new()
+        } else {
+            format!(" of {:.3} ms", h.target_ms)
+        },
         e.halton_relmse
     );
     if let Some(m) = &e.mdas {
@@ -342,10 +448,63 @@ pub fn table(report: &Report) -> String {
             );
         }
     }
+    for m in &report.methods {
+        if let Some(o) = &m.over_seeds {
+            let b = o.relative_bias.map(|x| format!("{:+.2}%", 100.0 * x));
+            out += &format!(
+                "{} over {} seeds: RelMSE {:.4e} [{:.4e}, {:.4e}], bias R/G/B {}/{}/{}, MSE {:.4e} = bias² {:.4e} + variance {:.4e}\n",
+                m.name,
+                m.seeds.len(),
+                m.relmse,
+                o.relmse_ci95[0],
+                o.relmse_ci95[1],
+                b[0],
+                b[1],
+                b[2],
+                m.mse,
+                o.mse_bias2,
+                o.mse_variance
+            );
+        }
+    }
+    if let Some(fit) = &e.halton_fit {
+        out += &format!(
+            "{halton_name} time fit {:.3} ms + {:.4} ms/spp over {} budgets (worst residual {:.1}%){}\n",
+            fit.a,
+            fit.b,
+            fit.points.len(),
+            100.0 * fit.max_residual,
+            e.halton_spp
+                .map_or_else(String::new, |s| format!(": {s:.2} spp at the target"))
+        );
+    }
+    if let Some(spread) = e.target_spread {
+        out += &format!(
+            "{mdas_name} timed repeats spread {:.1}% of their median\n",
+            100.0 * spread
+        );
+    }
+    let interval = |ci: Option<[f64; 2]>| {
+        ci.map_or_else(String::new, |[lo, hi]| format!(" [{lo:.4}, {hi:.4}]"))
+    };
     out += &format!(
-        "equal-time RelMSE ratio {mdas_name}/{halton_name}: {:.4} ({:+.1}%)\n",
+        "equal-time RelMSE ratio {mdas_name}/{halton_name}: {:.4}{} ({:+.1}%)\n",
         e.relmse_ratio,
+        interval(e.relmse_ratio_ci95),
         100.0 * (e.relmse_ratio - 1.0)
     );
+    if let Some(q) = &e.equal_samples {
+        out += &format!(
+            "equal-samples RelMSE ratio at {} spp: {:.4}{} ({mdas_name} {:.4e}, {halton_name} {:.4e})\n",
+            q.spp,
+            q.relmse_ratio,
+            interval(Some(q.relmse_ratio_ci95)),
+            q.mdas_relmse,
+            q.halton_relmse
+        );
+    }
+    for flag in e.flags.iter() {
+        out += &format!("warning: {flag}\n");
+    }
     out
 }

@@ -285,6 +285,8 @@ fn run(gpu: &Gpu, spec: &SamplersSpec) -> Result<Report> {
             path: ref_path.display().to_string(),
             cached,
             sampler: Some(own.to_string()),
+            relmse_estimate: None,
+            flag: None,
         },
         methods,
         equal_time: EqualTimeReport {
@@ -301,6 +303,13 @@ fn run(gpu: &Gpu, spec: &SamplersSpec) -> Result<Report> {
             mdas: mdas_report,
             baseline: Some(format!("halton+{base}")),
             samplers: Some(samplers),
+            relmse_ratio_ci95: None,
+            halton_fit: None,
+            halton_spp: None,
+            interleaved: None,
+            target_spread: None,
+            flags: Vec::new(),
+            equal_samples: None,
         },
         maps: MapsReport {
             colormap: "viridis, log scale",

@@ -219,6 +219,12 @@ impl Mdas {
         Ok(())
     }
 
+    /// Changes the seed and keeps the compiled pipelines (the seed is a
+    /// uniform): renders of one setting over several seeds compile once.
+    pub fn set_seed(&mut self, seed: u32) {
+        self.params.seed = seed;
+    }
+
     /// Caps the number of adaptive iterations (default
     /// [`MAX_ITERATIONS_DEFAULT`]); a render that hits it stops below its
     /// budget and reports the samples it took.

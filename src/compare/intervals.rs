@@ -1,0 +1,324 @@
+//! Seeds and intervals for `mdas compare` (issue "comparisons a researcher
+//! can trust"): each method is rendered with K seeds, and the equal-time
+//! estimate rests on a time model of every Halton run instead of one
+//! bracket.
+//!
+//! - MDAS: the timed run (its seed first) and K − 1 untimed renders with
+//!   the next seeds, same budget.
+//! - Timing ([`interleaved`]): after the budget search has found the
+//!   neighbourhood ([`super::search_equal_time`]), MDAS (when its time is
+//!   the target) and Halton at five budgets around the bracket (×½ … ×2)
+//!   are timed in interleaved rounds, each round one render of each, so a
+//!   slow spell of the machine hits every budget alike. The target is
+//!   MDAS's median over the rounds; Halton's time is fitted as a + b·spp
+//!   to the budgets' medians ([`TimeFit`], Theil–Sen), and the spp at the
+//!   target is read off the fit.
+//! - Halton's RelMSE at that spp: the seed means at the whole spp on
+//!   either side, interpolated log–log in spp ([`halton_at_target`]).
+//! - The ratio's 95% interval is a percentile bootstrap over MDAS's seeds,
+//!   the two Halton budgets' seeds and MDAS's round times, with the fit
+//!   held fixed (a resampled target moves the spp only between the two
+//!   whole budgets, so timing noise beyond them is not propagated).
+//! - Equal samples: Halton at MDAS's spp (rounded), over K seeds.
+//!
+//! Halton seeds skip the reference's seed, so no compared render shares
+//! the reference's random shifts.
+
+use super::equal_time::{interpolate_log_log, EqualTime, TimeFit};
+use super::seeds::{bootstrap_ratio, SeedStats};
+use crate::gpu::Gpu;
+use crate::integrand::Integrand;
+use crate::integrator::mdas::MdasParams;
+use crate::integrator::{Halton, Integrator, Mdas};
+use anyhow::{bail, Result};
+
+/// Most seeds `--seeds` accepts.
+pub const MAX_SEEDS: u32 = 64;
+
+/// The seeds of each method: `k` consecutive ones from each method's
+/// base seed, Halton's skipping `ref_seed`.
+pub fn seed_plan(
+    k: u32,
+    mdas_seed: u32,
+    halton_seed: u32,
+    ref_seed: u32,
+) -> Result<(Vec<u32>, Vec<u32>)> {
+    if !(1..=MAX_SEEDS).contains(&k) {
+        bail!("--seeds must be in 1..={MAX_SEEDS}, got {k}");
+    }
+    let mdas = (0..k).map(|i| mdas_seed.wrapping_add(i)).collect();
+    let halton = (0u32..)
+        .map(|i| halton_seed.wrapping_add(i))
+        .filter(|&s| s != ref_seed)
+        .take(k as usize)
+        .collect();
+    Ok((mdas, halton))
+}
+
+/// MDAS with `params` (its budget and first seed) over `seeds`; `first` is
+/// the image already rendered with `seeds[0]`.
+pub fn mdas_over_seeds(
+    gpu: &Gpu,
+    params: MdasParams,
+    first: &[[f32; 3]],
+    seeds: &[u32],
+    integrand: &dyn Integrand,
+    reference: &[[f32; 3]],
+) -> Result<SeedStats> {
+    let mut mdas = Mdas::new(params)?;
+    let mut images = vec![first.to_vec()];
+    for &s in &seeds[1..] {
+        mdas.set_seed(s);
+        images.push(mdas.render(gpu, integrand)?.image);
+    }
+    stats(&images, reference)
+}
+
+/// Halton at `spp` over `seeds`; `first`, when given, is the image of
+/// `seeds[0]` already rendered.
+pub fn halton_over_seeds(
+    gpu: &Gpu,
+    spp: u32,
+    first: Option<&[[f32; 3]]>,
+    seeds: &[u32],
+    integrand: &dyn Integrand,
+    reference: &[[f32; 3]],
+) -> Result<SeedStats> {
+    let mut images: Vec<Vec<[f32; 3]>> = first.map(|f| vec![f.to_vec()]).unwrap_or_default();
+    let mut halton = Halton::new(spp, seeds[0]);
+    for &s in &seeds[images.len()..] {
+        halton.seed = s;
+        images.push(halton.render(gpu, integrand)?.image);
+    }
+    stats(&images, reference)
+}
+
+fn stats(images: &[Vec<[f32; 3]>], reference: &[[f32; 3]]) -> Result<SeedStats> {
+    let views: Vec<&[[f32; 3]]> = images.iter().map(|v| v.as_slice()).collect();
+    SeedStats::new(&views, reference)
+}
+
+/// Timed rounds of the interleaved measurement.
+pub const MIN_ROUNDS: u32 = 5;
+
+/// The interleaved timing of [`interleaved`].
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Interleaved {
+    /// MDAS's total per round (empty when the target is a fixed budget).
+    pub mdas_ms: Vec<f64>,
+    /// Halton's budgets and their totals per round.
+    pub halton: Vec<(u32, Vec<f64>)>,
+}
+
+/// Budgets around `center`: ×½, ×1/√2, ×1, ×√2, ×2, whole, in 1..=max_spp.
+pub fn budgets_around(center: u32, max_spp: u32) -> Vec<u32> {
+    let mut b: Vec<u32> = [
+        0.5,
+        std::f64::consts::FRAC_1_SQRT_2,
+        1.0,
+        std::f64::consts::SQRT_2,
+        2.0,
+    ]
+    .iter()
+    .map(|f| ((center as f64 * f).round() as u32).clamp(1, max_spp.max(1)))
+    .collect();
+    b.dedup();
+    b
+}
+
+/// Median of `v` (copied); NaN when empty.
+fn median(v: &[f64]) -> f64 {
+    let mut v = v.to_vec();
+    v.sort_by(f64::total_cmp);
+    match v.len() {
+        0 => f64::NAN,
+        n if n % 2 == 1 => v[n / 2],
+        n => 0.5 * (v[n / 2 - 1] + v[n / 2]),
+    }
+}
+
+/// (max − min) / median.
+fn spread(v: &[f64]) -> f64 {
+    let m = median(v);
+    let (lo, hi) = v
+        .iter()
+        .fold((f64::INFINITY, 0.0f64), |(a, b), &x| (a.min(x), b.max(x)));
+    if v.len() < 2 || !(m > 0.0) {
+        0.0
+    } else {
+        (hi - lo) / m
+    }
+}
+
+/// Times `mdas` (when given) and Halton (`halton_seed`) at each of
+/// `budgets` in `rounds` interleaved rounds, after one untimed render of
+/// each (module docs).
+pub fn interleaved(
+    gpu: &Gpu,
+    mut mdas: Option<&mut Mdas>,
+    halton_seed: u32,
+    budgets: &[u32],
+    rounds: u32,
+    integrand: &dyn Integrand,
+) -> Result<Interleaved> {
+    let mut halton = Halton::new(budgets[0], halton_seed);
+    if let Some(m) = mdas.as_deref_mut() {
+        m.render(gpu, integrand)?;
+    }
+    halton.render(gpu, integrand)?;
+    let mut out = Interleaved {
+        mdas_ms: Vec::new(),
+        halton: budgets.iter().map(|&b| (b, Vec::new())).collect(),
+    };
+    for _ in 0..rounds {
+        if let Some(m) = mdas.as_deref_mut() {
+            out.mdas_ms.push(m.render(gpu, integrand)?.times.total());
+        }
+        for (spp, times) in &mut out.halton {
+            halton.spp = *spp;
+            times.push(halton.render(gpu, integrand)?.times.total());
+        }
+    }
+    Ok(out)
+}
+
+impl Interleaved {
+    /// MDAS's median round time.
+    pub fn mdas_median(&self) -> f64 {
+        median(&self.mdas_ms)
+    }
+
+    /// MDAS's spread over the rounds.
+    pub fn mdas_spread(&self) -> f64 {
+        spread(&self.mdas_ms)
+    }
+
+    /// Halton's time fit over the budgets' medians.
+    pub fn fit(&self) -> Option<TimeFit> {
+        let runs: Vec<(u32, f64, f64)> = self
+            .halton
+            .iter()
+            .map(|(s, t)| (*s, median(t), spread(t)))
+            .collect();
+        TimeFit::new(&runs)
+    }
+}
+
+/// The spp at `target_ms` from the fit (else linear in time between the
+/// search's bracketing runs), at least 1, with a flag when it lies outside
+/// the timed budgets (an extrapolation).
+pub fn spp_at_target(
+    eq: &EqualTime,
+    fit: Option<&TimeFit>,
+    target_ms: f64,
+    flags: &mut Vec<String>,
+) -> f64 {
+    let (lo, hi) = (eq.lo.spp as f64, eq.hi.spp as f64);
+    let (lo_t, hi_t) = (eq.lo.measured.total_ms(), eq.hi.measured.total_ms());
+    let spp = match fit.and_then(|f| f.spp_at(target_ms)) {
+        Some(s) => {
+            let f = fit.unwrap();
+            let (min, max) = (f.points[0].0 as f64, f.points[f.points.len() - 1].0 as f64);
+            if s < min || s > max {
+                flags.push(format!(
+                    "the time fit puts {target_ms:.3} ms at {s:.1} spp, outside the timed budgets {min}–{max}"
+                ));
+            }
+            s
+        }
+        None if hi_t > lo_t => lo + (hi - lo) * (target_ms - lo_t) / (hi_t - lo_t),
+        None => lo,
+    };
+    spp.max(1.0)
+}
+
+/// Halton's RelMSE at a real `spp`, from the seed statistics at the whole
+/// budgets `n0 = ⌊spp⌋` and `n0 + 1`, interpolated log–log in spp.
+pub fn halton_at_target(spp: f64, n0: &SeedStats, n1: &SeedStats) -> f64 {
+    let s0 = spp.floor().max(1.0);
+    interpolate_log_log(spp, (s0, n0.relmse), (s0 + 1.0, n1.relmse))
+}
+
+/// 95% bootstrap interval of MDAS's RelMSE over Halton's at the target:
+/// resamples MDAS's per-seed RelMSEs, the two Halton budgets', and
+/// `target_ms` (MDAS's round times, or the one fixed budget), the fit and
+/// the target's spp bracket [`n0`, `n0` + 1] held fixed.
+pub fn ratio_ci95(
+    fit: Option<&TimeFit>,
+    spp: f64,
+    target_ms: &[f64],
+    mdas: &SeedStats,
+    n0: &SeedStats,
+    n1: &SeedStats,
+) -> [f64; 2] {
+    let s0 = spp.floor().max(1.0);
+    let groups: [&[f64]; 4] = [
+        &mdas.relmse_per_seed,
+        &n0.relmse_per_seed,
+        &n1.relmse_per_seed,
+        target_ms,
+    ];
+    bootstrap_ratio(&groups, |m| {
+        let s = fit
+            .and_then(|f| f.spp_at(m[3]))
+            .unwrap_or(spp)
+            .clamp(s0, s0 + 1.0);
+        m[0] / interpolate_log_log(s, (s0, m[1]), (s0 + 1.0, m[2]))
+    })
+}
+
+/// The reference's RelMSE estimated from Halton's at `spp` (scaled as
+/// 1/spp), and a flag when it is not at least ten times below `smallest`,
+/// the smaller of the compared methods' RelMSEs.
+pub fn reference_check(
+    halton: &SeedStats,
+    spp: u32,
+    ref_spp: u32,
+    smallest: f64,
+) -> (f64, Option<String>) {
+    let estimate = halton.relmse * spp as f64 / ref_spp.max(1) as f64;
+    let flag = (estimate > 0.1 * smallest).then(|| {
+        format!(
+            "the reference's own RelMSE (≈ {estimate:.2e}, Halton's at {spp} spp scaled by {spp}/{ref_spp}) is not far below the methods' ({smallest:.2e}): raise --ref-spp"
+        )
+    });
+    (estimate, flag)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn seeds_are_consecutive_and_halton_skips_the_reference() {
+        let (m, h) = seed_plan(3, 7, 0, 1).unwrap();
+        assert_eq!(m, [7, 8, 9]);
+        assert_eq!(h, [0, 2, 3]);
+        let (m, _) = seed_plan(2, u32::MAX, 5, 1).unwrap();
+        assert_eq!(m, [u32::MAX, 0]);
+        assert!(seed_plan(0, 0, 0, 1).is_err());
+        assert!(seed_plan(MAX_SEEDS + 1, 0, 0, 1).is_err());
+    }
+
+    #[test]
+    fn reference_flag() {
+        let s = |r: f64| SeedStats {
+            seeds: 1,
+            relmse_per_seed: vec![r],
+            relmse: r,
+            relmse_ci95: [r, r],
+            relative_bias: [0.0; 3],
+            relative_bias_ci95: [[0.0; 2]; 3],
+            mse: 0.0,
+            mse_bias2: 0.0,
+            mse_variance: 0.0,
+            excluded_pixels: 0,
+        };
+        // 1e-2 at 16 spp → 1e-2·16/4096 ≈ 3.9e-5: far below 1e-3.
+        let (e, flag) = reference_check(&s(1e-2), 16, 4096, 1e-3);
+        assert!((e - 1e-2 * 16.0 / 4096.0).abs() < 1e-15 && flag.is_none());
+        // A 64-spp reference against 16-spp methods: flagged.
+        let (_, flag) = reference_check(&s(1e-2), 16, 64, 5e-3);
+        assert!(flag.unwrap().contains("raise --ref-spp"));
+    }
+}
