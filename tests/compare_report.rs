@@ -169,7 +169,7 @@ fn check_report(out: &Path) -> Value {
     match eq["mode"].as_str().unwrap() {
         "mdas" => {
             // The search looked for MDAS's measured time; the target is
-            // MDAS's median over the interleaved rounds.
+            // MDAS's fastest interleaved round.
             let search_target = eq["halton"]["target_ms"].as_f64().unwrap();
             assert_eq!(
                 search_target,
@@ -182,8 +182,8 @@ fn check_report(out: &Path) -> Value {
                 .map(|v| v.as_f64().unwrap())
                 .collect();
             rounds.sort_by(f64::total_cmp);
-            assert!(rounds.len() >= 5 && rounds.len() % 2 == 1);
-            assert_eq!(target, rounds[rounds.len() / 2]);
+            assert!(rounds.len() >= 9);
+            assert_eq!(target, rounds[0]);
             assert_eq!(mdas_relmse, methods[0]["relmse"].as_f64().unwrap());
             // Equal samples and the ratio's interval are reported.
             let q = &eq["equal_samples"];

@@ -443,7 +443,7 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
     )?;
     let halton_fit = timing.fit();
     let (target_ms, target_times) = match spec.budget {
-        Budget::MdasSpp => (timing.mdas_median(), timing.mdas_ms.clone()),
+        Budget::MdasSpp => (timing.mdas_fastest(), timing.mdas_ms.clone()),
         Budget::TimeMs(t) => (t, vec![t]),
     };
     let mut flags = Vec::new();
@@ -496,9 +496,9 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
         halton_relmse: equal_stats.relmse,
         halton_relmse_ci95: equal_stats.relmse_ci95,
         relmse_ratio: mdas_stats.relmse / equal_stats.relmse,
-        relmse_ratio_ci95: super::seeds::bootstrap_ratio(
+        relmse_ratio_ci95: super::seeds::bootstrap_ci95(
             &[&mdas_stats.relmse_per_seed, &equal_stats.relmse_per_seed],
-            |m| m[0] / m[1],
+            |r| super::seeds::mean(&r[0]) / super::seeds::mean(&r[1]),
         ),
     };
     let (ref_estimate, ref_flag) = intervals::reference_check(

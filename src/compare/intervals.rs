@@ -10,9 +10,10 @@
 //!   the target) and Halton at five budgets around the bracket (×½ … ×2)
 //!   are timed in interleaved rounds, each round one render of each, so a
 //!   slow spell of the machine hits every budget alike. The target is
-//!   MDAS's median over the rounds; Halton's time is fitted as a + b·spp
-//!   to the budgets' medians ([`TimeFit`], Theil–Sen), and the spp at the
-//!   target is read off the fit.
+//!   MDAS's fastest round; Halton's time is fitted as a + b·spp to each
+//!   budget's fastest round ([`TimeFit`], Theil–Sen), and the spp at the
+//!   target is read off the fit. (Noise only adds time; the minima are
+//!   what three identical runs agree on.)
 //! - Halton's RelMSE at that spp: the seed means at the whole spp on
 //!   either side, interpolated log–log in spp ([`halton_at_target`]).
 //! - The ratio's 95% interval is a percentile bootstrap over MDAS's seeds,
@@ -25,7 +26,7 @@
 //! the reference's random shifts.
 
 use super::equal_time::{interpolate_log_log, EqualTime, TimeFit};
-use super::seeds::{bootstrap_ratio, SeedStats};
+use super::seeds::{bootstrap_ci95, mean, SeedStats};
 use crate::gpu::Gpu;
 use crate::integrand::Integrand;
 use crate::integrator::mdas::MdasParams;
@@ -99,7 +100,7 @@ fn stats(images: &[Vec<[f32; 3]>], reference: &[[f32; 3]]) -> Result<SeedStats> 
 }
 
 /// Timed rounds of the interleaved measurement.
-pub const MIN_ROUNDS: u32 = 5;
+pub const MIN_ROUNDS: u32 = 9;
 
 /// The interleaved timing of [`interleaved`].
 #[derive(Clone, Debug, serde::Serialize)]
@@ -135,6 +136,14 @@ fn median(v: &[f64]) -> f64 {
         n if n % 2 == 1 => v[n / 2],
         n => 0.5 * (v[n / 2 - 1] + v[n / 2]),
     }
+}
+
+/// The fastest of `v`: timing noise on a busy or shared machine only adds
+/// time, so the minimum over interleaved rounds estimates the undisturbed
+/// cost better than the median (on lavapipe, round times of one budget
+/// spread 20–50% while the minima are reproducible).
+fn fastest(v: &[f64]) -> f64 {
+    v.iter().copied().fold(f64::INFINITY, f64::min)
 }
 
 /// (max − min) / median.
@@ -183,9 +192,9 @@ pub fn interleaved(
 }
 
 impl Interleaved {
-    /// MDAS's median round time.
-    pub fn mdas_median(&self) -> f64 {
-        median(&self.mdas_ms)
+    /// MDAS's fastest round.
+    pub fn mdas_fastest(&self) -> f64 {
+        fastest(&self.mdas_ms)
     }
 
     /// MDAS's spread over the rounds.
@@ -193,12 +202,13 @@ impl Interleaved {
         spread(&self.mdas_ms)
     }
 
-    /// Halton's time fit over the budgets' medians.
+    /// Halton's time fit over the budgets' fastest rounds (each with its
+    /// rounds' spread, for the flags).
     pub fn fit(&self) -> Option<TimeFit> {
         let runs: Vec<(u32, f64, f64)> = self
             .halton
             .iter()
-            .map(|(s, t)| (*s, median(t), spread(t)))
+            .map(|(s, t)| (*s, fastest(t), spread(t)))
             .collect();
         TimeFit::new(&runs)
     }
@@ -241,8 +251,9 @@ pub fn halton_at_target(spp: f64, n0: &SeedStats, n1: &SeedStats) -> f64 {
 
 /// 95% bootstrap interval of MDAS's RelMSE over Halton's at the target:
 /// resamples MDAS's per-seed RelMSEs, the two Halton budgets', and
-/// `target_ms` (MDAS's round times, or the one fixed budget), the fit and
-/// the target's spp bracket [`n0`, `n0` + 1] held fixed.
+/// `target_ms` (MDAS's round times, whose fastest is the target, or the one
+/// fixed budget), the fit and the target's spp bracket [n0, n0 + 1] held
+/// fixed.
 pub fn ratio_ci95(
     fit: Option<&TimeFit>,
     spp: f64,
@@ -258,12 +269,12 @@ pub fn ratio_ci95(
         &n1.relmse_per_seed,
         target_ms,
     ];
-    bootstrap_ratio(&groups, |m| {
+    bootstrap_ci95(&groups, |r| {
         let s = fit
-            .and_then(|f| f.spp_at(m[3]))
+            .and_then(|f| f.spp_at(fastest(&r[3])))
             .unwrap_or(spp)
             .clamp(s0, s0 + 1.0);
-        m[0] / interpolate_log_log(s, (s0, m[1]), (s0 + 1.0, m[2]))
+        mean(&r[0]) / interpolate_log_log(s, (s0, mean(&r[1])), (s0 + 1.0, mean(&r[2])))
     })
 }
 

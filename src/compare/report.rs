@@ -480,7 +480,7 @@ pub fn table(report: &Report) -> String {
     }
     if let Some(spread) = e.target_spread {
         out += &format!(
-            "{mdas_name} timed repeats spread {:.1}% of their median\n",
+            "{mdas_name} timed rounds spread {:.1}% of their median\n",
             100.0 * spread
         );
     }

@@ -183,8 +183,12 @@ impl Integrator for Halton {
         }
 
         // Work decomposition: `slots` invocations per pixel per dispatch.
-        let spi = SAMPLES_PER_INVOCATION.min(self.spp);
-        let max_slots = self.spp.div_ceil(spi) as u64;
+        // As few slots as SAMPLES_PER_INVOCATION allows, the samples spread
+        // evenly over them: 9 spp as 5 + 4, not 8 + 1 (on lavapipe a slot
+        // of one sample cost as much as a full one: 9 spp took 1.6× the
+        // time of 8).
+        let max_slots = self.spp.div_ceil(SAMPLES_PER_INVOCATION) as u64;
+        let spi = self.spp.div_ceil(max_slots as u32);
         let slots = (TARGET_INVOCATIONS / pixels).clamp(1, max_slots) as u32;
         let per_chunk = slots * spi;
         let chunks = self.spp.div_ceil(per_chunk);
