@@ -56,3 +56,39 @@ fn halton_budget_search_brackets_the_target_time() {
     );
     assert_eq!(lo.measured.render.samples, (w * h * lo.spp) as u64);
 }
+
+/// The seed intervals are calibrated: Halton (unbiased: its random shifts
+/// make every pixel estimate unbiased) over 3 seeds, against the exact
+/// image of the closed-form scene, gives a relative-bias interval that
+/// covers 0 (the true bias) in at least 18 of 20 repetitions with
+/// distinct seeds, as a 95% interval should (the bar is ≥ 90%;
+/// P(≥ 18 of 20 | 95%) = 0.92). The seeds are fixed, so the outcome is
+/// deterministic. The bias/variance split adds up to the mean MSE.
+#[test]
+fn seed_intervals_cover_the_exact_answer() {
+    use mdas::compare::seeds::SeedStats;
+    use mdas::integrator::Integrator;
+    let gpu = gpu();
+    let prepared = app::prepare(gpu, Path::new("scenes/area_light_plane.toml"), 0.25).unwrap();
+    let (w, h) = (prepared.film.width, prepared.film.height);
+    let exact = mdas::analytic::area_light_plane_image(w, h);
+    let mut halton = Halton::new(4, 0);
+    let mut covered = 0;
+    for rep in 0..20u32 {
+        let images: Vec<Vec<[f32; 3]>> = (0..3)
+            .map(|s| {
+                halton.seed = 100 + 3 * rep + s;
+                halton.render(gpu, prepared.integrand.as_ref()).unwrap().image
+            })
+            .collect();
+        let views: Vec<&[[f32; 3]]> = images.iter().map(|v| v.as_slice()).collect();
+        let s = SeedStats::new(&views, &exact).unwrap();
+        let [lo, hi] = s.relative_bias_ci95[0];
+        if lo <= 0.0 && 0.0 <= hi {
+            covered += 1;
+        }
+        assert!((s.mse_bias2 + s.mse_variance - s.mse).abs() <= 1e-12 * s.mse);
+        assert!(s.relmse_ci95[0] <= s.relmse && s.relmse <= s.relmse_ci95[1]);
+    }
+    assert!(covered >= 18, "the interval covered the true bias {covered} times of 20");
+}
