@@ -78,7 +78,10 @@ fn seed_intervals_cover_the_exact_answer() {
         let images: Vec<Vec<[f32; 3]>> = (0..3)
             .map(|s| {
                 halton.seed = 100 + 3 * rep + s;
-                halton.render(gpu, prepared.integrand.as_ref()).unwrap().image
+                halton
+                    .render(gpu, prepared.integrand.as_ref())
+                    .unwrap()
+                    .image
             })
             .collect();
         let views: Vec<&[[f32; 3]]> = images.iter().map(|v| v.as_slice()).collect();
@@ -90,5 +93,8 @@ fn seed_intervals_cover_the_exact_answer() {
         assert!((s.mse_bias2 + s.mse_variance - s.mse).abs() <= 1e-12 * s.mse);
         assert!(s.relmse_ci95[0] <= s.relmse && s.relmse <= s.relmse_ci95[1]);
     }
-    assert!(covered >= 18, "the interval covered the true bias {covered} times of 20");
+    assert!(
+        covered >= 18,
+        "the interval covered the true bias {covered} times of 20"
+    );
 }

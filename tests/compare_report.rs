@@ -14,6 +14,7 @@ use mdas::image_io::read_exr;
 use mdas::integrator::mdas::MdasParams;
 use report_checks::{check_method, close};
 use serde_json::Value;
+use sha2::Digest;
 use std::path::{Path, PathBuf};
 
 fn temp_dir(name: &str) -> PathBuf {
@@ -76,6 +77,28 @@ fn check_report(out: &Path) -> Value {
     for key in ["scene", "scale", "seed", "adapter", "version", "reference"] {
         assert!(json.get(key).is_some(), "report.json lacks {key}");
     }
+    // Provenance: the scene file's hash, the MDAS parameters as run (its
+    // budget and first seed are MDAS's method entry's), the integrand.
+    let p = &json["provenance"];
+    let scene = std::fs::read(json["scene"].as_str().unwrap()).unwrap();
+    let digest: String = sha2::Sha256::digest(&scene)
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect();
+    assert_eq!(p["scene_sha256"].as_str().unwrap(), digest);
+    let mdas = &json["methods"][0];
+    assert_eq!(
+        p["mdas"]["spp"].as_f64().unwrap(),
+        mdas["spp"].as_f64().unwrap()
+    );
+    assert_eq!(p["mdas"]["seed"], mdas["seeds"][0]);
+    assert!(p["dims"].as_u64().unwrap() >= 3 && !p["integrand"].as_str().unwrap().is_empty());
+    assert!(!p["command_line"].as_array().unwrap().is_empty());
+    let t = p["timestamp_utc"].as_str().unwrap();
+    assert!(
+        t.len() == 20 && t.ends_with('Z') && t.starts_with("20"),
+        "{t}"
+    );
     let files = json["files"].as_object().unwrap();
     for stem in [
         "reference",

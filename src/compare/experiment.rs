@@ -634,6 +634,15 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
             density_range: Some(density_range),
         },
         files,
+        provenance: Some(super::provenance::Provenance::new(
+            gpu,
+            &spec.setup.scene,
+            integrand,
+            MdasParams {
+                spp: mdas_spp as f32,
+                ..params
+            },
+        )?),
     };
     write_report(&spec.setup.out, &report)?;
     Ok(report)

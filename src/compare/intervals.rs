@@ -152,7 +152,7 @@ fn spread(v: &[f64]) -> f64 {
     let (lo, hi) = v
         .iter()
         .fold((f64::INFINITY, 0.0f64), |(a, b), &x| (a.min(x), b.max(x)));
-    if v.len() < 2 || !(m > 0.0) {
+    if v.len() < 2 || m.is_nan() || m <= 0.0 {
         0.0
     } else {
         (hi - lo) / m

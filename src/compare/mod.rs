@@ -11,6 +11,7 @@ pub mod heatmap;
 pub mod intervals;
 pub mod phases;
 pub mod plot;
+pub mod provenance;
 pub mod report;
 pub mod samplers;
 pub mod seeds;

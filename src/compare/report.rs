@@ -9,6 +9,7 @@
 
 use super::equal_time::{interpolate_log_log, EqualTime, HaltonRun, TimeFit};
 use super::intervals::Interleaved;
+use super::provenance::Provenance;
 use super::seeds::SeedStats;
 use crate::gpu::profiler::PhaseTimes;
 use serde::Serialize;
@@ -42,6 +43,9 @@ pub struct Report {
     pub maps: MapsReport,
     /// Every file written, relative to the output directory.
     pub files: BTreeMap<String, String>,
+    /// What is needed to rerun it (`mdas compare`; absent for `--samplers`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub provenance: Option<Provenance>,
 }
 
 #[derive(Clone, Copy, Debug, Serialize)]

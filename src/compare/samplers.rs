@@ -317,6 +317,7 @@ fn run(gpu: &Gpu, spec: &SamplersSpec) -> Result<Report> {
             density_range: None,
         },
         files,
+        provenance: None,
     };
     write_report(&setup.out, &report)?;
     Ok(report)

@@ -27,7 +27,7 @@ use crate::wgsl_file;
 use anyhow::{bail, Result};
 
 /// Parameters of the MDAS integrator (paper §5.1); defaults per the paper.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct MdasParams {
     pub bits_per_dim: u32,
     pub extra_image_bits: u32,
