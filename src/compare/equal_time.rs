@@ -54,14 +54,8 @@ fn median_times(runs: &[PhaseTimes]) -> PhaseTimes {
     let mut out = PhaseTimes::default();
     if let Some(first) = runs.first() {
         for (name, _) in &first.0 {
-            let mut v: Vec<f64> = runs.iter().map(|r| r.get(name).unwrap_or(0.0)).collect();
-            v.sort_by(f64::total_cmp);
-            let m = if v.len() % 2 == 1 {
-                v[v.len() / 2]
-            } else {
-                0.5 * (v[v.len() / 2 - 1] + v[v.len() / 2])
-            };
-            out.add(name, m);
+            let v: Vec<f64> = runs.iter().map(|r| r.get(name).unwrap_or(0.0)).collect();
+            out.add(name, median(&v));
         }
     }
     out
@@ -228,15 +222,15 @@ pub fn search_equal_time(
 /// machine was busy or the clock is coarse for such short renders.
 pub const MAX_SPREAD: f64 = 0.25;
 
-/// The median of `v` (reordered), the mean of the middle two for an even
-/// count; `v` must not be empty.
-fn median(v: &mut [f64]) -> f64 {
+/// The median of `v`, the mean of the middle two for an even count; NaN
+/// when `v` is empty.
+pub fn median(v: &[f64]) -> f64 {
+    let mut v = v.to_vec();
     v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
+    match v.len() {
+        0 => f64::NAN,
+        n if n % 2 == 1 => v[n / 2],
+        n => 0.5 * (v[n / 2 - 1] + v[n / 2]),
     }
 }
 
@@ -277,9 +271,9 @@ impl TimeFit {
                 slopes.push((q.1 - p.1) / (q.0 as f64 - p.0 as f64));
             }
         }
-        let b = median(&mut slopes);
+        let b = median(&slopes);
         let a = median(
-            &mut points
+            &points
                 .iter()
                 .map(|p| p.1 - b * p.0 as f64)
                 .collect::<Vec<_>>(),

@@ -25,7 +25,7 @@
 //! Halton seeds skip the reference's seed, so no compared render shares
 //! the reference's random shifts.
 
-use super::equal_time::{interpolate_log_log, EqualTime, TimeFit};
+use super::equal_time::{interpolate_log_log, median, EqualTime, TimeFit};
 use super::seeds::{bootstrap_ci95, mean, SeedStats};
 use crate::gpu::Gpu;
 use crate::integrand::Integrand;
@@ -125,17 +125,6 @@ pub fn budgets_around(center: u32, max_spp: u32) -> Vec<u32> {
     .collect();
     b.dedup();
     b
-}
-
-/// Median of `v` (copied); NaN when empty.
-fn median(v: &[f64]) -> f64 {
-    let mut v = v.to_vec();
-    v.sort_by(f64::total_cmp);
-    match v.len() {
-        0 => f64::NAN,
-        n if n % 2 == 1 => v[n / 2],
-        n => 0.5 * (v[n / 2 - 1] + v[n / 2]),
-    }
 }
 
 /// The fastest of `v`: timing noise on a busy or shared machine only adds

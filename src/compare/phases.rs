@@ -11,6 +11,7 @@
 //! parameters (at `--scale`, [`crate::app::mdas_params_at_scale`]), Halton
 //! with the same whole spp.
 
+use super::equal_time::median;
 use crate::app;
 use crate::gpu::Gpu;
 use crate::integrator::{Halton, Integrator, Mdas, Render};
@@ -79,19 +80,6 @@ impl PhaseBench {
 
 pub fn ns_per_sample(ms: f64, samples: u64) -> f64 {
     ms * 1e6 / samples.max(1) as f64
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    if v.is_empty() {
-        return 0.0;
-    }
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
 }
 
 fn timed(
@@ -168,17 +156,17 @@ pub fn bench_scene(
         mdas_phases_ms: MDAS_PHASES
             .iter()
             .zip(phases)
-            .map(|(n, v)| (n.to_string(), median(v)))
+            .map(|(n, v)| (n.to_string(), median(&v)))
             .collect(),
         mdas_adaptive_parts_ms: ADAPTIVE_PARTS
             .iter()
             .zip(parts)
-            .map(|(n, v)| (n.to_string(), median(v)))
+            .map(|(n, v)| (n.to_string(), median(&v)))
             .collect(),
-        mdas_ms: median(mdas_ms),
-        halton_ms: median(halton_ms),
-        mdas_wall_ms: median(mdas_wall),
-        halton_wall_ms: median(halton_wall),
+        mdas_ms: median(&mdas_ms),
+        halton_ms: median(&halton_ms),
+        mdas_wall_ms: median(&mdas_wall),
+        halton_wall_ms: median(&halton_wall),
         mdas_iterations: mdas.last_stats().map_or(0, |s| s.iterations),
         mdas_gpu_bytes_per_sample: bytes as f64 / mdas_samples.max(1) as f64,
         repeats,

@@ -115,7 +115,7 @@ pub struct MethodReport {
     pub seeds: Vec<u32>,
     /// Bias and noise over `seeds` (`compare::seeds`).
     #[serde(flatten, skip_serializing_if = "Option::is_none")]
-    pub over_seeds: Option<OverSeeds>,
+    pub over_seeds: Option<SeedStats>,
     /// Non-finite samples.
     pub nonfinite: u64,
     pub nonfinite_pixels: u64,
@@ -154,34 +154,9 @@ impl MethodReport {
         self.seeds = seeds.to_vec();
         self.relmse = s.relmse;
         self.mse = s.mse;
-        self.over_seeds = Some(OverSeeds {
-            relmse_per_seed: s.relmse_per_seed.clone(),
-            relmse_ci95: s.relmse_ci95,
-            relative_bias: s.relative_bias,
-            relative_bias_ci95: s.relative_bias_ci95,
-            mse_bias2: s.mse_bias2,
-            mse_variance: s.mse_variance,
-            excluded_pixels: s.excluded_pixels,
-        });
+        self.over_seeds = Some(s.clone());
         self
     }
-}
-
-/// A method's error over seeds, as reported (definitions in
-/// `compare::seeds`).
-#[derive(Clone, Debug, Serialize)]
-pub struct OverSeeds {
-    pub relmse_per_seed: Vec<f64>,
-    /// 95% interval of the mean RelMSE (Student t over seeds).
-    pub relmse_ci95: [f64; 2],
-    /// Per channel: mean image over reference, minus 1, and its interval.
-    pub relative_bias: [f64; 3],
-    pub relative_bias_ci95: [[f64; 2]; 3],
-    /// The mean MSE split into squared bias and variance over seeds.
-    pub mse_bias2: f64,
-    pub mse_variance: f64,
-    /// Pixels non-finite in some seed's image, left out of the split.
-    pub excluded_pixels: u64,
 }
 
 /// Phases by name plus `total` (their sum).

@@ -54,13 +54,17 @@ pub fn mean_ci95(values: &[f64]) -> (f64, [f64; 2]) {
     (mean, [mean - half, mean + half])
 }
 
-/// One method over K seeds (module docs).
+/// One method over K seeds (module docs). Serialized into a method's
+/// report entry, whose own `relmse`, `mse` and `seeds` stand for the
+/// fields skipped here.
 #[derive(Clone, Debug, Serialize, PartialEq)]
 pub struct SeedStats {
+    #[serde(skip)]
     pub seeds: usize,
     /// Each seed's RelMSE.
     pub relmse_per_seed: Vec<f64>,
     /// Mean over seeds, and its 95% interval.
+    #[serde(skip)]
     pub relmse: f64,
     pub relmse_ci95: [f64; 2],
     /// Per channel: the mean image's sum over the reference's, minus 1.
@@ -69,6 +73,7 @@ pub struct SeedStats {
     /// seed's image sum over the reference's, minus 1).
     pub relative_bias_ci95: [[f64; 2]; 3],
     /// Mean over seeds of the MSE, and its split.
+    #[serde(skip)]
     pub mse: f64,
     pub mse_bias2: f64,
     pub mse_variance: f64,
