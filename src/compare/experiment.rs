@@ -429,14 +429,17 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
         spp: mdas_spp as f32,
         ..params
     };
-    let mut timed_mdas = match spec.budget {
-        Budget::MdasSpp => Some(Mdas::new(mdas_at_spp)?),
-        Budget::TimeMs(_) => None,
-    };
+    // One MDAS and one Halton for the rounds and the seeds, so their
+    // pipelines compile once.
+    let mut mdas_k = Mdas::new(mdas_at_spp)?;
+    let mut halton_k = Halton::new(1, spec.setup.halton_seed);
     let timing = intervals::interleaved(
         gpu,
-        timed_mdas.as_mut(),
-        spec.setup.halton_seed,
+        match spec.budget {
+            Budget::MdasSpp => Some(&mut mdas_k),
+            Budget::TimeMs(_) => None,
+        },
+        &mut halton_k,
         &intervals::budgets_around(halton_eq.hi.spp, spec.max_spp),
         spec.setup.repeats.max(intervals::MIN_ROUNDS),
         integrand,
@@ -457,24 +460,30 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
     status.set_message(format!("seeds ({} per method)", spec.seeds));
     let mdas_stats = intervals::mdas_over_seeds(
         gpu,
-        mdas_at_spp,
+        &mut mdas_k,
         &mdas_main.measured.render.image,
         &mdas_seeds,
         integrand,
         &reference,
     )?;
     let mut cache: BTreeMap<u32, super::seeds::SeedStats> = BTreeMap::new();
-    let mut halton_stats = |spp: u32,
-                            first: Option<&[[f32; 3]]>|
-     -> Result<super::seeds::SeedStats> {
-        if let Some(s) = cache.get(&spp) {
-            return Ok(s.clone());
-        }
-        let s =
-            intervals::halton_over_seeds(gpu, spp, first, &halton_seeds, integrand, &reference)?;
-        cache.insert(spp, s.clone());
-        Ok(s)
-    };
+    let mut halton_stats =
+        |spp: u32, first: Option<&[[f32; 3]]>| -> Result<super::seeds::SeedStats> {
+            if let Some(s) = cache.get(&spp) {
+                return Ok(s.clone());
+            }
+            let s = intervals::halton_over_seeds(
+                gpu,
+                &mut halton_k,
+                spp,
+                first,
+                &halton_seeds,
+                integrand,
+                &reference,
+            )?;
+            cache.insert(spp, s.clone());
+            Ok(s)
+        };
     let main_stats = halton_stats(halton_main.spp, Some(&halton_main.measured.render.image))?;
     let n0 = halton_spp.floor().max(1.0) as u32;
     let (n0_stats, n1_stats) = (halton_stats(n0, None)?, halton_stats(n0 + 1, None)?);

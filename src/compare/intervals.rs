@@ -29,7 +29,6 @@ use super::equal_time::{interpolate_log_log, median, EqualTime, TimeFit};
 use super::seeds::{bootstrap_ci95, mean, SeedStats};
 use crate::gpu::Gpu;
 use crate::integrand::Integrand;
-use crate::integrator::mdas::MdasParams;
 use crate::integrator::{Halton, Integrator, Mdas};
 use anyhow::{bail, Result};
 
@@ -56,17 +55,16 @@ pub fn seed_plan(
     Ok((mdas, halton))
 }
 
-/// MDAS with `params` (its budget and first seed) over `seeds`; `first` is
-/// the image already rendered with `seeds[0]`.
+/// `mdas` (at its budget) over `seeds`; `first` is the image already
+/// rendered with `seeds[0]`.
 pub fn mdas_over_seeds(
     gpu: &Gpu,
-    params: MdasParams,
+    mdas: &mut Mdas,
     first: &[[f32; 3]],
     seeds: &[u32],
     integrand: &dyn Integrand,
     reference: &[[f32; 3]],
 ) -> Result<SeedStats> {
-    let mut mdas = Mdas::new(params)?;
     let mut images = vec![first.to_vec()];
     for &s in &seeds[1..] {
         mdas.set_seed(s);
@@ -75,10 +73,12 @@ pub fn mdas_over_seeds(
     stats(&images, reference)
 }
 
-/// Halton at `spp` over `seeds`; `first`, when given, is the image of
+/// Halton at `spp` over `seeds` (one `halton` for every call, so its
+/// pipelines compile once); `first`, when given, is the image of
 /// `seeds[0]` already rendered.
 pub fn halton_over_seeds(
     gpu: &Gpu,
+    halton: &mut Halton,
     spp: u32,
     first: Option<&[[f32; 3]]>,
     seeds: &[u32],
@@ -86,7 +86,7 @@ pub fn halton_over_seeds(
     reference: &[[f32; 3]],
 ) -> Result<SeedStats> {
     let mut images: Vec<Vec<[f32; 3]>> = first.map(|f| vec![f.to_vec()]).unwrap_or_default();
-    let mut halton = Halton::new(spp, seeds[0]);
+    halton.spp = spp;
     for &s in &seeds[images.len()..] {
         halton.seed = s;
         images.push(halton.render(gpu, integrand)?.image);
@@ -148,18 +148,17 @@ fn spread(v: &[f64]) -> f64 {
     }
 }
 
-/// Times `mdas` (when given) and Halton (`halton_seed`) at each of
-/// `budgets` in `rounds` interleaved rounds, after one untimed render of
-/// each (module docs).
+/// Times `mdas` (when given) and `halton` at each of `budgets` in `rounds`
+/// interleaved rounds, after one untimed render of each (module docs).
 pub fn interleaved(
     gpu: &Gpu,
     mut mdas: Option<&mut Mdas>,
-    halton_seed: u32,
+    halton: &mut Halton,
     budgets: &[u32],
     rounds: u32,
     integrand: &dyn Integrand,
 ) -> Result<Interleaved> {
-    let mut halton = Halton::new(budgets[0], halton_seed);
+    halton.spp = budgets[0];
     if let Some(m) = mdas.as_deref_mut() {
         m.render(gpu, integrand)?;
     }
@@ -214,9 +213,8 @@ pub fn spp_at_target(
 ) -> f64 {
     let (lo, hi) = (eq.lo.spp as f64, eq.hi.spp as f64);
     let (lo_t, hi_t) = (eq.lo.measured.total_ms(), eq.hi.measured.total_ms());
-    let spp = match fit.and_then(|f| f.spp_at(target_ms)) {
-        Some(s) => {
-            let f = fit.unwrap();
+    let spp = match fit.and_then(|f| f.spp_at(target_ms).map(|s| (f, s))) {
+        Some((f, s)) => {
             let (min, max) = (f.points[0].0 as f64, f.points[f.points.len() - 1].0 as f64);
             if s < min || s > max {
                 flags.push(format!(
