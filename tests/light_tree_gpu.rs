@@ -319,22 +319,10 @@ fn tree_of_one_million_lights() {
 /// Runs `prim_centroid` and `prim_intensity` over `prims` on the GPU.
 fn gpu_prim_quantities(gpu: &Gpu, prims: &[LightPrim]) -> Vec<[u32; 4]> {
     use mdas::gpu::shader::{bind_buffers, storage_entry, uniform_entry};
-    let kernel = r#"
-@group(0) @binding(0) var<uniform> zero: vec4<u32>;
-@group(0) @binding(1) var<storage, read> prims: array<LightPrim>;
-@group(0) @binding(2) var<storage, read_write> out: array<vec4<u32>>;
-
-@compute @workgroup_size(64)
-fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
-    opaque_zero = zero.x;
-    let i = gid.x;
-    if (i < arrayLength(&prims)) {
-        let l = prims[i];
-        out[i] = vec4<u32>(bitcast<vec3<u32>>(prim_centroid(l)), bitcast<u32>(prim_intensity(l)));
-    }
-}
-"#;
-    let source = mdas::lights::gpu_build::prim_wgsl().part(("test_prim_quantities", kernel));
+    let source = mdas::lights::gpu_build::prim_wgsl().part((
+        "tests/kernels/prim_quantities.wgsl",
+        include_str!("kernels/prim_quantities.wgsl"),
+    ));
     let layout = gpu
         .device
         .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
