@@ -7,20 +7,22 @@
 //!    its initial sample count fails here), then the output directory
 //!    (created and probed for writing).
 //! 2. The reference: Halton at `ref_spp` (`app::reference`, cached).
-//! 3. Timing ([`measure`]): MDAS at its spp — its median total is the
-//!    target time — then Halton's budget search at that time
-//!    ([`super::halton_at_equal_time`]). With [`Budget::TimeMs`] both
-//!    methods get the same target and both are searched
-//!    ([`search_equal_time`]; MDAS from the smallest spp its initial grid
-//!    allows, and it is an error if even that is slower than the budget).
+//! 3. Timing ([`measure`]): MDAS at its spp, then Halton's budget search
+//!    at MDAS's median time ([`super::halton_at_equal_time`]). With
+//!    [`Budget::TimeMs`] both methods get the same target and both are
+//!    searched ([`search_equal_time`]; MDAS from the smallest spp its
+//!    initial grid allows, and it is an error if even that is slower than
+//!    the budget). Then interleaved rounds around the bracket give the
+//!    target (MDAS's fastest round) and Halton's time fit, and each method
+//!    is rendered with `--seeds` seeds ([`super::intervals`]).
 //! 4. An untimed MDAS render with the sample-density read-back.
 //! 5. Only then files are written, each atomically, `report.json` last: a
 //!    failure anywhere before leaves no report.
 //!
 //! The images written for a searched method are those of the bracketing
-//! run nearer to the target time (`equal_time.*.image_run`); the methods'
-//! `relmse` are those runs' own, the ratio uses the values interpolated at
-//! exactly the target time.
+//! run nearer to the target time (`equal_time.*.image_run`), each the
+//! first seed's; the methods' `relmse` are the means over seeds at those
+//! runs' budgets, and the ratio uses Halton's RelMSE at the fitted spp.
 
 use super::equal_time::{measure, search_equal_time, EqualTime, HaltonRun};
 use super::heatmap;

@@ -1,6 +1,8 @@
 //! Equal-time comparison of integrators (the experiment of the MDAS paper,
-//! §5): timing with warm-up and medians, budget matching, `mdas compare`
-//! ([`experiment`]) with its report, heat maps and density map, light
+//! §5): timing with warm-up and medians, budget matching, interleaved
+//! timing rounds with a time fit and statistics over seeds ([`intervals`],
+//! [`seeds`]), `mdas compare` ([`experiment`]) with its report and
+//! provenance, heat maps and density map, light
 //! samplers against each other (`mdas compare --samplers`, [`samplers`]), and
 //! `mdas sweep` ([`sweep`]) with its CSV and log–log plot, and `mdas bench`
 //! ([`phases`]): MDAS's phases against Halton at equal samples.
