@@ -28,24 +28,11 @@ use anyhow::{bail, Result};
 pub struct Measured {
     pub render: Render,
     pub times: PhaseTimes,
-    /// Each timed repeat's total, in run order.
-    pub repeat_ms: Vec<f64>,
 }
 
 impl Measured {
     pub fn total_ms(&self) -> f64 {
         self.times.total()
-    }
-
-    /// (max − min) / median of the repeats' totals: 0 for one repeat.
-    pub fn spread(&self) -> f64 {
-        let lo = self.repeat_ms.iter().copied().fold(f64::INFINITY, f64::min);
-        let hi = self.repeat_ms.iter().copied().fold(0.0, f64::max);
-        if self.repeat_ms.len() < 2 || self.total_ms() <= 0.0 {
-            0.0
-        } else {
-            (hi - lo) / self.total_ms()
-        }
     }
 }
 
@@ -78,12 +65,7 @@ pub fn measure(
         runs.push(render.times.clone());
     }
     let times = median_times(&runs);
-    let repeat_ms = runs.iter().map(PhaseTimes::total).collect();
-    Ok(Measured {
-        render,
-        times,
-        repeat_ms,
-    })
+    Ok(Measured { render, times })
 }
 
 /// One run of an equal-time search (Halton's, or any method's through
