@@ -1,5 +1,6 @@
 //! A hand-written SVG log–log line plot: decade grid lines with labels,
-//! one polyline with markers per series, a legend; and its PNG raster
+//! one polyline with markers per series (optional vertical error bars and
+//! a text label per point), a legend; and its PNG raster
 //! ([`svg_to_png`], resvg with an embedded font, so the PNG looks the same
 //! on a machine without system fonts).
 
@@ -8,11 +9,55 @@ use std::fmt::Write;
 use std::sync::OnceLock;
 
 /// One line of the plot: a name, an SVG colour and (x, y) points (x, y > 0;
-/// others are dropped).
+/// others are dropped), each with an optional error bar [lo, hi] in y
+/// (`errors`: empty, or one per point) and label (`labels`: empty, or one
+/// per point, drawn beside the marker).
+#[derive(Default)]
 pub struct Series<'a> {
     pub name: &'a str,
     pub colour: &'a str,
     pub points: Vec<(f64, f64)>,
+    pub errors: Vec<[f64; 2]>,
+    pub labels: Vec<String>,
+}
+
+/// A drawable point: its position, error bar and label.
+struct Point<'s> {
+    x: f64,
+    y: f64,
+    error: Option<[f64; 2]>,
+    label: Option<&'s str>,
+}
+
+fn drawable(x: f64, y: f64) -> bool {
+    x > 0.0 && y > 0.0 && x.is_finite() && y.is_finite()
+}
+
+impl Series<'_> {
+    /// The drawable points (error bars cut to their positive, finite part).
+    fn drawn(&self) -> Vec<Point<'_>> {
+        (0..self.points.len())
+            .filter(|&i| drawable(self.points[i].0, self.points[i].1))
+            .map(|i| {
+                let (x, y) = self.points[i];
+                let error = self.errors.get(i).map(|&[lo, hi]| {
+                    let lo = if lo > 0.0 && lo.is_finite() {
+                        lo.min(y)
+                    } else {
+                        y
+                    };
+                    let hi = if hi.is_finite() { hi.max(y) } else { y };
+                    [lo, hi]
+                });
+                Point {
+                    x,
+                    y,
+                    error,
+                    label: self.labels.get(i).map(String::as_str),
+                }
+            })
+            .collect()
+    }
 }
 
 const W: f64 = 720.0;
@@ -39,10 +84,14 @@ fn label(e: i32) -> String {
 
 /// The SVG document.
 pub fn loglog_svg(title: &str, x_label: &str, y_label: &str, series: &[Series]) -> String {
-    let pts: Vec<(f64, f64)> = series
+    let drawn: Vec<Vec<Point>> = series.iter().map(Series::drawn).collect();
+    let pts: Vec<(f64, f64)> = drawn
         .iter()
-        .flat_map(|s| s.points.iter().copied())
-        .filter(|&(x, y)| x > 0.0 && y > 0.0 && x.is_finite() && y.is_finite())
+        .flatten()
+        .flat_map(|p| {
+            let [lo, hi] = p.error.unwrap_or([p.y, p.y]);
+            [(p.x, lo), (p.x, hi)]
+        })
         .collect();
     let (xmin, xmax) = pts
         .iter()
@@ -109,14 +158,20 @@ pub fn loglog_svg(title: &str, x_label: &str, y_label: &str, series: &[Series]) 
         TOP + ph / 2.0,
         escape(y_label)
     );
-    for (i, ser) in series.iter().enumerate() {
-        let p: Vec<(f64, f64)> = ser
-            .points
-            .iter()
-            .copied()
-            .filter(|&(x, y)| x > 0.0 && y > 0.0 && x.is_finite() && y.is_finite())
-            .map(|(x, y)| (sx(x), sy(y)))
-            .collect();
+    for (i, (ser, points)) in series.iter().zip(&drawn).enumerate() {
+        let p: Vec<(f64, f64)> = points.iter().map(|p| (sx(p.x), sy(p.y))).collect();
+        for (point, (x, _)) in points.iter().zip(&p) {
+            if let Some([lo, hi]) = point.error {
+                let (y0, y1) = (sy(lo), sy(hi));
+                let _ = writeln!(
+                    s,
+                    r#"<path d="M{x:.1},{y0:.1}V{y1:.1}M{:.1},{y0:.1}h8M{:.1},{y1:.1}h8" stroke="{}" stroke-width="1.2" fill="none"/>"#,
+                    x - 4.0,
+                    x - 4.0,
+                    ser.colour
+                );
+            }
+        }
         let path: Vec<String> = p.iter().map(|(x, y)| format!("{x:.1},{y:.1}")).collect();
         let _ = writeln!(
             s,
@@ -124,12 +179,22 @@ pub fn loglog_svg(title: &str, x_label: &str, y_label: &str, series: &[Series]) 
             path.join(" "),
             ser.colour
         );
-        for (x, y) in &p {
+        for (point, (x, y)) in points.iter().zip(&p) {
             let _ = writeln!(
                 s,
                 r#"<circle cx="{x:.1}" cy="{y:.1}" r="3.5" fill="{}"/>"#,
                 ser.colour
             );
+            if let Some(label) = point.label {
+                let _ = writeln!(
+                    s,
+                    r#"<text x="{:.1}" y="{:.1}" font-size="10" fill="{}">{}</text>"#,
+                    x + 6.0,
+                    y - 6.0,
+                    ser.colour,
+                    escape(label)
+                );
+            }
         }
         let ly = TOP + 18.0 + 18.0 * i as f64;
         let lx = LEFT + pw - 130.0;
@@ -147,14 +212,18 @@ pub fn loglog_svg(title: &str, x_label: &str, y_label: &str, series: &[Series]) 
     s
 }
 
-/// Family name of the font embedded for rasterized text (Ubuntu Light,
-/// from `epaint_default_fonts`), loaded once per process.
-fn font_options() -> &'static resvg::usvg::Options<'static> {
+/// The font of every rasterized label: DejaVu Sans, shipped in the repository
+/// (`assets/fonts/`, Bitstream Vera licence) and embedded in the binary,
+/// loaded once per process. Also used by the compare figure.
+pub(crate) const FONT: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
+
+/// usvg options whose sans-serif (and default) family is [`FONT`].
+pub(crate) fn font_options() -> &'static resvg::usvg::Options<'static> {
     static OPTIONS: OnceLock<resvg::usvg::Options<'static>> = OnceLock::new();
     OPTIONS.get_or_init(|| {
         let mut options = resvg::usvg::Options::default();
         let db = options.fontdb_mut();
-        db.load_font_data(epaint_default_fonts::UBUNTU_LIGHT.to_vec());
+        db.load_font_data(FONT.to_vec());
         let family = db
             .faces()
             .next()
@@ -203,11 +272,18 @@ mod tests {
                 name: "a<b",
                 colour: "red",
                 points: vec![(1.0, 0.1), (10.0, 0.01), (0.0, 1.0)],
+                errors: vec![[0.05, 0.2], [0.005, 0.02], [0.5, 2.0]],
+                labels: vec!["1 spp".into(), "10 spp".into(), "dropped".into()],
             }],
         );
         assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
         assert_eq!(svg.matches("<circle").count(), 2);
         assert!(svg.contains("a&lt;b"));
+        // One error bar and one label per drawn point; the dropped point
+        // (x = 0) has neither.
+        assert_eq!(svg.matches("stroke-width=\"1.2\"").count(), 2);
+        assert!(svg.contains(">1 spp<") && svg.contains(">10 spp<"));
+        assert!(!svg.contains("dropped"));
         assert_eq!(decades(1.0, 10.0), (0, 1));
         assert_eq!(decades(0.02, 3.0), (-2, 1));
     }
@@ -225,6 +301,7 @@ mod tests {
                 name: "s",
                 colour: "#ff0000",
                 points: vec![(1.0, 1.0), (100.0, 0.01)],
+                ..Series::default()
             }],
         );
         let png = svg_to_png(&svg).unwrap();
