@@ -150,8 +150,41 @@ fn check_dimensions(path: &Path, width: u32, height: u32, rgb: &[[f32; 3]]) -> R
     Ok(pixels)
 }
 
+/// The value of a custom EXR header attribute (see [`write_exr_with`]).
+#[derive(Clone, Debug, PartialEq)]
+pub enum ExrAttribute {
+    Text(String),
+    F64(f64),
+    I32(i32),
+}
+
+impl std::fmt::Display for ExrAttribute {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            ExrAttribute::Text(t) => f.write_str(t),
+            ExrAttribute::F64(v) => write!(f, "{v}"),
+            ExrAttribute::I32(v) => write!(f, "{v}"),
+        }
+    }
+}
+
 /// Writes a linear RGB float32 EXR (row-major, top row first), atomically.
 pub fn write_exr(path: &Path, width: u32, height: u32, rgb: &[[f32; 3]]) -> Result<()> {
+    write_exr_with(path, width, height, rgb, &[])
+}
+
+/// [`write_exr`] with custom header attributes (name, value) in the
+/// layer's header — how a render records its method, spp, seed and time
+/// (`exrheader` or any EXR viewer shows them). The software attribute
+/// names this crate and its version. Names must be non-empty ASCII.
+pub fn write_exr_with(
+    path: &Path,
+    width: u32,
+    height: u32,
+    rgb: &[[f32; 3]],
+    attributes: &[(&str, ExrAttribute)],
+) -> Result<()> {
+    use exr::meta::attribute::{AttributeValue, Text};
     use exr::prelude::*;
 
     check_dimensions(path, width, height, rgb)?;
@@ -160,8 +193,31 @@ pub fn write_exr(path: &Path, width: u32, height: u32, rgb: &[[f32; 3]]) -> Resu
         let [r, g, b] = rgb[y * w + x];
         (r, g, b)
     });
-    let image =
-        Image::from_encoded_channels((w, height as usize), Encoding::SMALL_LOSSLESS, channels);
+    let text = |t: &str| {
+        Text::new_or_none(t)
+            .ok_or_else(|| anyhow!("cannot write {}: '{t}' is not an EXR text", path.display()))
+    };
+    let mut layer_attributes = LayerAttributes {
+        software_name: Some(text(concat!("mdas ", env!("CARGO_PKG_VERSION")))?),
+        ..LayerAttributes::default()
+    };
+    for (name, value) in attributes {
+        if name.is_empty() {
+            bail!("cannot write {}: an attribute has no name", path.display());
+        }
+        let value = match value {
+            ExrAttribute::Text(t) => AttributeValue::Text(text(t)?),
+            ExrAttribute::F64(v) => AttributeValue::F64(*v),
+            ExrAttribute::I32(v) => AttributeValue::I32(*v),
+        };
+        layer_attributes.other.insert(text(name)?, value);
+    }
+    let image = Image::from_layer(Layer::new(
+        (w, height as usize),
+        layer_attributes,
+        Encoding::SMALL_LOSSLESS,
+        channels,
+    ));
     write_atomic(path, |temp| {
         image
             .write()
@@ -236,6 +292,36 @@ pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>)> {
         )
     })?;
     Ok((width, height, image.layer_data.channel_data.pixels.data))
+}
+
+/// The custom attributes of an EXR's first header (those written by
+/// [`write_exr_with`], and any other text, number or integer attribute a
+/// file carries outside the standard ones), sorted by name.
+pub fn read_exr_attributes(path: &Path) -> Result<Vec<(String, ExrAttribute)>> {
+    use exr::meta::attribute::AttributeValue;
+    let meta = exr::meta::MetaData::read_from_file(path, false)
+        .map_err(|e| anyhow!("cannot read {}: {e}", path.display()))?;
+    let header = meta
+        .headers
+        .first()
+        .ok_or_else(|| anyhow!("cannot read {}: no header", path.display()))?;
+    let mut out: Vec<(String, ExrAttribute)> = header
+        .own_attributes
+        .other
+        .iter()
+        .filter_map(|(name, value)| {
+            let value = match value {
+                AttributeValue::Text(t) => ExrAttribute::Text(t.to_string()),
+                AttributeValue::F64(v) => ExrAttribute::F64(*v),
+                AttributeValue::F32(v) => ExrAttribute::F64(f64::from(*v)),
+                AttributeValue::I32(v) => ExrAttribute::I32(*v),
+                _ => return None,
+            };
+            Some((name.to_string(), value))
+        })
+        .collect();
+    out.sort_by(|a, b| a.0.cmp(&b.0));
+    Ok(out)
 }
 
 /// The sRGB transfer function (OETF) of IEC 61966-2-1 for a linear value
@@ -359,6 +445,31 @@ mod tests {
         }
         // No temporary file left next to the output.
         assert_eq!(dir.entries(), vec!["round_trip.exr".to_string()]);
+    }
+
+    #[test]
+    fn exr_attributes_round_trip() {
+        let dir = TestDir::new("exr-attributes");
+        let path = dir.0.join("attrs.exr");
+        let attributes = [
+            ("method", ExrAttribute::Text("mdas".into())),
+            ("spp", ExrAttribute::F64(7.5)),
+            ("seed", ExrAttribute::I32(42)),
+        ];
+        write_exr_with(&path, 2, 1, &[[1.0; 3], [2.0; 3]], &attributes).unwrap();
+        let back = read_exr_attributes(&path).unwrap();
+        let mut want: Vec<(String, ExrAttribute)> = attributes
+            .iter()
+            .map(|(n, v)| (n.to_string(), v.clone()))
+            .collect();
+        want.sort_by(|a, b| a.0.cmp(&b.0));
+        assert_eq!(back, want);
+        // The pixels are unaffected.
+        assert_eq!(read_exr(&path).unwrap().2, vec![[1.0; 3], [2.0; 3]]);
+        // A name exr cannot store is an error, and nothing is written.
+        let bad = dir.0.join("bad.exr");
+        assert!(write_exr_with(&bad, 1, 1, &[[0.0; 3]], &[("", ExrAttribute::I32(1))]).is_err());
+        assert!(!bad.exists());
     }
 
     #[test]

@@ -74,6 +74,16 @@ pub enum Clock {
     WallClock,
 }
 
+impl Clock {
+    /// As reports and EXR headers name it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Clock::GpuTimestamps => "gpu timestamps",
+            Clock::WallClock => "wall clock",
+        }
+    }
+}
+
 pub struct Profiler<'g> {
     gpu: &'g Gpu,
     sets: Vec<wgpu::QuerySet>,
