@@ -172,29 +172,72 @@ pub fn prepare_loaded(
     })
 }
 
-/// Fails unless `path` ends in `.exr` (any case): the render's EXR, with
-/// its PNG written beside it.
-pub fn check_exr_path(path: &Path) -> Result<()> {
-    let is_exr = path
+/// The files an output path stands for: `X.exr` (any case) is the EXR
+/// with `X.png` written beside it; `X.png` is the PNG alone. Anything else
+/// is an error.
+pub fn output_files(path: &Path) -> Result<(Option<PathBuf>, PathBuf)> {
+    let extension = path
         .extension()
         .and_then(|e| e.to_str())
-        .is_some_and(|e| e.eq_ignore_ascii_case("exr"));
-    if !is_exr {
-        bail!(
-            "output '{}' must end in .exr (a .png is written beside it)",
+        .map(str::to_ascii_lowercase);
+    match extension.as_deref() {
+        Some("exr") => Ok((Some(path.to_path_buf()), path.with_extension("png"))),
+        Some("png") => Ok((None, path.to_path_buf())),
+        _ => bail!(
+            "output '{}' must end in .exr (linear EXR, with an sRGB .png written beside it) or .png (the PNG only)",
             path.display()
-        );
+        ),
     }
-    Ok(())
 }
 
-/// Writes `OUT.exr` and `OUT.png` beside it (each atomically).
-pub fn write_outputs(exr: &Path, render_film: Film, image: &[[f32; 3]]) -> Result<PathBuf> {
-    check_exr_path(exr)?;
-    let png = exr.with_extension("png");
-    image_io::write_exr(exr, render_film.width, render_film.height, image)?;
-    image_io::write_png(&png, render_film.width, render_film.height, image)?;
-    Ok(png)
+/// Writes the files [`output_files`] names (each atomically) and returns
+/// their paths, EXR first.
+pub fn write_outputs(path: &Path, render_film: Film, image: &[[f32; 3]]) -> Result<Vec<PathBuf>> {
+    write_outputs_with(path, render_film, image, &[])
+}
+
+/// [`write_outputs`] with header attributes in the EXR (see
+/// `image_io::write_exr_with`; the PNG carries none).
+pub fn write_outputs_with(
+    path: &Path,
+    render_film: Film,
+    image: &[[f32; 3]],
+    attributes: &[(&str, image_io::ExrAttribute)],
+) -> Result<Vec<PathBuf>> {
+    let (exr, png) = output_files(path)?;
+    let (w, h) = (render_film.width, render_film.height);
+    let mut written = Vec::new();
+    if let Some(exr) = exr {
+        image_io::write_exr_with(&exr, w, h, image, attributes)?;
+        written.push(exr);
+    }
+    image_io::write_png(&png, w, h, image)?;
+    written.push(png);
+    Ok(written)
+}
+
+/// The EXR header attributes of a render (`image_io::write_exr_with`):
+/// `method`, `spp` (samples over pixels), `seed`, `samples`, `timeMs` (the
+/// time of all phases), `clock` (`gpu timestamps` or `wall clock`) and
+/// `scene` (the scene file as given).
+pub fn render_attributes(
+    method: &str,
+    seed: u32,
+    render: &Render,
+    scene: &Path,
+) -> Vec<(&'static str, image_io::ExrAttribute)> {
+    use image_io::ExrAttribute::{Text, F64, I32};
+    let pixels = f64::from(render.film.width) * f64::from(render.film.height);
+    vec![
+        ("method", Text(method.to_string())),
+        ("spp", F64(render.samples as f64 / pixels.max(1.0))),
+        // Seeds are u32; the header stores i32 bits (2^31 and above wrap).
+        ("seed", I32(seed as i32)),
+        ("samples", F64(render.samples as f64)),
+        ("timeMs", F64(render.times.total())),
+        ("clock", Text(render.clock.name().into())),
+        ("scene", Text(scene.display().to_string())),
+    ]
 }
 
 /// Parameters that identify a reference render.
@@ -295,8 +338,33 @@ pub fn reference_with(
     }
     let render = halton.render(gpu, prepared.integrand.as_ref())?;
     check_finite(&render)?;
-    write_outputs(&path, render.film, &render.image)?;
+    let attributes = render_attributes("halton", spec.seed, &render, scene_path);
+    write_outputs_with(&path, render.film, &render.image, &attributes)?;
+    // The record of how it was made, beside it.
+    let record = serde_json::json!({
+        "spp": spec.spp,
+        "seed": spec.seed,
+        "scale": spec.scale,
+        "cache_key_extra": extra,
+        "time_ms": render.times.total(),
+        "provenance": crate::provenance::Provenance::new(
+            gpu,
+            scene_path,
+            prepared.integrand.as_ref(),
+            None,
+        )?,
+    });
+    let text = serde_json::to_string_pretty(&record)?;
+    image_io::write_atomic(&reference_record_path(&path), |t| {
+        std::fs::write(t, text.as_bytes()).map_err(Into::into)
+    })?;
     Ok((render.film, render.image, path, false))
+}
+
+/// The JSON record written beside a cached reference EXR (its provenance:
+/// command line, scene hash, adapter, version, time).
+pub fn reference_record_path(exr: &Path) -> PathBuf {
+    exr.with_extension("json")
 }
 
 /// References must be finite everywhere.

@@ -20,5 +20,6 @@ pub mod integrand;
 pub mod integrator;
 pub mod lights;
 pub mod metrics;
+pub mod provenance;
 pub mod scene;
 pub mod scene_file;

@@ -1,8 +1,10 @@
-//! What `report.json` records so that a comparison can be rerun and
-//! checked: the command line, the scene file's SHA-256, the integrand and
-//! its dimensions, every MDAS parameter as run (after `--scale` and the
-//! flags), the crate version and the git commit it was built from (when
-//! built from a checkout), the adapter and its driver, and the time.
+//! What every record of a run holds so that it can be rerun and checked
+//! (`report.json` of `compare`, `sweep.json`, `render --json`, the
+//! reference cache's `.json` beside each EXR): the command line, the scene
+//! file's SHA-256, the integrand and its dimensions, every MDAS parameter
+//! as run (after `--scale` and the flags; absent for Halton-only runs),
+//! the crate version and the git commit it was built from (when built from
+//! a checkout), the adapter and its driver, and the time.
 
 use crate::gpu::Gpu;
 use crate::integrand::Integrand;
@@ -21,8 +23,10 @@ pub struct Provenance {
     /// The integrand's name and dimension count.
     pub integrand: String,
     pub dims: u32,
-    /// MDAS's parameters as run (its seed is the first of its seeds).
-    pub mdas: MdasParams,
+    /// MDAS's parameters as run (its seed is the first of its seeds);
+    /// absent when the run has no MDAS render.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mdas: Option<MdasParams>,
     pub version: String,
     /// `git rev-parse HEAD` at build time, when built from a checkout.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -39,7 +43,7 @@ impl Provenance {
         gpu: &Gpu,
         scene: &Path,
         integrand: &dyn Integrand,
-        mdas: MdasParams,
+        mdas: Option<MdasParams>,
     ) -> Result<Provenance> {
         let bytes =
             std::fs::read(scene).with_context(|| format!("cannot read {}", scene.display()))?;

@@ -46,6 +46,7 @@ fn spec<'a>(
         budget,
         max_spp: 1 << 12,
         seeds: 2,
+        crops: vec![],
     }
 }
 
@@ -106,6 +107,8 @@ fn check_report(out: &Path) -> Value {
         "halton",
         "relmse-mdas",
         "relmse-halton",
+        "flip-mdas",
+        "flip-halton",
         "density-mdas",
     ] {
         for ext in ["exr", "png"] {
@@ -222,6 +225,16 @@ fn check_report(out: &Path) -> Value {
     }
     let ratio = mdas_relmse / eq["halton_relmse"].as_f64().unwrap();
     assert!(close(eq["relmse_ratio"].as_f64().unwrap(), ratio, 1e-12));
+    // The figure: three columns of panels at least MIN_PANEL wide (small
+    // films are upscaled), listed with the files.
+    assert_eq!(files["figure"], "figure.png");
+    let figure = image::open(out.join("figure.png")).unwrap();
+    assert!(
+        figure.width() >= 3 * mdas::compare::figure::MIN_PANEL,
+        "figure {}×{}",
+        figure.width(),
+        figure.height()
+    );
     // The density map holds MDAS's samples.
     let (_, _, density) = read_exr(&out.join("density-mdas.exr")).unwrap();
     let total: f64 = density.iter().map(|p| p[0] as f64).sum();
@@ -396,6 +409,7 @@ fn sweep_writes_csv_and_svg() {
         &SweepSpec {
             setup: setup("scenes/area_light_plane.toml", 0.25, &out, &params),
             spps: vec![1, 2, 4],
+            seeds: 2,
         },
     )
     .unwrap();
@@ -417,9 +431,31 @@ fn sweep_writes_csv_and_svg() {
         .rows
         .iter()
         .all(|r| r.time_ms > 0.0 && r.relmse > 0.0));
+    // Two seeds per point, Halton's skipping the reference's; each mean
+    // inside its interval.
+    for r in &result.rows {
+        assert_eq!(r.seeds.len(), 2);
+        assert!(
+            r.relmse_ci95[0] <= r.relmse && r.relmse <= r.relmse_ci95[1],
+            "{r:?}"
+        );
+        if r.method == "halton" {
+            assert_eq!(r.seeds, vec![0, 2], "seed 1 is the reference's");
+        }
+    }
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("sweep.json")).unwrap()).unwrap();
+    assert_eq!(json["rows"].as_array().unwrap().len(), result.rows.len());
+    assert_eq!(json["provenance"]["integrand"], "area_light");
     let svg = std::fs::read_to_string(out.join("sweep.svg")).unwrap();
     assert!(svg.starts_with("<svg") && svg.contains("Halton") && svg.contains("MDAS"));
     assert_eq!(svg.matches("<circle").count(), result.rows.len());
+    // An error bar and an spp label per point.
+    assert_eq!(
+        svg.matches("stroke-width=\"1.2\"").count(),
+        result.rows.len()
+    );
+    assert!(svg.contains(">4 spp<"));
     let png = image::open(out.join("sweep.png")).unwrap();
     assert_eq!((png.width(), png.height()), (720, 480));
     std::fs::remove_dir_all(&out).ok();

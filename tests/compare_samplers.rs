@@ -299,7 +299,7 @@ fn cli_render_with_a_sampler_override() {
         out.to_str().unwrap(),
     ]);
     assert!(o.status.success(), "stderr: {}", stderr(&o));
-    assert!(String::from_utf8_lossy(&o.stdout).contains("sampler power"));
+    assert!(stderr(&o).contains("sampler power"), "{}", stderr(&o));
     let (w, h, image) = read_exr(&out).unwrap();
     assert_eq!((w, h), (48, 32));
     assert!(image.iter().any(|p| p[0] > 0.0), "the lit plane is visible");
@@ -391,6 +391,7 @@ fn compare_with_a_sampler_override_reports_it() {
         budget: Budget::MdasSpp,
         max_spp: 1 << 12,
         seeds: 1,
+        crops: vec![],
     };
     let report = mdas::compare::compare_with(
         gpu(),

@@ -27,9 +27,9 @@
 use super::equal_time::{measure, search_equal_time, EqualTime, HaltonRun};
 use super::heatmap;
 use super::intervals;
+use super::outputs::{write_outputs, CompareOutputs, Written};
 use super::report::*;
 use crate::app::{self, IntegrandOverrides, ReferenceSpec};
-use crate::gpu::profiler::Clock;
 use crate::gpu::Gpu;
 use crate::image_io;
 use crate::integrand::Integrand;
@@ -98,6 +98,9 @@ pub struct CompareSpec<'a> {
     pub max_spp: u32,
     /// Seeds per method (`--seeds`, [`super::intervals`]).
     pub seeds: u32,
+    /// Insets of `figure.png` (`--crop`); empty: the two places where the
+    /// methods' errors differ most.
+    pub crops: Vec<super::figure::Crop>,
 }
 
 /// The compared Halton render must not reuse the reference's random
@@ -355,13 +358,6 @@ pub(crate) fn halton_search(
 }
 
 /// How the runs were timed, as reported.
-pub(crate) fn clock_name(clock: Clock) -> &'static str {
-    match clock {
-        Clock::GpuTimestamps => "gpu timestamps",
-        Clock::WallClock => "wall clock",
-    }
-}
-
 /// Writes `report.json` (atomically) into `out`.
 pub(crate) fn write_report(out: &Path, report: &Report) -> Result<()> {
     let json = serde_json::to_string_pretty(report)?;
@@ -382,6 +378,7 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
     let film = prepared.film;
     let params = (spec.setup.mdas_params)(prepared.scene.mdas);
     let min_spp = check_mdas(params, spec.budget, integrand, &spec.setup.scene)?;
+    super::figure::check_crops(&spec.crops, film.width, film.height)?;
     let (mdas_seeds, halton_seeds) = intervals::seed_plan(
         spec.seeds,
         params.seed,
@@ -425,7 +422,18 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
     let halton_main = nearer(&halton_eq).clone();
 
     // 3b. Interleaved timing around the bracket (module docs of
-    // `intervals`): the target and Halton's time fit.
+    // `intervals`): the target and Halton's time fit. From here on the
+    // number of renders is known: a bar with an ETA replaces the spinner
+    // (its length grows once the seeds' budgets are known).
+    status.finish_and_clear();
+    let budgets = intervals::budgets_around(halton_eq.hi.spp, spec.max_spp);
+    let rounds = spec.setup.repeats.max(intervals::MIN_ROUNDS);
+    let mdas_rounds = matches!(spec.budget, Budget::MdasSpp) as u64;
+    let status = bar(
+        spec.setup.progress,
+        rounds as u64 * (mdas_rounds + budgets.len() as u64),
+        "compare {bar:30} {pos}/{len} renders: {msg} [{elapsed_precise} < {eta}]",
+    );
     status.set_message("interleaved timing");
     let mdas_at_spp = MdasParams {
         spp: mdas_spp as f32,
@@ -442,9 +450,10 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
             Budget::TimeMs(_) => None,
         },
         &mut halton_k,
-        &intervals::budgets_around(halton_eq.hi.spp, spec.max_spp),
-        spec.setup.repeats.max(intervals::MIN_ROUNDS),
+        &budgets,
+        rounds,
         integrand,
+        &status,
     )?;
     let halton_fit = timing.fit();
     let (target_ms, target_times) = match spec.budget {
@@ -459,6 +468,13 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
     // 3c. Seeds: MDAS at its run's budget, Halton at the written run's
     // budget, at the whole spp either side of the target's and at MDAS's
     // spp (equal samples), each over `spec.seeds` seeds.
+    let n0 = halton_spp.floor().max(1.0) as u32;
+    let equal_spp = (mdas_spp.round() as u32).max(1);
+    let halton_budgets: std::collections::BTreeSet<u32> =
+        [halton_main.spp, n0, n0 + 1, equal_spp].into();
+    let k = spec.seeds as u64;
+    // MDAS's and the written Halton run's first seeds are rendered.
+    status.inc_length((k - 1) * 2 + k * (halton_budgets.len() as u64 - 1) + 1);
     status.set_message(format!("seeds ({} per method)", spec.seeds));
     let mdas_stats = intervals::mdas_over_seeds(
         gpu,
@@ -467,6 +483,7 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
         &mdas_seeds,
         integrand,
         &reference,
+        &status,
     )?;
     let mut cache: BTreeMap<u32, super::seeds::SeedStats> = BTreeMap::new();
     let mut halton_stats =
@@ -482,12 +499,12 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
                 &halton_seeds,
                 integrand,
                 &reference,
+                &status,
             )?;
             cache.insert(spp, s.clone());
             Ok(s)
         };
     let main_stats = halton_stats(halton_main.spp, Some(&halton_main.measured.render.image))?;
-    let n0 = halton_spp.floor().max(1.0) as u32;
     let (n0_stats, n1_stats) = (halton_stats(n0, None)?, halton_stats(n0 + 1, None)?);
     let halton_relmse = intervals::halton_at_target(halton_spp, &n0_stats, &n1_stats);
     let ratio_ci95 = intervals::ratio_ci95(
@@ -498,7 +515,6 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
         &n0_stats,
         &n1_stats,
     );
-    let equal_spp = (mdas_spp.round() as u32).max(1);
     let equal_stats = halton_stats(equal_spp, None)?;
     let equal_samples = EqualSamplesReport {
         spp: equal_spp,
@@ -541,43 +557,33 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
         ..params
     })?
     .render_with_density(gpu, integrand)?;
+    status.inc(1);
     status.finish_and_clear();
 
     // 5. Files, report last.
     let (w, h) = (film.width, film.height);
-    let mut files = BTreeMap::new();
-    let mut image = |key: &str, name: &str, pixels: &[[f32; 3]]| -> Result<()> {
-        app::write_outputs(&spec.setup.out.join(format!("{name}.exr")), film, pixels)?;
-        files.insert(key.to_string(), format!("{name}.exr"));
-        files.insert(format!("{key}_png"), format!("{name}.png"));
-        Ok(())
-    };
-    image("reference", "reference", &reference)?;
-    image("mdas", "mdas", &mdas_main.measured.render.image)?;
-    image("halton", "halton", &halton_main.measured.render.image)?;
-    for (key, run) in [("mdas", &mdas_main), ("halton", &halton_main)] {
-        let per_pixel = metrics::relmse_per_pixel(&run.measured.render.image, &reference)?;
-        let name = format!("relmse-{key}");
-        heatmap::write_map(
-            &spec.setup.out.join(&name),
-            w,
-            h,
-            &per_pixel,
-            heatmap::RELMSE_RANGE,
-        )?;
-        files.insert(format!("relmse_{key}"), format!("{name}.exr"));
-        files.insert(format!("relmse_{key}_png"), format!("{name}.png"));
-    }
-    let density_range = heatmap::density_range(&density);
-    heatmap::write_map(
-        &spec.setup.out.join("density-mdas"),
-        w,
-        h,
-        &density,
+    let initial_samples = mdas_k.config(integrand)?.initial_samples as u64;
+    let Written {
+        mut files,
+        flips,
         density_range,
-    )?;
-    files.insert("density_mdas".into(), "density-mdas.exr".into());
-    files.insert("density_mdas_png".into(), "density-mdas.png".into());
+    } = write_outputs(&CompareOutputs {
+        spec,
+        film,
+        reference: &reference,
+        mdas: &mdas_main.measured.render,
+        mdas_seed: params.seed,
+        mdas_spp,
+        mdas_stats: &mdas_stats,
+        initial_samples,
+        halton: &halton_main.measured.render,
+        halton_spp: halton_main.spp,
+        halton_stats: &main_stats,
+        density: &density,
+        target_ms,
+        ratio: mdas_stats.relmse / halton_relmse,
+        ratio_ci95,
+    })?;
     files.insert("report".into(), "report.json".into());
 
     let halton_report = SearchReport::new(&halton_eq);
@@ -600,7 +606,7 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
         },
         adapter: gpu.info.name.clone(),
         backend: format!("{:?}", gpu.info.backend),
-        clock: clock_name(mdas_main.measured.render.clock).into(),
+        clock: mdas_main.measured.render.clock.name().into(),
         version: env!("CARGO_PKG_VERSION").into(),
         repeats: spec.setup.repeats,
         reference: ReferenceReport {
@@ -613,9 +619,11 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
         },
         methods: vec![
             MethodReport::new("mdas", mdas_spp, &mdas_main, "mdas.exr")
-                .with_seeds(&mdas_seeds, &mdas_stats),
+                .with_seeds(&mdas_seeds, &mdas_stats)
+                .with_flip(flips[0]),
             MethodReport::new("halton", halton_main.spp as f64, &halton_main, "halton.exr")
-                .with_seeds(&halton_seeds, &main_stats),
+                .with_seeds(&halton_seeds, &main_stats)
+                .with_flip(flips[1]),
         ],
         equal_time: EqualTimeReport {
             mode: match spec.budget {
@@ -640,19 +648,20 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
             equal_samples: Some(equal_samples),
         },
         maps: MapsReport {
-            colormap: "viridis, log scale",
+            colormap: "viridis, log scale (FLIP maps: linear)",
             relmse_range: heatmap::RELMSE_RANGE,
             density_range: Some(density_range),
+            flip_range: Some(super::outputs::FLIP_RANGE),
         },
         files,
-        provenance: Some(super::provenance::Provenance::new(
+        provenance: Some(crate::provenance::Provenance::new(
             gpu,
             &spec.setup.scene,
             integrand,
-            MdasParams {
+            Some(MdasParams {
                 spp: mdas_spp as f32,
                 ..params
-            },
+            }),
         )?),
     };
     write_report(&spec.setup.out, &report)?;

@@ -10,7 +10,9 @@
 //! [`RELMSE_RANGE`] = 10⁻⁶ … 10¹ so maps of different methods and runs
 //! compare directly (values outside are clamped). The density map spans
 //! its own [min, max] of the non-zero densities (samples per pixel); both
-//! ranges are recorded in `report.json` (`maps`).
+//! ranges are recorded in `report.json` (`maps`). FLIP maps
+//! (`metrics::flip`, values in [0, 1]) use a linear scale over [0, 1]
+//! ([`write_map_linear`]).
 
 use crate::image_io;
 use anyhow::Result;
@@ -60,6 +62,14 @@ pub fn log_position(v: f32, (lo, hi): (f32, f32)) -> f32 {
     ((v.ln() - lo.ln()) / (hi.ln() - lo.ln())).clamp(0.0, 1.0)
 }
 
+/// Position of `v` in [lo, hi] on a linear scale (clamped; NaN for NaN).
+pub fn linear_position(v: f32, (lo, hi): (f32, f32)) -> f32 {
+    if v.is_nan() {
+        return f32::NAN;
+    }
+    ((v - lo) / (hi - lo)).clamp(0.0, 1.0)
+}
+
 /// Writes `stem.exr` (raw values) and `stem.png` (viridis, log scale over
 /// `range`).
 pub fn write_map(
@@ -69,12 +79,30 @@ pub fn write_map(
     values: &[f32],
     range: (f32, f32),
 ) -> Result<()> {
+    write_map_with(stem, width, height, values, |v| log_position(v, range))
+}
+
+/// [`write_map`] on a linear scale over `range`.
+pub fn write_map_linear(
+    stem: &Path,
+    width: u32,
+    height: u32,
+    values: &[f32],
+    range: (f32, f32),
+) -> Result<()> {
+    write_map_with(stem, width, height, values, |v| linear_position(v, range))
+}
+
+fn write_map_with(
+    stem: &Path,
+    width: u32,
+    height: u32,
+    values: &[f32],
+    position: impl Fn(f32) -> f32,
+) -> Result<()> {
     let grey: Vec<[f32; 3]> = values.iter().map(|&v| [v; 3]).collect();
     image_io::write_exr(&stem.with_extension("exr"), width, height, &grey)?;
-    let bytes: Vec<u8> = values
-        .iter()
-        .flat_map(|&v| viridis(log_position(v, range)))
-        .collect();
+    let bytes: Vec<u8> = values.iter().flat_map(|&v| viridis(position(v))).collect();
     let png = stem.with_extension("png");
     let image = image::RgbImage::from_raw(width, height, bytes)
         .ok_or_else(|| anyhow::anyhow!("{}: wrong pixel count", png.display()))?;

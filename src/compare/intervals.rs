@@ -31,6 +31,7 @@ use crate::gpu::Gpu;
 use crate::integrand::Integrand;
 use crate::integrator::{Halton, Integrator, Mdas};
 use anyhow::{bail, Result};
+use indicatif::ProgressBar;
 
 /// Most seeds `--seeds` accepts.
 pub const MAX_SEEDS: u32 = 64;
@@ -64,11 +65,13 @@ pub fn mdas_over_seeds(
     seeds: &[u32],
     integrand: &dyn Integrand,
     reference: &[[f32; 3]],
+    progress: &ProgressBar,
 ) -> Result<SeedStats> {
     let mut images = vec![first.to_vec()];
     for &s in &seeds[1..] {
         mdas.set_seed(s);
         images.push(mdas.render(gpu, integrand)?.image);
+        progress.inc(1);
     }
     stats(&images, reference)
 }
@@ -76,6 +79,7 @@ pub fn mdas_over_seeds(
 /// Halton at `spp` over `seeds` (one `halton` for every call, so its
 /// pipelines compile once); `first`, when given, is the image of
 /// `seeds[0]` already rendered.
+#[allow(clippy::too_many_arguments)]
 pub fn halton_over_seeds(
     gpu: &Gpu,
     halton: &mut Halton,
@@ -84,12 +88,14 @@ pub fn halton_over_seeds(
     seeds: &[u32],
     integrand: &dyn Integrand,
     reference: &[[f32; 3]],
+    progress: &ProgressBar,
 ) -> Result<SeedStats> {
     let mut images: Vec<Vec<[f32; 3]>> = first.map(|f| vec![f.to_vec()]).unwrap_or_default();
     halton.spp = spp;
     for &s in &seeds[images.len()..] {
         halton.seed = s;
         images.push(halton.render(gpu, integrand)?.image);
+        progress.inc(1);
     }
     stats(&images, reference)
 }
@@ -149,7 +155,8 @@ fn spread(v: &[f64]) -> f64 {
 }
 
 /// Times `mdas` (when given) and `halton` at each of `budgets` in `rounds`
-/// interleaved rounds, after one untimed render of each (module docs).
+/// interleaved rounds, after one untimed render of each (module docs);
+/// `progress` advances by one per timed render.
 pub fn interleaved(
     gpu: &Gpu,
     mut mdas: Option<&mut Mdas>,
@@ -157,6 +164,7 @@ pub fn interleaved(
     budgets: &[u32],
     rounds: u32,
     integrand: &dyn Integrand,
+    progress: &ProgressBar,
 ) -> Result<Interleaved> {
     halton.spp = budgets[0];
     if let Some(m) = mdas.as_deref_mut() {
@@ -170,10 +178,12 @@ pub fn interleaved(
     for _ in 0..rounds {
         if let Some(m) = mdas.as_deref_mut() {
             out.mdas_ms.push(m.render(gpu, integrand)?.times.total());
+            progress.inc(1);
         }
         for (spp, times) in &mut out.halton {
             halton.spp = *spp;
             times.push(halton.render(gpu, integrand)?.times.total());
+            progress.inc(1);
         }
     }
     Ok(out)
@@ -310,6 +320,7 @@ mod tests {
             mse: 0.0,
             mse_bias2: 0.0,
             mse_variance: 0.0,
+            mae: 0.0,
             excluded_pixels: 0,
         };
         // 1e-2 at 16 spp → 1e-2·16/4096 ≈ 3.9e-5: far below 1e-3.

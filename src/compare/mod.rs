@@ -1,19 +1,22 @@
 //! Equal-time comparison of integrators (the experiment of the MDAS paper,
 //! §5): timing with warm-up and medians, budget matching, interleaved
 //! timing rounds with a time fit and statistics over seeds ([`intervals`],
-//! [`seeds`]), `mdas compare` ([`experiment`]) with its report and
-//! provenance, heat maps and density map, light
+//! [`seeds`]), `mdas compare` ([`experiment`]) with its report
+//! ([`report`], provenance in `crate::provenance`), its files
+//! ([`outputs`]: images, RelMSE and FLIP heat maps, density map, the
+//! [`figure`]), light
 //! samplers against each other (`mdas compare --samplers`, [`samplers`]), and
 //! `mdas sweep` ([`sweep`]) with its CSV and log–log plot, and `mdas bench`
 //! ([`phases`]): MDAS's phases against Halton at equal samples.
 
 pub mod equal_time;
 pub mod experiment;
+pub mod figure;
 pub mod heatmap;
 pub mod intervals;
+pub mod outputs;
 pub mod phases;
 pub mod plot;
-pub mod provenance;
 pub mod report;
 pub mod samplers;
 pub mod seeds;

@@ -9,9 +9,9 @@
 
 use super::equal_time::{interpolate_log_log, EqualTime, HaltonRun, TimeFit};
 use super::intervals::Interleaved;
-use super::provenance::Provenance;
 use super::seeds::SeedStats;
 use crate::gpu::profiler::PhaseTimes;
+use crate::provenance::Provenance;
 use serde::Serialize;
 use std::collections::BTreeMap;
 
@@ -63,6 +63,9 @@ pub struct MapsReport {
     /// none is written: `compare --samplers`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub density_range: Option<(f32, f32)>,
+    /// The linear range of the FLIP maps (`mdas compare`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub flip_range: Option<(f32, f32)>,
 }
 
 #[derive(Clone, Copy, Debug, Serialize)]
@@ -107,9 +110,16 @@ pub struct MethodReport {
     /// else the written image's own (= `image_relmse`, `image_mse`).
     pub relmse: f64,
     pub mse: f64,
-    /// The written image's own RelMSE and MSE (its seed is `seeds[0]`).
+    /// Mean absolute error (`metrics`), as `relmse`.
+    pub mae: f64,
+    /// The written image's own RelMSE, MSE and MAE (its seed is `seeds[0]`).
     pub image_relmse: f64,
     pub image_mse: f64,
+    pub image_mae: f64,
+    /// The written image's mean FLIP (`metrics::flip`, LDR on its PNG
+    /// values; `mdas compare` only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub image_flip: Option<f64>,
     /// The seeds rendered, the written image's first (`mdas compare`).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub seeds: Vec<u32>,
@@ -135,8 +145,11 @@ impl MethodReport {
             samples_per_s: r.samples as f64 / (total / 1e3).max(1e-12),
             relmse: run.error.relmse,
             mse: run.error.mse,
+            mae: run.error.mae,
             image_relmse: run.error.relmse,
             image_mse: run.error.mse,
+            image_mae: run.error.mae,
+            image_flip: None,
             seeds: Vec::new(),
             over_seeds: None,
             nonfinite: r.nonfinite,
@@ -154,7 +167,14 @@ impl MethodReport {
         self.seeds = seeds.to_vec();
         self.relmse = s.relmse;
         self.mse = s.mse;
+        self.mae = s.mae;
         self.over_seeds = Some(s.clone());
+        self
+    }
+
+    /// The written image's mean FLIP.
+    pub fn with_flip(mut self, flip: f64) -> MethodReport {
+        self.image_flip = Some(flip);
         self
     }
 }
@@ -354,8 +374,8 @@ pub fn table(report: &Report) -> String {
         out += &format!(" {:>18}", format!("{p} ms"));
     }
     out += &format!(
-        " {:>10} {:>11} {:>11} {:>11}\n",
-        "total ms", "Msamples/s", "RelMSE", "MSE"
+        " {:>10} {:>11} {:>11} {:>11} {:>11} {:>7}\n",
+        "total ms", "Msamples/s", "RelMSE", "MSE", "MAE", "FLIP"
     );
     for m in &report.methods {
         out += &format!("{:<nw$} {:>9.3} {:>11}", m.name, m.spp, m.samples);
@@ -366,11 +386,14 @@ pub fn table(report: &Report) -> String {
             }
         }
         out += &format!(
-            " {:>10.3} {:>11.3} {:>11.4e} {:>11.4e}\n",
+            " {:>10.3} {:>11.3} {:>11.4e} {:>11.4e} {:>11.4e} {:>7}\n",
             m.total_ms(),
             m.samples_per_s / 1e6,
             m.relmse,
-            m.mse
+            m.mse,
+            m.mae,
+            m.image_flip
+                .map_or_else(|| "–".to_string(), |f| format!("{f:.4}"))
         );
     }
     let e = &report.equal_time;

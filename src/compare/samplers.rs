@@ -28,16 +28,18 @@
 
 use super::equal_time::EqualTime;
 use super::experiment::{
-    check_budget, check_mdas, check_out_dir, cleaning_up, clock_name, halton_search, nearer,
-    spinner, time_mdas, write_report, Budget, MdasTiming, Setup,
+    check_budget, check_mdas, check_out_dir, cleaning_up, halton_search, nearer, spinner,
+    time_mdas, write_report, Budget, MdasTiming, Setup,
 };
 use super::heatmap;
 use super::report::*;
 use crate::accel::GpuScene;
 use crate::app;
 use crate::gpu::Gpu;
+use crate::image_io;
 use crate::integrand::Integrand;
 use crate::integrand::IntegrandSpec;
+use crate::integrator::mdas::MdasParams;
 use crate::lights::sampler::SamplerKind;
 use crate::metrics;
 use crate::scene_file::SceneFile;
@@ -182,8 +184,18 @@ fn run(gpu: &Gpu, spec: &SamplersSpec) -> Result<Report> {
     // 5. Files, report last.
     let (w, h) = (film.width, film.height);
     let mut files = BTreeMap::new();
-    let mut image = |key: &str, name: &str, pixels: &[[f32; 3]], map: bool| -> Result<()> {
-        app::write_outputs(&setup.out.join(format!("{name}.exr")), film, pixels)?;
+    let mut image = |key: &str,
+                     name: &str,
+                     pixels: &[[f32; 3]],
+                     attributes: &[(&str, image_io::ExrAttribute)],
+                     map: bool|
+     -> Result<()> {
+        app::write_outputs_with(
+            &setup.out.join(format!("{name}.exr")),
+            film,
+            pixels,
+            attributes,
+        )?;
         files.insert(key.to_string(), format!("{name}.exr"));
         files.insert(format!("{key}_png"), format!("{name}.png"));
         if map {
@@ -201,11 +213,31 @@ fn run(gpu: &Gpu, spec: &SamplersSpec) -> Result<Report> {
         }
         Ok(())
     };
-    image("reference", "reference", &reference, false)?;
+    {
+        use image_io::ExrAttribute::{Text, F64, I32};
+        let reference_attributes = [
+            ("method", Text("halton".into())),
+            ("spp", F64(f64::from(setup.ref_spp))),
+            ("seed", I32(setup.ref_seed as i32)),
+        ];
+        image(
+            "reference",
+            "reference",
+            &reference,
+            &reference_attributes,
+            false,
+        )?;
+    }
     image(
         "mdas_tree",
         "mdas-tree",
         &mdas_main.measured.render.image,
+        &app::render_attributes(
+            "mdas+tree",
+            params.seed,
+            &mdas_main.measured.render,
+            &setup.scene,
+        ),
         true,
     )?;
     let mut methods = vec![MethodReport::new(
@@ -221,6 +253,12 @@ fn run(gpu: &Gpu, spec: &SamplersSpec) -> Result<Report> {
             &format!("halton_{kind}"),
             &name,
             &run.measured.render.image,
+            &app::render_attributes(
+                &format!("halton+{kind}"),
+                setup.halton_seed,
+                &run.measured.render,
+                &setup.scene,
+            ),
             true,
         )?;
         methods.push(MethodReport::new(
@@ -277,7 +315,7 @@ fn run(gpu: &Gpu, spec: &SamplersSpec) -> Result<Report> {
         },
         adapter: gpu.info.name.clone(),
         backend: format!("{:?}", gpu.info.backend),
-        clock: clock_name(mdas_main.measured.render.clock).into(),
+        clock: mdas_main.measured.render.clock.name().into(),
         version: env!("CARGO_PKG_VERSION").into(),
         repeats: setup.repeats,
         reference: ReferenceReport {
@@ -315,9 +353,18 @@ fn run(gpu: &Gpu, spec: &SamplersSpec) -> Result<Report> {
             colormap: "viridis, log scale",
             relmse_range: heatmap::RELMSE_RANGE,
             density_range: None,
+            flip_range: None,
         },
         files,
-        provenance: None,
+        provenance: Some(crate::provenance::Provenance::new(
+            gpu,
+            &setup.scene,
+            mdas_integrand,
+            Some(MdasParams {
+                spp: mdas_spp as f32,
+                ..params
+            }),
+        )?),
     };
     write_report(&setup.out, &report)?;
     Ok(report)

@@ -77,6 +77,9 @@ pub struct SeedStats {
     pub mse: f64,
     pub mse_bias2: f64,
     pub mse_variance: f64,
+    /// Mean over seeds of the MAE.
+    #[serde(skip)]
+    pub mae: f64,
     /// Pixels left out because some seed's value there is not finite.
     pub excluded_pixels: u64,
 }
@@ -89,8 +92,11 @@ impl SeedStats {
         }
         let k = images.len();
         let mut relmse_per_seed = Vec::with_capacity(k);
+        let mut mae_sum = 0.0;
         for image in images {
-            relmse_per_seed.push(metrics::compare(image, reference)?.relmse);
+            let e = metrics::compare(image, reference)?;
+            relmse_per_seed.push(e.relmse);
+            mae_sum += e.mae;
         }
         let n = reference.len();
         let finite = |p: usize| images.iter().all(|im| im[p].iter().all(|v| v.is_finite()));
@@ -140,6 +146,7 @@ impl SeedStats {
             mse: (bias2 + var) / denom,
             mse_bias2: bias2 / denom,
             mse_variance: var / denom,
+            mae: mae_sum / k as f64,
             excluded_pixels: n as u64 - used,
         })
     }

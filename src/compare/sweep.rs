@@ -1,13 +1,19 @@
 //! `mdas sweep`: RelMSE against time for MDAS and Halton over a list of
-//! budgets (samples per pixel), written as `sweep.csv` and a log–log plot,
-//! `sweep.svg` and `sweep.png` (time on x, RelMSE on y) — speed against error in one
-//! picture. Each point is a [`measure`]d run (warm-up, median of the
-//! repeats). MDAS budgets below its initial sample count are skipped and
-//! listed in the result.
+//! budgets (samples per pixel), written as `sweep.csv`, `sweep.json` (the
+//! rows and the run's provenance) and a log–log plot, `sweep.svg` and
+//! `sweep.png` (time on x, RelMSE on y, each point labelled with its spp)
+//! — speed against error in one picture. Each point's time is a
+//! [`measure`]d run of the method's first seed (warm-up, median of the
+//! repeats); its RelMSE is the mean over `seeds` seeds (the first and
+//! `seeds − 1` more untimed renders; Halton's skip the reference's seed)
+//! with a 95% Student-t interval, drawn as an error bar. MDAS budgets
+//! below its initial sample count are skipped and listed in the result.
 
 use super::equal_time::measure;
 use super::experiment::{check_out_dir, mdas_min_spp, Setup};
+use super::intervals::seed_plan;
 use super::plot::{loglog_svg, svg_to_png, Series};
+use super::seeds::mean_ci95;
 use crate::app;
 use crate::gpu::Gpu;
 use crate::image_io;
@@ -21,6 +27,8 @@ pub struct SweepSpec<'a> {
     pub setup: Setup<'a>,
     /// Budgets, samples per pixel, for both methods.
     pub spps: Vec<u32>,
+    /// Seeds per point (1..=64).
+    pub seeds: u32,
 }
 
 /// One measured point.
@@ -30,31 +38,51 @@ pub struct SweepRow {
     pub spp: u32,
     pub samples: u64,
     pub time_ms: f64,
+    /// Mean over the seeds, and its 95% interval ([relmse; 2] for one seed).
     pub relmse: f64,
+    pub relmse_ci95: [f64; 2],
+    /// Mean over the seeds.
     pub mse: f64,
+    pub seeds: Vec<u32>,
 }
 
-/// The points, and the MDAS budgets skipped (below its initial samples).
+/// The points, the MDAS budgets skipped (below its initial samples) and
+/// the run's provenance: `sweep.json`.
+#[derive(Clone, Debug, serde::Serialize)]
 pub struct SweepResult {
+    pub scene: String,
+    pub scale: f32,
+    pub reference_spp: u32,
+    pub reference_seed: u32,
+    pub repeats: u32,
     pub rows: Vec<SweepRow>,
     pub mdas_skipped: Vec<u32>,
+    pub provenance: crate::provenance::Provenance,
 }
 
-pub const CSV_HEADER: &str = "method,spp,samples,time_ms,relmse,mse";
+pub const CSV_HEADER: &str = "method,spp,samples,time_ms,relmse,relmse_lo,relmse_hi,mse,seeds";
 
 pub fn csv(rows: &[SweepRow]) -> String {
     let mut s = format!("{CSV_HEADER}\n");
     for r in rows {
         s += &format!(
-            "{},{},{},{},{},{}\n",
-            r.method, r.spp, r.samples, r.time_ms, r.relmse, r.mse
+            "{},{},{},{},{},{},{},{},{}\n",
+            r.method,
+            r.spp,
+            r.samples,
+            r.time_ms,
+            r.relmse,
+            r.relmse_ci95[0],
+            r.relmse_ci95[1],
+            r.mse,
+            r.seeds.len()
         );
     }
     s
 }
 
-/// Runs the sweep and writes `sweep.csv`, `sweep.svg` and `sweep.png` in
-/// `spec.out`.
+/// Runs the sweep and writes `sweep.csv`, `sweep.json`, `sweep.svg` and
+/// `sweep.png` in `spec.out`.
 pub fn sweep(gpu: &Gpu, spec: &SweepSpec) -> Result<SweepResult> {
     super::experiment::cleaning_up(&spec.setup.out, || run_sweep(gpu, spec))
 }
@@ -68,6 +96,12 @@ fn run_sweep(gpu: &Gpu, spec: &SweepSpec) -> Result<SweepResult> {
     let integrand = prepared.integrand.as_ref();
     let params = (spec.setup.mdas_params)(prepared.scene.mdas);
     let min_spp = mdas_min_spp(params, integrand)?;
+    let (mdas_seeds, halton_seeds) = seed_plan(
+        spec.seeds,
+        params.seed,
+        spec.setup.halton_seed,
+        spec.setup.ref_seed,
+    )?;
     let (mdas_spps, mdas_skipped): (Vec<u32>, Vec<u32>) =
         spec.spps.iter().partition(|&&s| s >= min_spp);
     for &spp in &mdas_spps {
@@ -82,42 +116,58 @@ fn run_sweep(gpu: &Gpu, spec: &SweepSpec) -> Result<SweepResult> {
     let bar = super::experiment::bar(
         spec.setup.progress,
         (spec.spps.len() + mdas_spps.len()) as u64,
-        "sweep {bar:40} {pos}/{len} runs {msg} [{elapsed_precise} < {eta}]",
+        "sweep {bar:40} {pos}/{len} points {msg} [{elapsed_precise} < {eta}]",
     );
     let mut rows = Vec::new();
-    let mut point = |method: &'static str, spp: u32, integrator: &mut dyn Integrator| {
-        bar.set_message(format!("{method} {spp} spp"));
-        let m = measure(gpu, integrator, integrand, spec.setup.repeats)?;
-        let e = metrics::compare(&m.render.image, &reference)?;
-        rows.push(SweepRow {
-            method,
-            spp,
-            samples: m.render.samples,
-            time_ms: m.total_ms(),
-            relmse: e.relmse,
-            mse: e.mse,
-        });
+    let mut add = |row: Result<SweepRow>| -> Result<()> {
+        rows.push(row?);
         bar.inc(1);
-        anyhow::Ok(())
+        Ok(())
     };
     // One integrator per method, so pipelines compile once.
     let mut mdas = Mdas::new(params)?;
     for &spp in &mdas_spps {
+        bar.set_message(format!("mdas {spp} spp"));
         mdas.set_spp(spp as f32)?;
-        point("mdas", spp, &mut mdas)?;
+        add(point(
+            gpu,
+            spec,
+            integrand,
+            &reference,
+            "mdas",
+            spp,
+            &mdas_seeds,
+            &mut mdas,
+            Mdas::set_seed,
+        ))?;
     }
     let mut halton = Halton::new(1, spec.setup.halton_seed);
     for &spp in &spec.spps {
+        bar.set_message(format!("halton {spp} spp"));
         halton.spp = spp;
-        point("halton", spp, &mut halton)?;
+        add(point(
+            gpu,
+            spec,
+            integrand,
+            &reference,
+            "halton",
+            spp,
+            &halton_seeds,
+            &mut halton,
+            |h, s| h.seed = s,
+        ))?;
     }
     bar.finish_and_clear();
 
-    let series = |method: &str| -> Vec<(f64, f64)> {
-        rows.iter()
-            .filter(|r| r.method == method)
-            .map(|r| (r.time_ms, r.relmse))
-            .collect()
+    let series = |method: &'static str, name: &'static str, colour: &'static str| {
+        let rows: Vec<&SweepRow> = rows.iter().filter(|r| r.method == method).collect();
+        Series {
+            name,
+            colour,
+            points: rows.iter().map(|r| (r.time_ms, r.relmse)).collect(),
+            errors: rows.iter().map(|r| r.relmse_ci95).collect(),
+            labels: rows.iter().map(|r| format!("{} spp", r.spp)).collect(),
+        }
     };
     let title = format!(
         "{} at scale {}",
@@ -129,16 +179,8 @@ fn run_sweep(gpu: &Gpu, spec: &SweepSpec) -> Result<SweepResult> {
         "time (ms, median)",
         "RelMSE",
         &[
-            Series {
-                name: "MDAS",
-                colour: "#d62728",
-                points: series("mdas"),
-            },
-            Series {
-                name: "Halton",
-                colour: "#1f77b4",
-                points: series("halton"),
-            },
+            series("mdas", "MDAS", "#d62728"),
+            series("halton", "Halton", "#1f77b4"),
         ],
     );
     let text = csv(&rows);
@@ -152,5 +194,60 @@ fn run_sweep(gpu: &Gpu, spec: &SweepSpec) -> Result<SweepResult> {
     image_io::write_atomic(&spec.setup.out.join("sweep.png"), |t| {
         std::fs::write(t, &png).map_err(Into::into)
     })?;
-    Ok(SweepResult { rows, mdas_skipped })
+    let result = SweepResult {
+        scene: spec.setup.scene.display().to_string(),
+        scale: spec.setup.scale,
+        reference_spp: spec.setup.ref_spp,
+        reference_seed: spec.setup.ref_seed,
+        repeats: spec.setup.repeats,
+        rows,
+        mdas_skipped,
+        provenance: crate::provenance::Provenance::new(
+            gpu,
+            &spec.setup.scene,
+            integrand,
+            Some(params),
+        )?,
+    };
+    let json = serde_json::to_string_pretty(&result)?;
+    image_io::write_atomic(&spec.setup.out.join("sweep.json"), |t| {
+        std::fs::write(t, json.as_bytes()).map_err(Into::into)
+    })?;
+    Ok(result)
+}
+
+/// One point: the time of the first seed ([`measure`]), then every seed's
+/// error (the first seed's from the timed render).
+#[allow(clippy::too_many_arguments)]
+fn point<I: Integrator>(
+    gpu: &Gpu,
+    spec: &SweepSpec,
+    integrand: &dyn crate::integrand::Integrand,
+    reference: &[[f32; 3]],
+    method: &'static str,
+    spp: u32,
+    seeds: &[u32],
+    integrator: &mut I,
+    set_seed: impl Fn(&mut I, u32),
+) -> Result<SweepRow> {
+    set_seed(integrator, seeds[0]);
+    let m = measure(gpu, integrator, integrand, spec.setup.repeats)?;
+    let mut errors = vec![metrics::compare(&m.render.image, reference)?];
+    for &seed in &seeds[1..] {
+        set_seed(integrator, seed);
+        let image = integrator.render(gpu, integrand)?.image;
+        errors.push(metrics::compare(&image, reference)?);
+    }
+    let relmse: Vec<f64> = errors.iter().map(|e| e.relmse).collect();
+    let (relmse, relmse_ci95) = mean_ci95(&relmse);
+    Ok(SweepRow {
+        method,
+        spp,
+        samples: m.render.samples,
+        time_ms: m.total_ms(),
+        relmse,
+        relmse_ci95,
+        mse: errors.iter().map(|e| e.mse).sum::<f64>() / errors.len() as f64,
+        seeds: seeds.to_vec(),
+    })
 }

@@ -34,6 +34,37 @@ pub fn check_method(out: &Path, m: &Value, reference: &[[f32; 3]]) -> f64 {
         close(e.mse, m["image_mse"].as_f64().unwrap(), 1e-9),
         "{name} MSE"
     );
+    assert!(
+        close(e.mae, m["image_mae"].as_f64().unwrap(), 1e-9),
+        "{name} MAE"
+    );
+    // FLIP (`mdas compare`, not `--samplers`): the report's mean is the
+    // written image's, and its map averages to it over finite pixels.
+    if let Some(flip) = m.get("image_flip") {
+        let (w, h, _) = read_exr(&out.join(image_name)).unwrap();
+        let f = metrics::flip(&image, reference, w, h, metrics::DEFAULT_PIXELS_PER_DEGREE).unwrap();
+        assert!(close(f.mean, flip.as_f64().unwrap(), 1e-9), "{name} FLIP");
+        let (_, _, map) = read_exr(&out.join(format!("flip-{image_name}"))).unwrap();
+        let mean = map.iter().map(|p| p[0] as f64).sum::<f64>() / map.len() as f64;
+        if f.nonfinite_pixels == 0 {
+            assert!(
+                close(mean, f.mean, 1e-5),
+                "{name}: FLIP map {mean} vs {}",
+                f.mean
+            );
+        }
+        assert!((0.0..=1.0).contains(&f.mean));
+    }
+    // The EXR header names the method (and the budget it ran).
+    let attributes = mdas::image_io::read_exr_attributes(&out.join(image_name)).unwrap();
+    let method = attributes
+        .iter()
+        .find(|(n, _)| n == "method")
+        .map(|(_, v)| v.to_string());
+    assert!(
+        method.is_some_and(|v| name.starts_with(v.as_str())),
+        "{name}: EXR attributes {attributes:?}"
+    );
     match m.get("relmse_per_seed") {
         Some(per_seed) => {
             let v: Vec<f64> = per_seed

@@ -1,0 +1,239 @@
+//! The files of `mdas compare` (step 5 of `experiment`): the reference,
+//! MDAS and Halton images (EXR with method, spp, seed and time in the
+//! header, and PNG), per-pixel RelMSE heat maps (log scale) and FLIP maps
+//! (linear), the MDAS sample-density map, and `figure.png` — images side
+//! by side with insets where the methods' errors differ most (or the
+//! `--crop`s), captions with each method's RelMSE interval and FLIP, and
+//! the maps with colour bars. `report.json` is written last, by the caller.
+
+use super::figure;
+use super::heatmap;
+use super::seeds::SeedStats;
+use super::CompareSpec;
+use crate::app;
+use crate::film::Film;
+use crate::image_io;
+use crate::integrator::Render;
+use crate::metrics;
+use anyhow::Result;
+use std::collections::BTreeMap;
+
+/// The linear range of FLIP maps (FLIP is in [0, 1]).
+pub const FLIP_RANGE: (f32, f32) = (0.0, 1.0);
+
+/// What the files are made of.
+pub(crate) struct CompareOutputs<'a> {
+    pub spec: &'a CompareSpec<'a>,
+    pub film: Film,
+    pub reference: &'a [[f32; 3]],
+    /// MDAS's written run (its first seed), and its statistics.
+    pub mdas: &'a Render,
+    pub mdas_seed: u32,
+    pub mdas_spp: f64,
+    pub mdas_stats: &'a SeedStats,
+    /// MDAS's initial-grid samples (the rest were placed adaptively).
+    pub initial_samples: u64,
+    /// Halton's written run (its first seed), and its statistics.
+    pub halton: &'a Render,
+    pub halton_spp: u32,
+    pub halton_stats: &'a SeedStats,
+    /// MDAS's samples per pixel.
+    pub density: &'a [f32],
+    pub target_ms: f64,
+    /// The equal-time RelMSE ratio MDAS/Halton and its interval.
+    pub ratio: f64,
+    pub ratio_ci95: [f64; 2],
+}
+
+/// What was written: `files` (report key → file name), the mean FLIP of
+/// MDAS's and Halton's images, and the density map's log range.
+pub(crate) struct Written {
+    pub files: BTreeMap<String, String>,
+    pub flips: [f64; 2],
+    pub density_range: (f32, f32),
+}
+
+/// Writes every file but `report.json` into `o.spec.setup.out`, each
+/// atomically.
+pub(crate) fn write_outputs(o: &CompareOutputs) -> Result<Written> {
+    let (spec, film, reference, density) = (o.spec, o.film, o.reference, o.density);
+    let (mdas_render, halton_render) = (o.mdas, o.halton);
+    let (w, h) = (film.width, film.height);
+    let mut files = BTreeMap::new();
+    let mut image = |key: &str,
+                     name: &str,
+                     pixels: &[[f32; 3]],
+                     attributes: &[(&str, image_io::ExrAttribute)]|
+     -> Result<()> {
+        app::write_outputs_with(
+            &spec.setup.out.join(format!("{name}.exr")),
+            film,
+            pixels,
+            attributes,
+        )?;
+        files.insert(key.to_string(), format!("{name}.exr"));
+        files.insert(format!("{key}_png"), format!("{name}.png"));
+        Ok(())
+    };
+    {
+        use image_io::ExrAttribute::{Text, F64, I32};
+        image(
+            "reference",
+            "reference",
+            reference,
+            &[
+                ("method", Text("halton".into())),
+                ("spp", F64(f64::from(spec.setup.ref_spp))),
+                ("seed", I32(spec.setup.ref_seed as i32)),
+            ],
+        )?;
+    }
+    let scene_path = &spec.setup.scene;
+    image(
+        "mdas",
+        "mdas",
+        &mdas_render.image,
+        &app::render_attributes("mdas", o.mdas_seed, mdas_render, scene_path),
+    )?;
+    image(
+        "halton",
+        "halton",
+        &halton_render.image,
+        &app::render_attributes("halton", spec.setup.halton_seed, halton_render, scene_path),
+    )?;
+    let mut relmse_maps = Vec::new();
+    let mut flips = Vec::new();
+    for (key, render) in [("mdas", mdas_render), ("halton", halton_render)] {
+        let per_pixel = metrics::relmse_per_pixel(&render.image, reference)?;
+        let name = format!("relmse-{key}");
+        heatmap::write_map(
+            &spec.setup.out.join(&name),
+            w,
+            h,
+            &per_pixel,
+            heatmap::RELMSE_RANGE,
+        )?;
+        files.insert(format!("relmse_{key}"), format!("{name}.exr"));
+        files.insert(format!("relmse_{key}_png"), format!("{name}.png"));
+        relmse_maps.push(per_pixel);
+        let flip = metrics::flip(
+            &render.image,
+            reference,
+            w,
+            h,
+            metrics::DEFAULT_PIXELS_PER_DEGREE,
+        )?;
+        let name = format!("flip-{key}");
+        heatmap::write_map_linear(
+            &spec.setup.out.join(&name),
+            w,
+            h,
+            &flip.per_pixel,
+            FLIP_RANGE,
+        )?;
+        files.insert(format!("flip_{key}"), format!("{name}.exr"));
+        files.insert(format!("flip_{key}_png"), format!("{name}.png"));
+        flips.push(flip.mean);
+    }
+    let density_range = heatmap::density_range(density);
+    heatmap::write_map(
+        &spec.setup.out.join("density-mdas"),
+        w,
+        h,
+        density,
+        density_range,
+    )?;
+    files.insert("density_mdas".into(), "density-mdas.exr".into());
+    files.insert("density_mdas_png".into(), "density-mdas.png".into());
+
+    // The figure: images, insets, maps with colour bars.
+    let total = mdas_render.samples;
+    let adaptive = total.saturating_sub(o.initial_samples);
+    let (lo, hi) = density
+        .iter()
+        .filter(|d| d.is_finite())
+        .fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &d| {
+            (a.min(d), b.max(d))
+        });
+    let mut density_caption = if adaptive == 0 {
+        format!("{total} samples, none adaptive:\nthe budget is MDAS's initial grid")
+    } else {
+        format!(
+            "{adaptive} of {total} samples adaptive ({:.0}%)",
+            100.0 * adaptive as f64 / total.max(1) as f64
+        )
+    };
+    if lo == hi {
+        density_caption +=
+            &format!("\nevery pixel has {lo} spp: no adaptation visible in film space");
+    }
+    let caption = |name: &str, spp: f64, s: &super::seeds::SeedStats, flip: f64| {
+        format!(
+            "{name} {spp:.1} spp · {} seeds\nRelMSE {:.3e} [{:.3e}, {:.3e}] · FLIP {flip:.3}",
+            s.seeds, s.relmse, s.relmse_ci95[0], s.relmse_ci95[1]
+        )
+    };
+    let stem = scene_path
+        .file_stem()
+        .map_or_else(String::new, |s| s.to_string_lossy().into_owned());
+    let (ratio, ratio_ci95) = (o.ratio, o.ratio_ci95);
+    let title = format!(
+        "{stem} · {w}×{h} · equal time {:.1} ms · RelMSE MDAS/Halton {ratio:.3} [{:.3}, {:.3}]",
+        o.target_ms, ratio_ci95[0], ratio_ci95[1]
+    );
+    figure::write_figure(
+        &spec.setup.out.join("figure.png"),
+        &figure::FigureInput {
+            width: w,
+            height: h,
+            title,
+            images: [
+                figure::ImagePanel {
+                    label: "Reference",
+                    pixels: reference,
+                    caption: format!("Halton {} spp", spec.setup.ref_spp),
+                },
+                figure::ImagePanel {
+                    label: "MDAS",
+                    pixels: &mdas_render.image,
+                    caption: caption("MDAS", o.mdas_spp, o.mdas_stats, flips[0]),
+                },
+                figure::ImagePanel {
+                    label: "Halton",
+                    pixels: &halton_render.image,
+                    caption: caption("Halton", f64::from(o.halton_spp), o.halton_stats, flips[1]),
+                },
+            ],
+            maps: [
+                figure::MapPanel {
+                    label: "RelMSE, MDAS",
+                    values: &relmse_maps[0],
+                    range: heatmap::RELMSE_RANGE,
+                    unit: "RelMSE",
+                    caption: "per pixel, the image above".into(),
+                },
+                figure::MapPanel {
+                    label: "RelMSE, Halton",
+                    values: &relmse_maps[1],
+                    range: heatmap::RELMSE_RANGE,
+                    unit: "RelMSE",
+                    caption: "per pixel, the image above".into(),
+                },
+                figure::MapPanel {
+                    label: "MDAS sample density",
+                    values: density,
+                    range: density_range,
+                    unit: "spp",
+                    caption: density_caption,
+                },
+            ],
+            crops: spec.crops.clone(),
+        },
+    )?;
+    files.insert("figure".into(), "figure.png".into());
+    Ok(Written {
+        files,
+        flips: [flips[0], flips[1]],
+        density_range,
+    })
+}
