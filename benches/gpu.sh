@@ -50,9 +50,12 @@ step() {
 bench() {
     local name=$1 scale=$2
     shift 2
-    step "$name" "$BIN" bench "$@" --scale "$scale" --repeats "$REPEATS" --json "$OUT/$name.json"
+    step "$name" "$BIN" bench "$@" --scale "$scale" --repeats "$REPEATS" --json-out "$OUT/$name.json"
     if [ -n "$BASE" ]; then
-        step "$name-baseline" "$BASE" bench "$@" --scale "$scale" --repeats "$REPEATS" --json "$OUT/$name-baseline.json"
+        # Builds before 2026-11-30 call the file flag --json.
+        local flag=--json-out
+        "$BASE" bench --help | grep -q -- --json-out || flag=--json
+        step "$name-baseline" "$BASE" bench "$@" --scale "$scale" --repeats "$REPEATS" "$flag" "$OUT/$name-baseline.json"
     fi
 }
 # shellcheck disable=SC2086 # the scene lists are word lists

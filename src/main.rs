@@ -38,16 +38,24 @@ fn quiet_headless_vulkan() {
 }
 
 fn run(cli: Cli) -> anyhow::Result<()> {
+    let ui = cli::Ui {
+        json: cli.json,
+        quiet: cli.quiet,
+    };
     match cli.command {
-        Command::Render(args) => cli::render::run(args),
-        Command::Reference(args) => cli::reference::run(args),
-        Command::Compare(args) => cli::compare::run(args),
-        Command::Sweep(args) => cli::sweep::run(args),
-        Command::Bench(args) => cli::bench::run(args),
+        Command::Render(args) => cli::render::run(args, ui),
+        Command::Reference(args) => cli::reference::run(args, ui),
+        Command::Compare(args) => cli::compare::run(args, ui),
+        Command::Sweep(args) => cli::sweep::run(args, ui),
+        Command::Bench(args) => cli::bench::run(args, ui),
         Command::Info => {
-            println!("mdas {}", env!("CARGO_PKG_VERSION"));
-            println!("{}", mdas::gpu::Gpu::shared()?.describe());
-            Ok(())
+            let gpu = mdas::gpu::Gpu::shared()?;
+            ui.result(format!(
+                "mdas {}\n{}\n",
+                env!("CARGO_PKG_VERSION"),
+                gpu.describe()
+            ));
+            ui.json(&gpu.summary())
         }
     }
 }

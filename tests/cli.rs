@@ -71,6 +71,77 @@ fn render_writes_exr_and_png() {
         .map(|e| e.unwrap().file_name())
         .collect();
     assert_eq!(names.len(), 2, "{names:?}");
+    // The EXR header says how it was made.
+    use mdas::image_io::ExrAttribute;
+    let attributes: std::collections::HashMap<String, ExrAttribute> =
+        mdas::image_io::read_exr_attributes(&out)
+            .unwrap()
+            .into_iter()
+            .collect();
+    assert_eq!(attributes["method"], ExrAttribute::Text("halton".into()));
+    assert_eq!(attributes["spp"], ExrAttribute::F64(4.0));
+    assert_eq!(attributes["seed"], ExrAttribute::I32(0));
+    assert!(matches!(attributes["timeMs"], ExrAttribute::F64(t) if t > 0.0));
+}
+
+/// `-o X.png` writes the PNG alone; `--json` prints one record whose
+/// fields agree with the file and the render; `--quiet` prints nothing
+/// but the result (and under --json, nothing on stderr at all).
+#[test]
+fn render_png_only_json_and_quiet() {
+    let dir = temp_dir("png-json");
+    let out = dir.join("plane.png");
+    let o = mdas(&[
+        "render",
+        "scenes/area_light_plane.toml",
+        "--spp",
+        "2",
+        "--scale",
+        "0.125",
+        "-o",
+        out.to_str().unwrap(),
+        "--json",
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "stderr: {}", stderr(&o));
+    assert_eq!(stderr(&o), "", "--quiet --json leaves stderr empty");
+    let names: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .collect();
+    assert_eq!(names, vec!["plane.png".to_string()]);
+    let png = image::open(&out).unwrap();
+    assert_eq!((png.width(), png.height()), (16, 12));
+    let record: serde_json::Value =
+        serde_json::from_slice(&o.stdout).expect("stdout is one JSON document");
+    assert_eq!(record["method"], "halton");
+    assert_eq!(
+        (record["width"].as_u64(), record["height"].as_u64()),
+        (Some(16), Some(12))
+    );
+    assert_eq!(record["samples"], 16 * 12 * 2);
+    assert_eq!(record["spp"], 2.0);
+    assert_eq!(record["files"][0], out.to_str().unwrap());
+    assert_eq!(record["provenance"]["integrand"], "area_light");
+    assert!(record["provenance"].get("mdas").is_none(), "Halton only");
+    assert_eq!(
+        record["provenance"]["scene_sha256"].as_str().unwrap().len(),
+        64
+    );
+
+    // Any other extension is refused before any work, naming both forms.
+    let bad = dir.join("other.jpg");
+    assert_fails_cleanly(
+        &[
+            "render",
+            "scenes/area_light_plane.toml",
+            "-o",
+            bad.to_str().unwrap(),
+        ],
+        &bad,
+        &["must end in .exr", "or .png"],
+    );
+    std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]
@@ -113,10 +184,9 @@ fn render_with_mdas_and_its_overrides() {
     ]);
     let stdout = String::from_utf8_lossy(&o.stdout);
     assert!(o.status.success(), "stderr: {}", stderr(&o));
-    assert!(
-        stdout.contains("mdas") && stdout.contains("(6.50 spp)"),
-        "{stdout}"
-    );
+    // The result on stdout, the note naming the method on stderr.
+    assert!(stdout.contains("(6.50 spp)"), "{stdout}");
+    assert!(stderr(&o).contains(", mdas, adapter"), "{}", stderr(&o));
     let (w, h, image) = mdas::image_io::read_exr(&out).unwrap();
     assert_eq!((w, h), (32, 24));
     assert!(image.iter().all(|p| p.iter().all(|c| c.is_finite())));
@@ -142,6 +212,21 @@ fn reference_is_cached() {
     let second = mdas(&args);
     assert!(second.status.success());
     assert!(String::from_utf8_lossy(&second.stdout).contains("cached"));
+    // The cache keeps a provenance record beside the EXR, and the EXR's
+    // header names the method and budget.
+    let third = mdas(&[&args[..], &["--json"]].concat());
+    assert!(third.status.success());
+    let printed: serde_json::Value = serde_json::from_slice(&third.stdout).unwrap();
+    assert_eq!(printed["cached"], true);
+    let record: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(printed["record"].as_str().unwrap()).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(record["spp"], 8);
+    assert_eq!(record["provenance"]["integrand"], "area_light");
+    let exr = std::path::Path::new(printed["path"].as_str().unwrap());
+    let attributes = mdas::image_io::read_exr_attributes(exr).unwrap();
+    assert!(attributes.contains(&("spp".into(), mdas::image_io::ExrAttribute::F64(8.0))));
 }
 
 #[test]
@@ -150,6 +235,10 @@ fn info_names_the_adapter() {
     assert!(o.status.success(), "stderr: {}", stderr(&o));
     let s = String::from_utf8_lossy(&o.stdout);
     assert!(s.contains("adapter:") && s.contains("backend:"), "{s}");
+    let o = mdas(&["info", "--json"]);
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(v["adapter"].as_str().is_some_and(|a| !a.is_empty()), "{v}");
+    assert!(v["limits"]["max_storage_buffer_binding_size"].as_u64() > Some(0));
 }
 
 #[test]
@@ -267,10 +356,10 @@ fn bad_arguments_fail_cleanly() {
             "--scale",
             "0.1",
             "-o",
-            dir.join("x.png").to_str().unwrap(),
+            dir.join("x.tif").to_str().unwrap(),
         ],
         &out,
-        &[".exr"],
+        &[".exr", ".png"],
     );
     let unwritable = Path::new("/proc/mdas-cannot-write-here/out.exr");
     assert_fails_cleanly(
@@ -380,7 +469,7 @@ fn bench_prints_a_table_and_writes_json() {
         "0.125",
         "--repeats",
         "1",
-        "--json",
+        "--json-out",
         json.to_str().unwrap(),
     ]);
     assert!(o.status.success(), "stderr: {}", stderr(&o));

@@ -17,39 +17,39 @@ pub(crate) struct BenchArgs {
     /// Timed rounds (one MDAS and one Halton render each) after the warm-up.
     #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..))]
     pub(crate) repeats: u32,
-    /// Also write the figures as JSON to this file.
-    #[arg(long)]
-    pub(crate) json: Option<PathBuf>,
+    /// Also write the figures as JSON to this file (`--json` prints them).
+    #[arg(long, value_name = "FILE")]
+    pub(crate) json_out: Option<PathBuf>,
 }
 
-pub(crate) fn run(args: BenchArgs) -> Result<()> {
+pub(crate) fn run(args: BenchArgs, ui: Ui) -> Result<()> {
     let BenchArgs {
         scenes,
         scale,
         spp,
         repeats,
-        json,
+        json_out,
     } = args;
-    if let Some(path) = &json {
+    if let Some(path) = &json_out {
         ensure_parent(path)?;
     }
     let gpu = Gpu::shared()?;
-    eprintln!("adapter {}", gpu.info.name);
+    ui.note(format!("adapter {}", gpu.info.name));
     let mut rows = Vec::new();
     for scene in &scenes {
-        eprintln!(
+        ui.note(format!(
             "{}: warm-up, then {repeats} interleaved rounds",
             scene.display()
-        );
+        ));
         rows.push(mdas::compare::phases::bench_scene(
             gpu, scene, scale, spp, repeats,
         )?);
     }
-    print!("{}", mdas::compare::phases::table(&rows));
-    if let Some(path) = &json {
+    ui.result(mdas::compare::phases::table(&rows));
+    if let Some(path) = &json_out {
         let text = serde_json::to_string_pretty(&rows)?;
         image_io::write_atomic(path, |tmp| Ok(std::fs::write(tmp, &text)?))?;
-        eprintln!("wrote {}", path.display());
+        ui.note(format!("wrote {}", path.display()));
     }
-    Ok(())
+    ui.json(&rows)
 }

@@ -34,14 +34,19 @@ pub(crate) struct CompareArgs {
     #[arg(long, default_value_t = 3, conflicts_with = "samplers",
           value_parser = clap::value_parser!(u32).range(1..=64))]
     pub(crate) seeds: u32,
+    /// Inset of the figure, as x,y,w,h in film pixels (repeatable; default:
+    /// two insets where the methods' errors differ most).
+    #[arg(long, value_name = "X,Y,W,H", value_parser = parse_crop, conflicts_with = "samplers")]
+    pub(crate) crop: Vec<mdas::compare::figure::Crop>,
     #[command(flatten)]
     pub(crate) common: ExperimentArgs,
-    /// Also print report.json to stdout (the table goes to stderr).
-    #[arg(long)]
-    pub(crate) json: bool,
 }
 
-pub(crate) fn run(args: CompareArgs) -> Result<()> {
+fn parse_crop(s: &str) -> Result<mdas::compare::figure::Crop, String> {
+    mdas::compare::figure::Crop::parse(s).map_err(|e| format!("{e:#}"))
+}
+
+pub(crate) fn run(args: CompareArgs, ui: Ui) -> Result<()> {
     let CompareArgs {
         scene,
         spp,
@@ -49,15 +54,15 @@ pub(crate) fn run(args: CompareArgs) -> Result<()> {
         sampler,
         samplers,
         seeds,
+        crop,
         common,
-        json,
     } = args;
     let out = common
         .out
         .clone()
         .unwrap_or_else(|| default_dir(&scene, "compare"));
     let mdas_params = |p: MdasParams| common.mdas.params(p, common.scale, spp, common.seed);
-    let setup = common.setup(scene, out.clone(), &mdas_params);
+    let setup = common.setup(ui, scene, out.clone(), &mdas_params);
     let budget = time_ms.map_or(
         mdas::compare::Budget::MdasSpp,
         mdas::compare::Budget::TimeMs,
@@ -79,17 +84,16 @@ pub(crate) fn run(args: CompareArgs) -> Result<()> {
                 budget,
                 max_spp: common.max_spp,
                 seeds,
+                crops: crop,
             },
             IntegrandOverrides { sampler },
         )?,
     };
-    let table = mdas::compare::report::table(&report);
-    if json {
-        eprint!("{table}");
-        println!("{}", serde_json::to_string_pretty(&report)?);
-    } else {
-        print!("{table}");
-        println!("wrote {} files to {}", report.files.len(), out.display());
-    }
-    Ok(())
+    ui.result(mdas::compare::report::table(&report));
+    ui.note(format!(
+        "wrote {} files to {}",
+        report.files.len(),
+        out.display()
+    ));
+    ui.json(&report)
 }

@@ -26,15 +26,115 @@ pub(crate) use std::path::{Path, PathBuf};
     about = "GPU multidimensional adaptive sampling and Halton QMC renderer (wgpu/WGSL)",
     long_about = "Renders TOML scenes by Monte Carlo integration on the GPU (any wgpu adapter: a \
                   real GPU, or Mesa's lavapipe CPU driver) and measures error against references.\n\n\
-                  Conventions (shared/DESIGN.md): a pixel's value is the mean radiance over its \
+                  Conventions (README.md, docs/): a pixel's value is the mean radiance over its \
                   footprint; images are linear RGB in EXR (a sRGB PNG is written beside for eyes); \
                   RelMSE = mean over pixels and channels of (x − ref)² / (ref² + 0.01).\n\n\
+                  Output: results go to stdout, progress bars and notes to stderr. --json makes \
+                  stdout one JSON document (every subcommand); --quiet drops bars and notes.\n\n\
                   Environment: MDAS_ADAPTER=<substring> picks an adapter by name; WGPU_BACKEND \
                   restricts backends (e.g. vulkan)."
 )]
 pub(crate) struct Cli {
+    /// Print the result as one JSON document on stdout (human-readable
+    /// text moves to stderr).
+    #[arg(long, global = true)]
+    pub(crate) json: bool,
+    /// No progress bars and no notes; results, warnings and errors only.
+    #[arg(short, long, global = true)]
+    pub(crate) quiet: bool,
     #[command(subcommand)]
     pub(crate) command: Command,
+}
+
+/// Where output goes (`--json`, `--quiet`): results on stdout, notes and
+/// progress on stderr.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Ui {
+    pub(crate) json: bool,
+    pub(crate) quiet: bool,
+}
+
+impl Ui {
+    /// A note (what is being done, where files went): stderr, unless quiet.
+    pub(crate) fn note(&self, text: impl std::fmt::Display) {
+        if !self.quiet {
+            eprintln!("{text}");
+        }
+    }
+
+    /// The human-readable result: stdout, or stderr under --json (where
+    /// stdout holds the JSON document); shown under --quiet too, unless
+    /// --json is given as well.
+    pub(crate) fn result(&self, text: impl std::fmt::Display) {
+        if !self.json {
+            to_stdout(&text.to_string());
+        } else if !self.quiet {
+            eprint!("{text}");
+        }
+    }
+
+    /// The JSON document, under --json.
+    pub(crate) fn json(&self, value: &impl serde::Serialize) -> Result<()> {
+        if self.json {
+            to_stdout(&(serde_json::to_string_pretty(value)? + "\n"));
+        }
+        Ok(())
+    }
+
+    /// Whether to draw progress bars.
+    pub(crate) fn progress(&self) -> bool {
+        !self.quiet
+    }
+
+    /// A bar of `len` steps drawn only once the work has taken a second
+    /// (short renders stay silent); `advance(done)` moves it.
+    pub(crate) fn delayed_bar(&self, len: u64, template: &str) -> DelayedBar {
+        let bar = ProgressBar::hidden();
+        bar.set_length(len);
+        bar.set_style(ProgressStyle::with_template(template).expect("valid template"));
+        DelayedBar {
+            bar,
+            start: std::time::Instant::now(),
+            enabled: self.progress(),
+        }
+    }
+}
+
+/// Writes to stdout; a closed pipe (`mdas info | head -1`) ends the
+/// output quietly instead of panicking as `print!` would.
+fn to_stdout(text: &str) {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    if let Err(e) = out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
+        if e.kind() != std::io::ErrorKind::BrokenPipe {
+            eprintln!("error: cannot write to stdout: {e}");
+        }
+    }
+}
+
+/// See [`Ui::delayed_bar`].
+#[derive(Clone)]
+pub(crate) struct DelayedBar {
+    bar: ProgressBar,
+    start: std::time::Instant,
+    enabled: bool,
+}
+
+impl DelayedBar {
+    pub(crate) fn advance(&self, done: u64) {
+        if self.enabled
+            && self.bar.is_hidden()
+            && self.start.elapsed() > std::time::Duration::from_secs(1)
+        {
+            self.bar
+                .set_draw_target(indicatif::ProgressDrawTarget::stderr());
+        }
+        self.bar.set_position(done);
+    }
+
+    pub(crate) fn finish(&self) {
+        self.bar.finish_and_clear();
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, ValueEnum)]
@@ -109,12 +209,14 @@ impl MdasArgs {
 
 #[derive(Subcommand)]
 pub(crate) enum Command {
-    /// Render a scene and write OUT.exr (linear) and OUT.png (sRGB).
+    /// Render a scene and write OUT.exr (linear) and OUT.png (sRGB), or only
+    /// OUT.png with `-o OUT.png`.
     Render(render::RenderArgs),
     /// Render (or fetch from the cache) a high-spp Halton reference image.
     Reference(reference::ReferenceArgs),
     /// MDAS against Halton at equal time: images, RelMSE heat maps, MDAS
-    /// sample density and report.json in --out (DESIGN.md "Equal time").
+    /// sample density, figure.png and report.json in --out
+    /// (docs/comparisons.md).
     /// With --samplers: light samplers of a many_light scene against each
     /// other under Halton at MDAS+tree's time (halton-<sampler> and
     /// mdas-tree images, RelMSE heat maps, report.json).
@@ -168,6 +270,7 @@ impl ExperimentArgs {
     /// The shared inputs of `compare` and `sweep`.
     pub(crate) fn setup<'a>(
         &self,
+        ui: Ui,
         scene: PathBuf,
         out: PathBuf,
         mdas_params: &'a dyn Fn(MdasParams) -> MdasParams,
@@ -181,7 +284,7 @@ impl ExperimentArgs {
             halton_seed: self.seed.unwrap_or(0),
             repeats: self.repeats,
             out,
-            progress: true,
+            progress: ui.progress(),
             mdas_params,
         }
     }
@@ -203,9 +306,10 @@ pub(crate) fn default_output(scene: &Path, integrator: &str) -> PathBuf {
     PathBuf::from("out").join(format!("{stem}-{integrator}.exr"))
 }
 
-/// An output must be an `.exr` path whose directory exists or can be made.
+/// An output must be an `.exr` or `.png` path whose directory exists or
+/// can be made.
 pub(crate) fn check_output(path: &Path) -> Result<()> {
-    app::check_exr_path(path)?;
+    app::output_files(path)?;
     ensure_parent(path)
 }
 

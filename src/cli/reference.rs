@@ -18,7 +18,8 @@ pub(crate) struct ReferenceArgs {
     /// Cache directory; references are keyed by a hash of the scene file and these parameters.
     #[arg(long, default_value = ".cache/references")]
     pub(crate) cache: PathBuf,
-    /// Also copy the reference to this EXR path (and a PNG beside it).
+    /// Also copy the reference to this path: X.exr (and an sRGB X.png beside
+    /// it) or X.png only.
     #[arg(short, long)]
     pub(crate) output: Option<PathBuf>,
     /// Light sampler of a many_light scene, overriding its [integrand]
@@ -29,7 +30,23 @@ pub(crate) struct ReferenceArgs {
     pub(crate) sampler: Option<SamplerKind>,
 }
 
-pub(crate) fn run(args: ReferenceArgs) -> Result<()> {
+/// What `reference --json` prints.
+#[derive(serde::Serialize)]
+struct ReferenceRecord {
+    scene: String,
+    width: u32,
+    height: u32,
+    spp: u32,
+    seed: u32,
+    scale: f32,
+    path: String,
+    cached: bool,
+    /// The cache's record beside the EXR (written when rendered).
+    record: String,
+    files: Vec<String>,
+}
+
+pub(crate) fn run(args: ReferenceArgs, ui: Ui) -> Result<()> {
     let ReferenceArgs {
         scene,
         spp,
@@ -43,7 +60,11 @@ pub(crate) fn run(args: ReferenceArgs) -> Result<()> {
         check_output(out)?;
     }
     let gpu = Gpu::shared()?;
-    let bar = ProgressBar::new(spp as u64);
+    let bar = if ui.progress() {
+        ProgressBar::new(spp as u64)
+    } else {
+        ProgressBar::hidden()
+    };
     bar.set_style(
         ProgressStyle::with_template(
             "reference {bar:40} {pos}/{len} spp [{elapsed_precise} < {eta}]",
@@ -61,16 +82,37 @@ pub(crate) fn run(args: ReferenceArgs) -> Result<()> {
         Some(Box::new(move |done, _| b.set_position(done as u64))),
     )?;
     bar.finish_and_clear();
-    println!(
-        "reference {}×{} at {spp} spp: {} ({})",
+    ui.result(format!(
+        "reference {}×{} at {spp} spp: {} ({})\n",
         film.width,
         film.height,
         path.display(),
         if cached { "cached" } else { "rendered" }
-    );
+    ));
+    let mut files = Vec::new();
     if let Some(out) = output {
-        let png = app::write_outputs(&out, film, &image)?;
-        println!("wrote {} and {}", out.display(), png.display());
+        // The copy keeps the cache file's header attributes.
+        let attributes = image_io::read_exr_attributes(&path)?;
+        let attributes: Vec<(&str, image_io::ExrAttribute)> = attributes
+            .iter()
+            .map(|(n, v)| (n.as_str(), v.clone()))
+            .collect();
+        files = app::write_outputs_with(&out, film, &image, &attributes)?
+            .iter()
+            .map(|f| f.display().to_string())
+            .collect();
+        ui.note(format!("wrote {}", files.join(" and ")));
     }
-    Ok(())
+    ui.json(&ReferenceRecord {
+        scene: scene.display().to_string(),
+        width: film.width,
+        height: film.height,
+        spp,
+        seed,
+        scale,
+        path: path.display().to_string(),
+        cached,
+        record: app::reference_record_path(&path).display().to_string(),
+        files,
+    })
 }

@@ -22,13 +22,16 @@ pub(crate) struct RenderArgs {
     /// Halton, the scene's [mdas] seed for MDAS).
     #[arg(long)]
     pub(crate) seed: Option<u32>,
-    /// Output EXR path (the PNG goes beside it). Default: out/<scene>-<integrator>.exr.
+    /// Output path: X.exr writes the linear EXR (with method, spp, seed and
+    /// time in its header) and an sRGB X.png beside it; X.png writes only
+    /// the PNG. Default: out/<scene>-<integrator>.exr.
     #[arg(short, long)]
     pub(crate) output: Option<PathBuf>,
     /// Render at this fraction of the scene's film size (same camera), e.g. 0.25.
     #[arg(long, default_value_t = 1.0)]
     pub(crate) scale: f32,
-    /// Reference EXR to measure RelMSE and MSE against (same size as the render).
+    /// Reference EXR to measure RelMSE, MSE, MAE and FLIP against (same
+    /// size as the render).
     #[arg(long)]
     pub(crate) reference: Option<PathBuf>,
     /// Light sampler of a many_light scene, overriding its [integrand]
@@ -45,7 +48,40 @@ pub(crate) struct RenderArgs {
     pub(crate) mdas: MdasArgs,
 }
 
-pub(crate) fn run(args: RenderArgs) -> Result<()> {
+/// What `render --json` prints.
+#[derive(serde::Serialize)]
+struct RenderRecord {
+    scene: String,
+    method: &'static str,
+    width: u32,
+    height: u32,
+    seed: u32,
+    spp: f64,
+    samples: u64,
+    nonfinite_samples: u64,
+    nonfinite_pixels: usize,
+    time_ms: f64,
+    phases_ms: Vec<(String, f64)>,
+    clock: &'static str,
+    gpu_bytes: u64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    error: Option<ErrorRecord>,
+    files: Vec<String>,
+    provenance: mdas::provenance::Provenance,
+}
+
+/// Error against `--reference`.
+#[derive(serde::Serialize)]
+struct ErrorRecord {
+    reference: String,
+    relmse: f64,
+    mse: f64,
+    mae: f64,
+    flip: f64,
+    nonfinite_pixels: u64,
+}
+
+pub(crate) fn run(args: RenderArgs, ui: Ui) -> Result<()> {
     let RenderArgs {
         scene,
         integrator,
@@ -74,24 +110,46 @@ pub(crate) fn run(args: RenderArgs) -> Result<()> {
             bail!("--spp must be at most {MAX_HALTON_SPP} for Halton, got {s}");
         }
     }
-    let reference = reference.map(|r| image_io::read_exr(&r)).transpose()?;
+    let reference_image = reference
+        .as_ref()
+        .map(|r| image_io::read_exr(r))
+        .transpose()?;
     let gpu = Gpu::shared()?;
     let prepared = app::prepare_with(gpu, &scene, scale, IntegrandOverrides { sampler })?;
     let film = prepared.film;
-    let mut sampler: Box<dyn Integrator> = match integrator {
+    // A bar once the render has taken a second (Halton then waits for the
+    // GPU every few dispatches to report; MDAS reads its state anyway).
+    let bar = ui.delayed_bar(
+        1000,
+        "render {bar:40} {percent}% [{elapsed_precise} < {eta}]",
+    );
+    let mdas_params = mdas.params(prepared.scene.mdas, scale, spp, seed);
+    let (mut sampler, seed): (Box<dyn Integrator>, u32) = match integrator {
         IntegratorKind::Halton => {
-            Box::new(Halton::new(spp.map_or(16, |s| s as u32), seed.unwrap_or(0)))
+            let seed = seed.unwrap_or(0);
+            let mut h = Halton::new(spp.map_or(16, |s| s as u32), seed);
+            if ui.progress() {
+                let b = bar.clone();
+                h = h.with_progress(Box::new(move |done, spp| {
+                    b.advance(done as u64 * 1000 / spp.max(1) as u64)
+                }));
+            }
+            (Box::new(h), seed)
         }
-        IntegratorKind::Mdas => Box::new(Mdas::new(mdas.params(
-            prepared.scene.mdas,
-            scale,
-            spp,
-            seed,
-        ))?),
+        IntegratorKind::Mdas => {
+            let mut m = Mdas::new(mdas_params)?;
+            if ui.progress() {
+                let b = bar.clone();
+                m = m.with_progress(Box::new(move |done, budget| {
+                    b.advance(done.min(budget) * 1000 / budget.max(1))
+                }));
+            }
+            (Box::new(m), mdas_params.seed)
+        }
     };
     let light_sampler = app::light_sampler(&prepared.scene.integrand)
         .map_or_else(String::new, |k| format!(", sampler {k}"));
-    println!(
+    ui.note(format!(
         "{}: {}×{} px, {} triangles, integrand {} ({}D{light_sampler}), {}, adapter {}",
         scene.display(),
         film.width,
@@ -101,18 +159,20 @@ pub(crate) fn run(args: RenderArgs) -> Result<()> {
         prepared.integrand.dims(),
         integrator.name(),
         gpu.info.name
-    );
+    ));
     if warmup {
         sampler.render(gpu, prepared.integrand.as_ref())?;
     }
     let render = sampler.render(gpu, prepared.integrand.as_ref())?;
-    print_render(&render);
+    bar.finish();
+    ui.result(render_line(&render));
     if !warmup && gpu.info.device_type == wgpu::DeviceType::Cpu {
-        println!(
-            "(cold: this CPU driver compiles pipelines at their first dispatch, inside these times; --warmup or `mdas bench` time warm renders)"
+        ui.note(
+            "(cold: this CPU driver compiles pipelines at their first dispatch, inside these times; --warmup or `mdas bench` time warm renders)",
         );
     }
-    if let Some((w, h, ref_image)) = reference {
+    let mut error = None;
+    if let Some((w, h, ref_image)) = reference_image {
         if (w, h) != (film.width, film.height) {
             bail!(
                 "reference is {w}×{h} but the render is {}×{}",
@@ -121,24 +181,65 @@ pub(crate) fn run(args: RenderArgs) -> Result<()> {
             );
         }
         let e = metrics::compare(&render.image, &ref_image)?;
-        println!(
-            "RelMSE {:.6e}  MSE {:.6e}  non-finite pixels {}",
-            e.relmse, e.mse, e.nonfinite_pixels
-        );
+        let flip = metrics::flip(
+            &render.image,
+            &ref_image,
+            w,
+            h,
+            metrics::DEFAULT_PIXELS_PER_DEGREE,
+        )?;
+        ui.result(format!(
+            "RelMSE {:.6e}  MSE {:.6e}  MAE {:.6e}  FLIP {:.4}  non-finite pixels {}\n",
+            e.relmse, e.mse, e.mae, flip.mean, e.nonfinite_pixels
+        ));
+        error = Some(ErrorRecord {
+            reference: reference
+                .as_ref()
+                .map_or_else(String::new, |r| r.display().to_string()),
+            relmse: e.relmse,
+            mse: e.mse,
+            mae: e.mae,
+            flip: flip.mean,
+            nonfinite_pixels: e.nonfinite_pixels,
+        });
     }
-    let png = app::write_outputs(&output, film, &render.image)?;
-    println!("wrote {} and {}", output.display(), png.display());
-    Ok(())
+    let attributes = app::render_attributes(integrator.name(), seed, &render, &scene);
+    let files = app::write_outputs_with(&output, film, &render.image, &attributes)?;
+    let names: Vec<String> = files.iter().map(|f| f.display().to_string()).collect();
+    ui.note(format!("wrote {}", names.join(" and ")));
+    ui.json(&RenderRecord {
+        scene: scene.display().to_string(),
+        method: integrator.name(),
+        width: film.width,
+        height: film.height,
+        seed,
+        spp: render.samples as f64 / (f64::from(film.width) * f64::from(film.height)),
+        samples: render.samples,
+        nonfinite_samples: render.nonfinite,
+        nonfinite_pixels: render.nonfinite_pixels(),
+        time_ms: render.times.total(),
+        phases_ms: render.times.0.clone(),
+        clock: render.clock.name(),
+        gpu_bytes: render.gpu_bytes,
+        error,
+        files: names,
+        provenance: mdas::provenance::Provenance::new(
+            gpu,
+            &scene,
+            prepared.integrand.as_ref(),
+            (integrator == IntegratorKind::Mdas).then_some(mdas_params),
+        )?,
+    })
 }
 
-fn print_render(render: &Render) {
+fn render_line(render: &Render) -> String {
     let phases: Vec<String> = render
         .times
         .0
         .iter()
         .map(|(n, t)| format!("{n} {t:.2} ms"))
         .collect();
-    println!(
+    format!(
         "{} samples ({:.2} spp) in {:.2} ms ({}; {:?}), {:.3} Msamples/s, {} non-finite samples, {:.1} MiB GPU",
         render.samples,
         render.samples as f64 / (render.film.width as f64 * render.film.height as f64),
@@ -148,5 +249,5 @@ fn print_render(render: &Render) {
         render.samples as f64 / render.times.total().max(1e-9) / 1e3,
         render.nonfinite,
         render.gpu_bytes as f64 / 1048576.0
-    );
+    ) + "\n"
 }

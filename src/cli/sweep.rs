@@ -10,14 +10,20 @@ pub(crate) struct SweepArgs {
     /// its initial sample count are skipped).
     #[arg(long, value_delimiter = ',', default_value = "1,2,4,8,16,32")]
     pub(crate) spps: Vec<u32>,
+    /// Seeds per point (MDAS from its seed on, Halton from --seed on,
+    /// skipping the reference's): each point's RelMSE is their mean, with
+    /// a 95% interval drawn as an error bar; the time is the first seed's.
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=64))]
+    pub(crate) seeds: u32,
     #[command(flatten)]
     pub(crate) common: ExperimentArgs,
 }
 
-pub(crate) fn run(args: SweepArgs) -> Result<()> {
+pub(crate) fn run(args: SweepArgs, ui: Ui) -> Result<()> {
     let SweepArgs {
         scene,
         spps,
+        seeds,
         common,
     } = args;
     let out = common
@@ -26,22 +32,21 @@ pub(crate) fn run(args: SweepArgs) -> Result<()> {
         .unwrap_or_else(|| default_dir(&scene, "sweep"));
     let mdas_params = |p: MdasParams| common.mdas.params(p, common.scale, None, common.seed);
     let spec = mdas::compare::sweep::SweepSpec {
-        setup: common.setup(scene, out.clone(), &mdas_params),
+        setup: common.setup(ui, scene, out.clone(), &mdas_params),
         spps,
+        seeds,
     };
     let result = mdas::compare::sweep::sweep(Gpu::shared()?, &spec)?;
-    print!("{}", mdas::compare::sweep::csv(&result.rows));
+    ui.result(mdas::compare::sweep::csv(&result.rows));
     if !result.mdas_skipped.is_empty() {
-        println!(
+        ui.note(format!(
             "MDAS skipped at spp {:?} (below its initial sample count)",
             result.mdas_skipped
-        );
+        ));
     }
-    println!(
-        "wrote {}, {} and {}",
-        out.join("sweep.csv").display(),
-        out.join("sweep.svg").display(),
-        out.join("sweep.png").display()
-    );
-    Ok(())
+    ui.note(format!(
+        "wrote sweep.csv, sweep.json, sweep.svg and sweep.png to {}",
+        out.display()
+    ));
+    ui.json(&result)
 }

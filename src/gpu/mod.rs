@@ -176,6 +176,35 @@ impl Gpu {
         }
     }
 
+    /// The facts of [`Gpu::describe`] as JSON (`mdas info --json`).
+    pub fn summary(&self) -> serde_json::Value {
+        let i = &self.info;
+        let l = &self.limits;
+        serde_json::json!({
+            "version": env!("CARGO_PKG_VERSION"),
+            "adapter": i.name,
+            "device_type": format!("{:?}", i.device_type),
+            "backend": format!("{:?}", i.backend),
+            "driver": i.driver,
+            "driver_info": i.driver_info,
+            "features_in_use": {
+                "timestamps": self.caps.timestamps,
+                "subgroups": self.caps.subgroups,
+                "subgroup_size": [i.subgroup_min_size, i.subgroup_max_size],
+                "float32_atomics": self.caps.float32_atomics,
+                "int64_atomics": self.caps.int64_atomics,
+            },
+            "limits": {
+                "max_buffer_size": l.max_buffer_size,
+                "max_storage_buffer_binding_size": l.max_storage_buffer_binding_size,
+                "max_storage_buffers_per_shader_stage": l.max_storage_buffers_per_shader_stage,
+                "max_compute_workgroups_per_dimension": l.max_compute_workgroups_per_dimension,
+                "max_compute_invocations_per_workgroup": l.max_compute_invocations_per_workgroup,
+                "max_compute_workgroup_storage_size": l.max_compute_workgroup_storage_size,
+            },
+        })
+    }
+
     /// A multi-line description for `mdas info`.
     pub fn describe(&self) -> String {
         let i = &self.info;
