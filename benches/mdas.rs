@@ -120,6 +120,7 @@ fn bench(c: &mut Criterion) {
             alpha: 0.25,
             candidates: 4,
             max_samples_per_leaf: 4,
+            epsilon: mdas::integrator::mdas::config::EPSILON,
             spp: 8.0,
             seed: 1,
         };

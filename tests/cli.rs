@@ -522,3 +522,32 @@ fn bench_refuses_a_fractional_spp() {
     assert!(err.contains("not a whole number; pass --spp"), "{err}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A scene without an `[mdas]` table renders with MDAS at 1 and 2 spp on a
+/// 128×128 film (the defaults derive from the film: at most 1 spp of
+/// initial samples).
+#[test]
+fn mdas_renders_a_scene_without_an_mdas_table() {
+    let dir = temp_dir("no-mdas-table");
+    let scene = scene_variant(&dir, "plain.toml", |t| {
+        let t = t[..t.find("[mdas]").expect("the scene has [mdas]")].to_string();
+        t.replacen("height = 96", "height = 128", 1)
+    });
+    for spp in ["1", "2"] {
+        let out = dir.join(format!("plain-{spp}.exr"));
+        let o = mdas(&[
+            "render",
+            scene.to_str().unwrap(),
+            "--integrator",
+            "mdas",
+            "--spp",
+            spp,
+            "-o",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{spp} spp: {}", stderr(&o));
+        let (w, h, _) = mdas::image_io::read_exr(&out).unwrap();
+        assert_eq!((w, h), (128, 128));
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -49,6 +49,8 @@ fn invalid_parameters_are_rejected_by_new() {
         ("scale_factor", Box::new(|p| p.scale_factor = f32::INFINITY)),
         ("spp", Box::new(|p| p.spp = 0.0)),
         ("spp", Box::new(|p| p.spp = f32::NAN)),
+        ("epsilon", Box::new(|p| p.epsilon = 0.0)),
+        ("epsilon", Box::new(|p| p.epsilon = f32::INFINITY)),
         ("extra_image_bits", Box::new(|p| p.extra_image_bits = 13)),
     ];
     for (key, change) in cases {
@@ -129,5 +131,37 @@ fn capacity_is_checked_against_the_adapter_before_any_work() {
             start.elapsed().as_secs_f64() < 5.0,
             "the check must come before any work"
         );
+    }
+}
+
+/// The film-derived defaults (a scene without `[mdas]` keys) render any
+/// film and dimension count at 1 spp: the initial grid never exceeds one
+/// sample per pixel, and a render takes the whole budget.
+#[test]
+fn film_defaults_fit_one_spp_on_any_film() {
+    let gpu = gpu();
+    for (w, h) in [(1, 1), (3, 2), (16, 12), (128, 128), (640, 360), (97, 1000)] {
+        let film = Film {
+            width: w,
+            height: h,
+        };
+        let p = MdasParams {
+            spp: 1.0,
+            ..MdasParams::for_film(film)
+        };
+        let initial = u64::from(p.initial_samples_per_cell) << (2 * p.extra_image_bits);
+        assert!(
+            initial <= u64::from(w * h),
+            "{w}×{h}: e = {}, {initial} initial samples",
+            p.extra_image_bits
+        );
+        for dims in [3, 4, 7] {
+            if (w * h > 20_000) && dims != 4 {
+                continue; // the large films once, to keep the test short
+            }
+            let integrand = TestIntegrand::new(gpu, 0, dims, film);
+            let render = Mdas::new(p).unwrap().render(gpu, &integrand).unwrap();
+            assert_eq!(render.samples, u64::from(w * h), "{w}×{h}, {dims}D");
+        }
     }
 }

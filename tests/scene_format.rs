@@ -354,6 +354,16 @@ fn unknown_keys_are_named_with_their_line() {
     );
     let m = error_at("unknown-mdas", &format!("{BASE}[mdas]\nsp = 4\n"), 13, 1);
     assert!(m.contains("unknown field 'sp'"), "{m}");
+    // ε must be positive; the error stands at its key.
+    let m = error_at(
+        "mdas-epsilon",
+        &format!("{BASE}[mdas]\nalpha = 0.5\nepsilon = 0\n"),
+        14,
+        11,
+    );
+    assert!(m.contains("epsilon = 0: must be a number in (0,"), "{m}");
+    let (_, ok) = load_text("mdas-epsilon-ok", &format!("{BASE}[mdas]\nepsilon = 0.5\n"));
+    assert_eq!(ok.unwrap().mdas.epsilon, 0.5);
 }
 
 #[test]

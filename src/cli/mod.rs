@@ -179,6 +179,10 @@ pub(crate) struct MdasArgs {
     /// MDAS: samples a leaf holds before it splits.
     #[arg(long)]
     pub(crate) max_samples_per_leaf: Option<u32>,
+    /// MDAS: ε of the contrast error E = V·(ε + c), c in [0, 2] (default
+    /// 0.01; larger is less adaptive and less biased).
+    #[arg(long)]
+    pub(crate) epsilon: Option<f32>,
 }
 
 impl MdasArgs {
@@ -201,6 +205,7 @@ impl MdasArgs {
             alpha: self.alpha.unwrap_or(p.alpha),
             candidates: self.candidates.unwrap_or(p.candidates),
             max_samples_per_leaf: self.max_samples_per_leaf.unwrap_or(p.max_samples_per_leaf),
+            epsilon: self.epsilon.unwrap_or(p.epsilon),
             spp: spp.unwrap_or(p.spp),
             seed: seed.unwrap_or(p.seed),
         }

@@ -87,8 +87,8 @@ impl Ctx<'_> {
             }
         };
         let mdas = match &raw.mdas {
-            Some(m) => self.mdas(m)?,
-            None => MdasParams::default(),
+            Some(m) => self.mdas(m, film)?,
+            None => MdasParams::for_film(film),
         };
         Ok(SceneFile {
             scene: Scene {

@@ -1,4 +1,6 @@
-//! `[mdas]`: [`MdasParams`]. Only types are checked here (integers ≥ 0,
+//! `[mdas]`: [`MdasParams`]. A key left out takes its value from
+//! [`MdasParams::for_film`] of the scene's film (so does a missing table).
+//! Only types are checked here (integers ≥ 0,
 //! finite numbers); the ranges are the integrator's own
 //! ([`crate::integrator::mdas::config::validate`]), and its error is
 //! positioned at the key it names (at the table when that key was left at
@@ -8,13 +10,14 @@ use super::ctx::{Ctx, Result};
 use super::raw::*;
 use super::values::{Num, S};
 use super::*;
+use crate::film::Film;
 use crate::integrator::mdas::config;
 use std::ops::Range;
 
 impl Ctx<'_> {
-    pub(super) fn mdas(&self, table: &S<RawMdas>) -> Result<MdasParams> {
+    pub(super) fn mdas(&self, table: &S<RawMdas>, film: Film) -> Result<MdasParams> {
         let m = table.get_ref();
-        let d = MdasParams::default();
+        let d = MdasParams::for_film(film);
         let number =
             |v: &Option<S<Num>>, default: f32| v.as_ref().map_or(default, |v| v.get_ref().0);
         let params = MdasParams {
@@ -40,6 +43,7 @@ impl Ctx<'_> {
                 0,
                 d.max_samples_per_leaf,
             )?,
+            epsilon: number(&m.epsilon, d.epsilon),
             spp: number(&m.spp, d.spp),
             seed: self.u32(&m.seed, "seed", 0, d.seed)?,
         };
@@ -63,6 +67,7 @@ impl Ctx<'_> {
             "seed" => int(&m.seed),
             "scale_factor" => num(&m.scale_factor),
             "alpha" => num(&m.alpha),
+            "epsilon" => num(&m.epsilon),
             "spp" => num(&m.spp),
             _ => None,
         }

@@ -23,7 +23,7 @@ fn minimal_scene_gets_defaults() {
         (s.scene.camera.shutter_open, s.scene.camera.shutter_close),
         (0.0, 1.0)
     );
-    assert_eq!(s.mdas, MdasParams::default());
+    assert_eq!(s.mdas, MdasParams::for_film(s.scene.film));
     assert_eq!(s.integrand, IntegrandSpec::AreaLight);
     assert_eq!(s.scene.background, Vec3::ZERO);
 }

@@ -26,7 +26,10 @@ use crate::integrand::{point_wgsl, MAX_DIMS};
 use crate::wgsl_file;
 use anyhow::{bail, Result};
 
-/// Parameters of the MDAS integrator (paper §5.1); defaults per the paper.
+/// Parameters of the MDAS integrator (paper §5.1). A scene file's missing
+/// keys come from [`MdasParams::for_film`]; `Default` is a film-agnostic
+/// starting point for code (its 2^(d + 16)-cell initial grid needs a film
+/// of 256×256 pixels or more at a few spp).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct MdasParams {
     pub bits_per_dim: u32,
@@ -36,6 +39,8 @@ pub struct MdasParams {
     pub alpha: f32,
     pub candidates: u32,
     pub max_samples_per_leaf: u32,
+    /// ε of the contrast error E = V·(ε + c) (eq. 4; [`EPSILON`]).
+    pub epsilon: f32,
     pub spp: f32,
     pub seed: u32,
 }
@@ -50,8 +55,33 @@ impl Default for MdasParams {
             alpha: 0.25,
             candidates: 4,
             max_samples_per_leaf: 4,
+            epsilon: EPSILON,
             spp: 8.0,
             seed: 0,
+        }
+    }
+}
+
+impl MdasParams {
+    /// Defaults that fit any film at a budget of 1 spp or more: no initial
+    /// bits in the non-image dimensions (b = 0, so the grid does not grow
+    /// with the dimension count), e = ⌊log2(min(w, h) / 2)⌋ (initial cells
+    /// about two pixels wide on the shorter axis; at most 13), and
+    /// l = c = m = 4 (the paper's usual values; l fewer on films of under
+    /// four pixels), so the initial grid holds l·2^(2e) ≤ w·h samples. The
+    /// rest as [`Default`].
+    pub fn for_film(film: Film) -> MdasParams {
+        let shorter = film.width.min(film.height).max(1) as f64;
+        let e = (shorter / 2.0).log2().floor().clamp(0.0, 13.0) as u32;
+        let pixels = u64::from(film.width) * u64::from(film.height);
+        let l = (pixels >> (2 * e)).clamp(1, 4) as u32;
+        MdasParams {
+            bits_per_dim: 0,
+            extra_image_bits: e,
+            initial_samples_per_cell: l,
+            candidates: 4,
+            max_samples_per_leaf: 4,
+            ..MdasParams::default()
         }
     }
 }
@@ -68,15 +98,21 @@ pub const MAX_CANDIDATES: u32 = 64;
 pub const MAX_ALPHA: f32 = 64.0;
 /// Pixels one reconstruction invocation splats per dispatch.
 pub const PIXELS_PER_PASS: u32 = 16384;
-/// ε of the contrast error (eq. 4): a leaf of constant value keeps
+/// The default ε of the contrast error (eq. 4; `epsilon` in `[mdas]`,
+/// `--epsilon`): a leaf of constant value keeps
 /// E = V·ε > 0, so every leaf can still be selected (the paper gives no
 /// value). Leaves whose samples all missed a small feature look constant;
 /// the smaller ε, the more rarely they are revisited and the more the
 /// estimate is biased low (tests/mdas_quality.rs: a 4%-thick slab read
 /// 0.36 of its true mean with ε = 1e-3 and 0.61 with 1e-2 at α = ¼), while a
 /// larger ε spends more samples on flat regions (1e-2 still halves Halton's
-/// RelMSE on a sharp edge).
+/// RelMSE on a sharp edge). The contrast c is in [0, 2] (the mean over RGB
+/// of each channel's mean|f − f̄|/|f̄|, clamped), so ε ≫ 2 makes selection
+/// follow the leaf volume alone. The paper's code uses 1e-5 (on a
+/// contrast summed over channels).
 pub const EPSILON: f32 = 1e-2;
+/// Largest ε accepted.
+pub const MAX_EPSILON: f32 = 1e6;
 
 /// A parameter out of its range: the `[mdas]` key it names and why.
 /// The scene file positions it at that key; elsewhere it reads as a
@@ -123,6 +159,13 @@ pub fn validate(p: &MdasParams) -> Result<(), ParamError> {
             "alpha",
             &p.alpha,
             format!("must be a number in [0, {MAX_ALPHA}]"),
+        );
+    }
+    if !(p.epsilon.is_finite() && p.epsilon > 0.0 && p.epsilon <= MAX_EPSILON) {
+        return fail(
+            "epsilon",
+            &p.epsilon,
+            format!("must be a number in (0, {MAX_EPSILON}]"),
         );
     }
     if !(p.scale_factor.is_finite() && p.scale_factor > 0.0) {

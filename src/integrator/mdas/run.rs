@@ -30,7 +30,7 @@ impl Mdas {
                 select_all: (p.alpha == 0.0) as u32,
                 scale_factor: p.scale_factor,
                 inv_alpha: if p.alpha > 0.0 { 1.0 / p.alpha } else { 0.0 },
-                epsilon: config::EPSILON,
+                epsilon: p.epsilon,
                 ..Default::default()
             };
             let bufs = Buffers {
