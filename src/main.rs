@@ -47,6 +47,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Reference(args) => cli::reference::run(args, ui),
         Command::Compare(args) => cli::compare::run(args, ui),
         Command::Sweep(args) => cli::sweep::run(args, ui),
+        Command::Tune(args) => cli::tune::run(args, ui),
         Command::Bench(args) => cli::bench::run(args, ui),
         Command::Info => {
             let gpu = mdas::gpu::Gpu::shared()?;

@@ -551,3 +551,73 @@ fn mdas_renders_a_scene_without_an_mdas_table() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// `tune` over a small grid: every runnable configuration is ranked with
+/// its interval and bias, one that cannot run is listed as skipped, the
+/// best is printed as an [mdas] table, and tune.json agrees with stdout.
+#[test]
+fn tune_ranks_a_grid_and_skips_what_cannot_run() {
+    let dir = temp_dir("tune");
+    let out = dir.join("tune");
+    let o = mdas(&[
+        "tune",
+        "scenes/area_light_plane.toml",
+        "--scale",
+        "0.125",
+        "--spp",
+        "4",
+        "--ref-spp",
+        "32",
+        "--seeds",
+        "2",
+        "--grid",
+        "alpha=0,0.25",
+        "--grid",
+        "initial_samples_per_cell=1,9",
+        "--equal-samples",
+        "--json",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+        "--cache",
+        dir.join("cache").to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "stderr: {}", stderr(&o));
+    let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let written: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("tune.json")).unwrap()).unwrap();
+    assert_eq!(report, written);
+    let rows = report["rows"].as_array().unwrap();
+    // l = 9 exceeds max_samples_per_leaf (4): two configurations skipped.
+    assert_eq!(rows.len(), 2, "{report}");
+    assert_eq!(report["skipped"].as_array().unwrap().len(), 2);
+    let relmse: Vec<f64> = rows.iter().map(|r| r["relmse"].as_f64().unwrap()).collect();
+    assert!(relmse[0] <= relmse[1], "ranked by RelMSE: {relmse:?}");
+    for r in rows {
+        let ci = r["relmse_ci95"].as_array().unwrap();
+        let m = r["relmse"].as_f64().unwrap();
+        assert!(ci[0].as_f64().unwrap() <= m && m <= ci[1].as_f64().unwrap());
+        assert_eq!(r["params"]["spp"], 4.0);
+    }
+    assert!(report["best_table"]
+        .as_str()
+        .unwrap()
+        .starts_with("[mdas]\n"));
+    let csv = std::fs::read_to_string(out.join("tune.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 3);
+
+    // A bad grid key fails before any work, naming the keys.
+    let bad = dir.join("bad");
+    let o = mdas(&[
+        "tune",
+        "scenes/area_light_plane.toml",
+        "--grid",
+        "alfa=1",
+        "--out",
+        bad.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("unknown key 'alfa'"), "{}", stderr(&o));
+    assert!(!bad.exists());
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -7,6 +7,7 @@ pub(crate) mod compare;
 pub(crate) mod reference;
 pub(crate) mod render;
 pub(crate) mod sweep;
+pub(crate) mod tune;
 
 pub(crate) use anyhow::{bail, Result};
 pub(crate) use clap::{Parser, Subcommand, ValueEnum};
@@ -229,6 +230,11 @@ pub(crate) enum Command {
     /// RelMSE against time for MDAS and Halton over a range of budgets:
     /// sweep.csv and a log-log plot, sweep.svg and sweep.png, in --out.
     Sweep(sweep::SweepArgs),
+    /// MDAS over a grid of [mdas] values (α, ε, sf, ...), each over seeds,
+    /// against Halton at equal samples and at equal time: a ranked table
+    /// with intervals and bias, the best as an [mdas] table, tune.json and
+    /// tune.csv in --out (docs/comparisons.md).
+    Tune(tune::TuneArgs),
     /// Time MDAS against Halton at the same sample count, phase by phase:
     /// one warm-up render each, then interleaved rounds; medians of GPU
     /// time per phase and of the wall clock (a Markdown table on stdout).

@@ -6,7 +6,8 @@
 //! ([`outputs`]: images, RelMSE and FLIP heat maps, density map, the
 //! [`figure`]), light
 //! samplers against each other (`mdas compare --samplers`, [`samplers`]), and
-//! `mdas sweep` ([`sweep`]) with its CSV and log–log plot, and `mdas bench`
+//! `mdas sweep` ([`sweep`]) with its CSV and log–log plot, `mdas tune`
+//! ([`tune`]): MDAS over a grid of parameters, and `mdas bench`
 //! ([`phases`]): MDAS's phases against Halton at equal samples.
 
 pub mod equal_time;
@@ -21,6 +22,7 @@ pub mod report;
 pub mod samplers;
 pub mod seeds;
 pub mod sweep;
+pub mod tune;
 
 pub use equal_time::{
     halton_at_equal_time, measure, search_equal_time, EqualTime, HaltonRun, Measured,

@@ -1,0 +1,97 @@
+//! `mdas tune`: MDAS over a grid of `[mdas]` values against Halton.
+
+use super::*;
+
+#[derive(clap::Args)]
+pub(crate) struct TuneArgs {
+    /// Scene file (TOML).
+    pub(crate) scene: PathBuf,
+    /// MDAS's budget, samples per pixel (default: the scene's [mdas] spp).
+    #[arg(long)]
+    pub(crate) spp: Option<f32>,
+    /// A grid axis, KEY=V1,V2,... (repeatable; keys: alpha, epsilon,
+    /// scale_factor, candidates, max_samples_per_leaf,
+    /// initial_samples_per_cell, bits_per_dim, extra_image_bits). Default:
+    /// alpha=0,0.015625,0.0625,0.25 scale_factor=0.0625,0.25,1
+    /// epsilon=0.01,0.1 (24 configurations). Keys not in the grid keep
+    /// the scene's values (after --scale and the MDAS flags).
+    #[arg(long, value_name = "KEY=V,...", value_parser = parse_grid)]
+    pub(crate) grid: Vec<(String, Vec<f64>)>,
+    /// Seeds per configuration and per Halton budget (MDAS from its seed
+    /// on, Halton from --seed on, skipping the reference's).
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=64))]
+    pub(crate) seeds: u32,
+    /// Rank by RelMSE at equal samples instead of the RelMSE ratio at
+    /// equal time.
+    #[arg(long)]
+    pub(crate) equal_samples: bool,
+    /// Render at this fraction of the scene's film size.
+    #[arg(long, default_value_t = 1.0)]
+    pub(crate) scale: f32,
+    /// Samples per pixel of the Halton reference.
+    #[arg(long, default_value_t = 65536, value_parser = clap::value_parser!(u32).range(1..))]
+    pub(crate) ref_spp: u32,
+    /// Seed of the reference.
+    #[arg(long, default_value_t = 1)]
+    pub(crate) ref_seed: u32,
+    /// Reference cache directory (as `mdas reference --cache`).
+    #[arg(long, default_value = ".cache/references")]
+    pub(crate) cache: PathBuf,
+    /// First seed of Halton's renders (default 0).
+    #[arg(long, default_value_t = 0)]
+    pub(crate) seed: u32,
+    /// Output directory (tune.json, tune.csv). Default: out/tune-<scene>.
+    #[arg(long)]
+    pub(crate) out: Option<PathBuf>,
+    #[command(flatten)]
+    pub(crate) mdas: MdasArgs,
+}
+
+fn parse_grid(s: &str) -> Result<(String, Vec<f64>), String> {
+    mdas::compare::tune::parse_grid_entry(s).map_err(|e| format!("{e:#}"))
+}
+
+pub(crate) fn run(args: TuneArgs, ui: Ui) -> Result<()> {
+    let TuneArgs {
+        scene,
+        spp,
+        grid,
+        seeds,
+        equal_samples,
+        scale,
+        ref_spp,
+        ref_seed,
+        cache,
+        seed,
+        out,
+        mdas,
+    } = args;
+    let out = out.unwrap_or_else(|| default_dir(&scene, "tune"));
+    let mdas_params = |p: MdasParams| mdas.params(p, scale, spp, None);
+    let grid = if grid.is_empty() {
+        mdas::compare::tune::default_grid()
+    } else {
+        grid
+    };
+    let spec = mdas::compare::tune::TuneSpec {
+        setup: mdas::compare::Setup {
+            scene,
+            scale,
+            ref_spp,
+            ref_seed,
+            cache_dir: cache,
+            halton_seed: seed,
+            repeats: 1,
+            out: out.clone(),
+            progress: ui.progress(),
+            mdas_params: &mdas_params,
+        },
+        grid,
+        seeds,
+        equal_samples,
+    };
+    let report = mdas::compare::tune::tune(Gpu::shared()?, &spec)?;
+    ui.result(mdas::compare::tune::table(&report));
+    ui.note(format!("wrote tune.json and tune.csv to {}", out.display()));
+    ui.json(&report)
+}
