@@ -47,6 +47,7 @@ fn spec<'a>(
         max_spp: 1 << 12,
         seeds: 2,
         crops: vec![],
+        uniform: false,
     }
 }
 
@@ -132,7 +133,10 @@ fn check_report(out: &Path) -> Value {
         )
     );
     let methods = json["methods"].as_array().unwrap();
-    assert_eq!(methods.len(), 2);
+    assert_eq!(
+        methods.len(),
+        2 + files.contains_key("mdas_uniform") as usize
+    );
     for m in methods {
         let name = m["name"].as_str().unwrap();
         // RelMSE, MSE, heat map and phase sum against the written files.
@@ -140,6 +144,16 @@ fn check_report(out: &Path) -> Value {
         let t = m["time_ms"].as_object().unwrap();
         let phases: Vec<&str> = t.keys().map(String::as_str).collect();
         let expected: &[&str] = if name == "mdas" {
+            &[
+                "adaptive",
+                "error",
+                "evaluate",
+                "initial",
+                "reconstruction",
+                "total",
+            ]
+        } else if name == "mdas-uniform" {
+            // measure(): the median's phases, as MDAS's.
             &[
                 "adaptive",
                 "error",
@@ -252,19 +266,35 @@ fn compare_area_light_plane_writes_a_consistent_report() {
     let params = params_at(0.25, Some(4.0));
     let report = compare(
         gpu(),
-        &spec(
-            "scenes/area_light_plane.toml",
-            0.25,
-            &out,
-            Budget::MdasSpp,
-            &params,
-        ),
+        &CompareSpec {
+            uniform: true,
+            ..spec(
+                "scenes/area_light_plane.toml",
+                0.25,
+                &out,
+                Budget::MdasSpp,
+                &params,
+            )
+        },
     )
     .unwrap();
     let json = check_report(&out);
     assert_eq!(json["methods"][0]["samples"].as_u64(), Some(32 * 24 * 4));
     assert_eq!(json["reference"]["spp"].as_u64(), Some(64));
     assert_eq!(report.methods[1].name, "halton");
+    // --uniform: MDAS-uniform at MDAS's budget and seeds, and the ratio
+    // of what adaptivity buys.
+    let u = &json["methods"][2];
+    assert_eq!(u["name"], "mdas-uniform");
+    assert_eq!(u["samples"], json["methods"][0]["samples"]);
+    assert_eq!(u["seeds"], json["methods"][0]["seeds"]);
+    let q = &json["equal_time"]["equal_samples"];
+    let ratio = q["adaptivity_ratio"].as_f64().unwrap();
+    assert!(close(
+        ratio,
+        json["methods"][0]["relmse"].as_f64().unwrap() / u["relmse"].as_f64().unwrap(),
+        1e-12
+    ));
     std::fs::remove_dir_all(&out).ok();
 }
 

@@ -392,6 +392,7 @@ fn compare_with_a_sampler_override_reports_it() {
         max_spp: 1 << 12,
         seeds: 1,
         crops: vec![],
+        uniform: false,
     };
     let report = mdas::compare::compare_with(
         gpu(),

@@ -38,6 +38,11 @@ pub(crate) struct CompareArgs {
     /// two insets where the methods' errors differ most).
     #[arg(long, value_name = "X,Y,W,H", value_parser = parse_crop, conflicts_with = "samplers")]
     pub(crate) crop: Vec<mdas::compare::figure::Crop>,
+    /// Also render MDAS-uniform (α = 0, one candidate: MDAS's grid and
+    /// reconstruction without value-driven sampling) at MDAS's spp and
+    /// seeds, and report what adaptivity buys (RelMSE MDAS/MDAS-uniform).
+    #[arg(long, conflicts_with = "samplers")]
+    pub(crate) uniform: bool,
     #[command(flatten)]
     pub(crate) common: ExperimentArgs,
 }
@@ -55,6 +60,7 @@ pub(crate) fn run(args: CompareArgs, ui: Ui) -> Result<()> {
         samplers,
         seeds,
         crop,
+        uniform,
         common,
     } = args;
     let out = common
@@ -85,6 +91,7 @@ pub(crate) fn run(args: CompareArgs, ui: Ui) -> Result<()> {
                 max_spp: common.max_spp,
                 seeds,
                 crops: crop,
+                uniform,
             },
             IntegrandOverrides { sampler },
         )?,

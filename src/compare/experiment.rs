@@ -7,10 +7,10 @@
 //!    its initial sample count fails here), then the output directory
 //!    (created and probed for writing).
 //! 2. The reference: Halton at `ref_spp` (`app::reference`, cached).
-//! 3. Timing ([`measure`]): MDAS at its spp, then Halton's budget search
+//! 3. Timing ([`super::measure`]): MDAS at its spp, then Halton's budget search
 //!    at MDAS's median time ([`super::halton_at_equal_time`]). With
 //!    [`Budget::TimeMs`] both methods get the same target and both are
-//!    searched ([`search_equal_time`]; MDAS from the smallest spp its
+//!    searched ([`super::search_equal_time`]; MDAS from the smallest spp its
 //!    initial grid allows, and it is an error if even that is slower than
 //!    the budget). Then interleaved rounds around the bracket give the
 //!    target (MDAS's fastest round) and Halton's time fit, and each method
@@ -24,18 +24,17 @@
 //! first seed's; the methods' `relmse` are the means over seeds at those
 //! runs' budgets, and the ratio uses Halton's RelMSE at the fitted spp.
 
-use super::equal_time::{measure, search_equal_time, EqualTime, HaltonRun};
 use super::heatmap;
 use super::intervals;
 use super::outputs::{write_outputs, CompareOutputs, Written};
 use super::report::*;
+use super::timing::{halton_search, nearer, time_mdas, MdasTiming};
 use crate::app::{self, IntegrandOverrides, ReferenceSpec};
 use crate::gpu::Gpu;
 use crate::image_io;
 use crate::integrand::Integrand;
 use crate::integrator::mdas::MdasParams;
 use crate::integrator::{Halton, Mdas};
-use crate::metrics;
 use crate::scene_file::SceneFile;
 use anyhow::{bail, Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -101,6 +100,9 @@ pub struct CompareSpec<'a> {
     /// Insets of `figure.png` (`--crop`); empty: the two places where the
     /// methods' errors differ most.
     pub crops: Vec<super::figure::Crop>,
+    /// Also MDAS-uniform (α = 0, one candidate) at MDAS's spp and seeds
+    /// (`--uniform`, [`intervals::uniform_over_seeds`]).
+    pub uniform: bool,
 }
 
 /// The compared Halton render must not reuse the reference's random
@@ -185,25 +187,6 @@ pub fn mdas_min_spp(params: MdasParams, integrand: &dyn Integrand) -> Result<u32
     Ok(spp as u32)
 }
 
-/// Measures MDAS at `spp` (an average, may be fractional).
-fn run_mdas(
-    gpu: &Gpu,
-    mdas: &mut Mdas,
-    spp: f32,
-    integrand: &dyn Integrand,
-    reference: &[[f32; 3]],
-    repeats: u32,
-) -> Result<HaltonRun> {
-    mdas.set_spp(spp)?;
-    let measured = measure(gpu, mdas, integrand, repeats)?;
-    let error = metrics::compare(&measured.render.image, reference)?;
-    Ok(HaltonRun {
-        spp: spp.round() as u32,
-        measured,
-        error,
-    })
-}
-
 /// Runs the comparison and writes everything (see the module docs). On
 /// failure an output directory this call created is removed again if it is
 /// still empty.
@@ -266,98 +249,6 @@ pub(crate) fn check_mdas(
     Ok(min_spp)
 }
 
-/// MDAS's timed run under a budget, and the equal-time target it sets.
-pub(crate) struct MdasTiming {
-    /// The run whose image is written (the nearer bracketing run when
-    /// searched).
-    pub run: HaltonRun,
-    /// Its spp (MDAS's own, may be fractional, when not searched).
-    pub spp: f64,
-    /// The budget search (`Budget::TimeMs` only).
-    pub search: Option<EqualTime>,
-    pub target_ms: f64,
-}
-
-/// Times MDAS under `budget`: at its spp (the target is its time), or
-/// searched at `--time-ms` from `min_spp` (an error if even that is slower).
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn time_mdas(
-    gpu: &Gpu,
-    params: MdasParams,
-    min_spp: u32,
-    integrand: &dyn Integrand,
-    reference: &[[f32; 3]],
-    setup: &Setup,
-    budget: Budget,
-    max_spp: u32,
-    status: &ProgressBar,
-    label: &str,
-) -> Result<MdasTiming> {
-    // One integrator for every budget, so its pipelines compile once.
-    let mut mdas = Mdas::new(params)?;
-    let mut mdas_run = |spp: f32| {
-        status.set_message(format!("{label} {spp} spp ({} repeats)", setup.repeats));
-        run_mdas(gpu, &mut mdas, spp, integrand, reference, setup.repeats)
-    };
-    Ok(match budget {
-        Budget::MdasSpp => {
-            let run = mdas_run(params.spp)?;
-            let target_ms = run.measured.total_ms();
-            MdasTiming {
-                run,
-                spp: params.spp as f64,
-                search: None,
-                target_ms,
-            }
-        }
-        Budget::TimeMs(t) => {
-            let eq = search_equal_time(t, min_spp, max_spp, &mut |spp| mdas_run(spp as f32))?;
-            if eq.lo.measured.total_ms() > t {
-                bail!(
-                    "--time-ms {t} is below the time MDAS needs for its initial samples ({:.3} ms at {} spp, the least its initial grid allows)",
-                    eq.lo.measured.total_ms(),
-                    eq.lo.spp
-                );
-            }
-            let run = nearer(&eq).clone();
-            MdasTiming {
-                spp: run.spp as f64,
-                run,
-                search: Some(eq),
-                target_ms: t,
-            }
-        }
-    })
-}
-
-/// Halton's budget search at `target_ms` on `integrand` (one integrator
-/// for the whole search, so its pipelines compile once).
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn halton_search(
-    gpu: &Gpu,
-    integrand: &dyn Integrand,
-    reference: &[[f32; 3]],
-    target_ms: f64,
-    setup: &Setup,
-    max_spp: u32,
-    status: &ProgressBar,
-    label: &str,
-) -> Result<EqualTime> {
-    let mut halton = Halton::new(1, setup.halton_seed);
-    search_equal_time(target_ms, 1, max_spp, &mut |spp| {
-        status.set_message(format!("{label} {spp} spp ({} repeats)", setup.repeats));
-        halton.spp = spp;
-        let measured = measure(gpu, &mut halton, integrand, setup.repeats)?;
-        let error = metrics::compare(&measured.render.image, reference)?;
-        Ok(HaltonRun {
-            spp,
-            measured,
-            error,
-        })
-    })
-}
-
-/// How the runs were timed, as reported.
 /// Writes `report.json` (atomically) into `out`.
 pub(crate) fn write_report(out: &Path, report: &Report) -> Result<()> {
     let json = serde_json::to_string_pretty(report)?;
@@ -475,6 +366,9 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
     let k = spec.seeds as u64;
     // MDAS's and the written Halton run's first seeds are rendered.
     status.inc_length((k - 1) * 2 + k * (halton_budgets.len() as u64 - 1) + 1);
+    if spec.uniform {
+        status.inc_length(k);
+    }
     status.set_message(format!("seeds ({} per method)", spec.seeds));
     let mdas_stats = intervals::mdas_over_seeds(
         gpu,
@@ -516,7 +410,28 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
         &n1_stats,
     );
     let equal_stats = halton_stats(equal_spp, None)?;
+    let uniform = if spec.uniform {
+        status.set_message("mdas-uniform");
+        Some(intervals::uniform_over_seeds(
+            gpu,
+            mdas_at_spp,
+            &mdas_seeds,
+            spec.setup.repeats,
+            integrand,
+            &reference,
+            &status,
+        )?)
+    } else {
+        None
+    };
+    let adaptivity_ratio_ci95 = uniform.as_ref().map(|(_, u)| {
+        super::seeds::bootstrap_ci95(&[&mdas_stats.relmse_per_seed, &u.relmse_per_seed], |r| {
+            super::seeds::mean(&r[0]) / super::seeds::mean(&r[1])
+        })
+    });
     let equal_samples = EqualSamplesReport {
+        adaptivity_ratio: uniform.as_ref().map(|(_, u)| mdas_stats.relmse / u.relmse),
+        adaptivity_ratio_ci95,
         spp: equal_spp,
         mdas_relmse: mdas_stats.relmse,
         mdas_relmse_ci95: mdas_stats.relmse_ci95,
@@ -579,6 +494,7 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
         halton: &halton_main.measured.render,
         halton_spp: halton_main.spp,
         halton_stats: &main_stats,
+        uniform: uniform.as_ref().map(|(run, _)| &run.measured.render),
         density: &density,
         target_ms,
         ratio: mdas_stats.relmse / halton_relmse,
@@ -624,7 +540,13 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
             MethodReport::new("halton", halton_main.spp as f64, &halton_main, "halton.exr")
                 .with_seeds(&halton_seeds, &main_stats)
                 .with_flip(flips[1]),
-        ],
+        ]
+        .into_iter()
+        .chain(uniform.as_ref().map(|(run, stats)| {
+            MethodReport::new("mdas-uniform", mdas_spp, run, "mdas-uniform.exr")
+                .with_seeds(&mdas_seeds, stats)
+        }))
+        .collect(),
         equal_time: EqualTimeReport {
             mode: match spec.budget {
                 Budget::MdasSpp => "mdas",
@@ -666,14 +588,4 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
     };
     write_report(&spec.setup.out, &report)?;
     Ok(report)
-}
-
-/// The bracketing run nearer to the target time.
-pub(crate) fn nearer(eq: &EqualTime) -> &HaltonRun {
-    let t = eq.target_ms;
-    if (t - eq.lo.measured.total_ms()).abs() <= (eq.hi.measured.total_ms() - t).abs() {
-        &eq.lo
-    } else {
-        &eq.hi
-    }
 }

@@ -105,6 +105,42 @@ fn stats(images: &[Vec<[f32; 3]>], reference: &[[f32; 3]]) -> Result<SeedStats> 
     SeedStats::new(&views, reference)
 }
 
+/// MDAS-uniform: `params` with α = 0 and one candidate (every leaf is
+/// selected every iteration and its new sample is uniform in it: MDAS's
+/// grid, splits and reconstruction without value-driven sampling), timed
+/// as [`super::measure`] with `seeds[0]`, then over `seeds`: the run (as
+/// a Halton run is reported) and its statistics.
+#[allow(clippy::too_many_arguments)]
+pub fn uniform_over_seeds(
+    gpu: &Gpu,
+    params: crate::integrator::mdas::MdasParams,
+    seeds: &[u32],
+    repeats: u32,
+    integrand: &dyn Integrand,
+    reference: &[[f32; 3]],
+    progress: &ProgressBar,
+) -> Result<(super::HaltonRun, SeedStats)> {
+    let mut mdas = Mdas::new(crate::integrator::mdas::MdasParams {
+        alpha: 0.0,
+        candidates: 1,
+        seed: seeds[0],
+        ..params
+    })?;
+    let measured = super::measure(gpu, &mut mdas, integrand, repeats)?;
+    progress.inc(1);
+    let error = crate::metrics::compare(&measured.render.image, reference)?;
+    let first = measured.render.image.clone();
+    let stats = mdas_over_seeds(
+        gpu, &mut mdas, &first, seeds, integrand, reference, progress,
+    )?;
+    let run = super::HaltonRun {
+        spp: params.spp.round() as u32,
+        measured,
+        error,
+    };
+    Ok((run, stats))
+}
+
 /// Timed rounds of the interleaved measurement.
 pub const MIN_ROUNDS: u32 = 9;
 

@@ -22,6 +22,7 @@ pub mod report;
 pub mod samplers;
 pub mod seeds;
 pub mod sweep;
+pub mod timing;
 pub mod tune;
 
 pub use equal_time::{

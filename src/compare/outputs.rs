@@ -37,6 +37,8 @@ pub(crate) struct CompareOutputs<'a> {
     pub halton: &'a Render,
     pub halton_spp: u32,
     pub halton_stats: &'a SeedStats,
+    /// MDAS-uniform's written run (`compare --uniform`).
+    pub uniform: Option<&'a Render>,
     /// MDAS's samples per pixel.
     pub density: &'a [f32],
     pub target_ms: f64,
@@ -101,6 +103,25 @@ pub(crate) fn write_outputs(o: &CompareOutputs) -> Result<Written> {
         &halton_render.image,
         &app::render_attributes("halton", spec.setup.halton_seed, halton_render, scene_path),
     )?;
+    if let Some(u) = o.uniform {
+        image(
+            "mdas_uniform",
+            "mdas-uniform",
+            &u.image,
+            &app::render_attributes("mdas-uniform", o.mdas_seed, u, scene_path),
+        )?;
+        let per_pixel = metrics::relmse_per_pixel(&u.image, reference)?;
+        let stem = spec.setup.out.join("relmse-mdas-uniform");
+        heatmap::write_map(&stem, w, h, &per_pixel, heatmap::RELMSE_RANGE)?;
+        files.insert(
+            "relmse_mdas_uniform".into(),
+            "relmse-mdas-uniform.exr".into(),
+        );
+        files.insert(
+            "relmse_mdas_uniform_png".into(),
+            "relmse-mdas-uniform.png".into(),
+        );
+    }
     let mut relmse_maps = Vec::new();
     let mut flips = Vec::new();
     for (key, render) in [("mdas", mdas_render), ("halton", halton_render)] {

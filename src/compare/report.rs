@@ -316,6 +316,14 @@ pub struct EqualSamplesReport {
     /// `mdas_relmse / halton_relmse`, and its bootstrap interval.
     pub relmse_ratio: f64,
     pub relmse_ratio_ci95: [f64; 2],
+    /// With `compare --uniform`: MDAS's RelMSE over MDAS-uniform's (α = 0,
+    /// one candidate) at the same spp and seeds — what value-driven
+    /// sampling buys over the grid and reconstruction alone — and its
+    /// bootstrap interval.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub adaptivity_ratio: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub adaptivity_ratio_ci95: Option<[f64; 2]>,
 }
 
 /// One light sampler under Halton at the equal-time target
@@ -504,6 +512,13 @@ pub fn table(report: &Report) -> String {
             q.mdas_relmse,
             q.halton_relmse
         );
+        if let (Some(r), Some(ci)) = (q.adaptivity_ratio, q.adaptivity_ratio_ci95) {
+            out += &format!(
+                "what adaptivity buys: RelMSE MDAS/MDAS-uniform (α = 0, one candidate) at {} spp: {r:.4}{}\n",
+                q.spp,
+                interval(Some(ci))
+            );
+        }
     }
     for flag in e.flags.iter() {
         out += &format!("warning: {flag}\n");

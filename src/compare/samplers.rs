@@ -12,7 +12,7 @@
 //! 3. The target time: MDAS with `tree` at its spp ([`Budget::MdasSpp`]),
 //!    or `--time-ms` for all, MDAS+tree searched too ([`Budget::TimeMs`]).
 //! 4. Each listed sampler: Halton's budget search at the target
-//!    ([`super::experiment::halton_search`], one Halton integrator per
+//!    ([`super::timing::halton_search`], one Halton integrator per
 //!    search).
 //! 5. Files, each atomically, `report.json` last: `reference`, `mdas-tree`
 //!    and `halton-<sampler>` images (EXR + PNG) with their RelMSE heat maps
@@ -28,11 +28,11 @@
 
 use super::equal_time::EqualTime;
 use super::experiment::{
-    check_budget, check_mdas, check_out_dir, cleaning_up, halton_search, nearer, spinner,
-    time_mdas, write_report, Budget, MdasTiming, Setup,
+    check_budget, check_mdas, check_out_dir, cleaning_up, spinner, write_report, Budget, Setup,
 };
 use super::heatmap;
 use super::report::*;
+use super::timing::{halton_search, nearer, time_mdas, MdasTiming};
 use crate::accel::GpuScene;
 use crate::app;
 use crate::gpu::Gpu;
