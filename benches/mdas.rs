@@ -121,6 +121,7 @@ fn bench(c: &mut Criterion) {
             candidates: 4,
             max_samples_per_leaf: 4,
             epsilon: mdas::integrator::mdas::config::EPSILON,
+            split: mdas::integrator::mdas::SplitRule::Extent,
             spp: 8.0,
             seed: 1,
         };

@@ -10,7 +10,7 @@ mod mdas_support;
 use mdas::film::Film;
 use mdas::integrator::mdas::cpu_oracle;
 use mdas::integrator::mdas::debug::{Snapshot, DIRTY};
-use mdas::integrator::mdas::MdasParams;
+use mdas::integrator::mdas::{MdasParams, SplitRule};
 use mdas_support::*;
 use rand::{RngExt, SeedableRng};
 
@@ -73,6 +73,52 @@ fn cases() -> Vec<(&'static str, u32, u32, Film, MdasParams)> {
         },
         wide,
     ));
+    // The contrast split rule: on an edge (its halves differ), on a
+    // linear integrand (every axis has some contrast) and with NaN/Inf
+    // samples (left out of the halves' means).
+    for (name, case, dims, film, p) in [
+        (
+            "edge 3D contrast",
+            3,
+            3,
+            Film {
+                width: 12,
+                height: 8,
+            },
+            params(1, 2, 1, 10.0, 7),
+        ),
+        (
+            "linear 4D contrast",
+            0,
+            4,
+            Film {
+                width: 6,
+                height: 5,
+            },
+            params(1, 1, 2, 24.0, 3),
+        ),
+        (
+            "nan 3D contrast",
+            1,
+            3,
+            Film {
+                width: 5,
+                height: 4,
+            },
+            params(1, 1, 1, 12.0, 9),
+        ),
+    ] {
+        v.push((
+            name,
+            case,
+            dims,
+            film,
+            MdasParams {
+                split: SplitRule::Contrast,
+                ..p
+            },
+        ));
+    }
     v
 }
 

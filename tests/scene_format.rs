@@ -362,8 +362,20 @@ fn unknown_keys_are_named_with_their_line() {
         11,
     );
     assert!(m.contains("epsilon = 0: must be a number in (0,"), "{m}");
-    let (_, ok) = load_text("mdas-epsilon-ok", &format!("{BASE}[mdas]\nepsilon = 0.5\n"));
-    assert_eq!(ok.unwrap().mdas.epsilon, 0.5);
+    let (_, ok) = load_text(
+        "mdas-epsilon-ok",
+        &format!("{BASE}[mdas]\nepsilon = 0.5\nsplit = \"contrast\"\n"),
+    );
+    let ok = ok.unwrap().mdas;
+    assert_eq!(ok.epsilon, 0.5);
+    assert_eq!(ok.split, mdas::integrator::mdas::SplitRule::Contrast);
+    let m = error_at(
+        "mdas-split",
+        &format!("{BASE}[mdas]\nsplit = \"median\"\n"),
+        13,
+        9,
+    );
+    assert!(m.contains("unknown split rule 'median'"), "{m}");
 }
 
 #[test]

@@ -184,6 +184,10 @@ pub(crate) struct MdasArgs {
     /// 0.01; larger is less adaptive and less biased).
     #[arg(long)]
     pub(crate) epsilon: Option<f32>,
+    /// MDAS: split axis rule, extent (the paper's largest scaled extent)
+    /// or contrast (where the two halves' sample means differ most).
+    #[arg(long, value_name = "RULE")]
+    pub(crate) split: Option<mdas::integrator::mdas::SplitRule>,
 }
 
 impl MdasArgs {
@@ -207,6 +211,7 @@ impl MdasArgs {
             candidates: self.candidates.unwrap_or(p.candidates),
             max_samples_per_leaf: self.max_samples_per_leaf.unwrap_or(p.max_samples_per_leaf),
             epsilon: self.epsilon.unwrap_or(p.epsilon),
+            split: self.split.unwrap_or(p.split),
             spp: spp.unwrap_or(p.spp),
             seed: seed.unwrap_or(p.seed),
         }

@@ -35,15 +35,17 @@ use crate::app;
 use crate::gpu::Gpu;
 use crate::image_io;
 use crate::integrand::Integrand;
-use crate::integrator::mdas::MdasParams;
+use crate::integrator::mdas::{MdasParams, SplitRule};
 use crate::integrator::{Halton, Integrator, Mdas};
 use anyhow::{bail, Context, Result};
 use indicatif::ProgressBar;
 use serde::Serialize;
 use std::collections::BTreeMap;
 
-/// The `[mdas]` keys a grid may vary.
-pub const GRID_KEYS: [&str; 8] = [
+/// The `[mdas]` keys a grid may vary (`split` takes the rule names,
+/// stored as 0 = extent, 1 = contrast).
+pub const GRID_KEYS: [&str; 9] = [
+    "split",
     "alpha",
     "epsilon",
     "scale_factor",
@@ -87,6 +89,12 @@ pub fn parse_grid_entry(s: &str) -> Result<(String, Vec<f64>)> {
         .split(',')
         .map(|v| {
             let v = v.trim();
+            if key == "split" {
+                return v
+                    .parse::<SplitRule>()
+                    .map(|r| (r == SplitRule::Contrast) as u32 as f64)
+                    .map_err(|e| anyhow::anyhow!("grid entry '{s}': {e}"));
+            }
             v.parse::<f64>()
                 .ok()
                 .filter(|x| x.is_finite())
@@ -109,6 +117,13 @@ fn with_value(p: MdasParams, key: &str, v: f64) -> Result<MdasParams> {
     };
     let mut p = p;
     match key {
+        "split" => {
+            p.split = match int()? {
+                0 => SplitRule::Extent,
+                1 => SplitRule::Contrast,
+                _ => bail!("split = {v}: 0 (extent) or 1 (contrast)"),
+            }
+        }
         "alpha" => p.alpha = v as f32,
         "epsilon" => p.epsilon = v as f32,
         "scale_factor" => p.scale_factor = v as f32,
@@ -151,7 +166,12 @@ fn configurations(base: MdasParams, grid: &[(String, Vec<f64>)]) -> Result<Vec<C
             params = params.and_then(|p| with_value(p, key, v));
         }
         for (key, _) in grid {
-            label.push(format!("{key}={}", values[key]));
+            let v = values[key];
+            label.push(match (key.as_str(), v) {
+                ("split", 0.0) => "split=extent".to_string(),
+                ("split", 1.0) => "split=contrast".to_string(),
+                _ => format!("{key}={v}"),
+            });
         }
         out.push((label.join(" "), values, params));
     }
@@ -460,13 +480,14 @@ fn rank(rows: &mut [TuneRow], equal_samples: bool) {
 /// `p` as an `[mdas]` table.
 pub fn mdas_table(p: &MdasParams) -> String {
     format!(
-        "[mdas]\nbits_per_dim = {}\nextra_image_bits = {}\ninitial_samples_per_cell = {}\nscale_factor = {}\nalpha = {}\nepsilon = {}\ncandidates = {}\nmax_samples_per_leaf = {}\nspp = {}\n",
+        "[mdas]\nbits_per_dim = {}\nextra_image_bits = {}\ninitial_samples_per_cell = {}\nscale_factor = {}\nalpha = {}\nepsilon = {}\nsplit = \"{}\"\ncandidates = {}\nmax_samples_per_leaf = {}\nspp = {}\n",
         p.bits_per_dim,
         p.extra_image_bits,
         p.initial_samples_per_cell,
         p.scale_factor,
         p.alpha,
         p.epsilon,
+        p.split,
         p.candidates,
         p.max_samples_per_leaf,
         p.spp
@@ -579,6 +600,11 @@ mod tests {
         assert!(parse_grid_entry("alpha").is_err());
         assert!(parse_grid_entry("alpha=x").is_err());
         assert!(parse_grid_entry("alpha=nan").is_err());
+        assert_eq!(
+            parse_grid_entry("split=extent,contrast").unwrap().1,
+            vec![0.0, 1.0]
+        );
+        assert!(parse_grid_entry("split=median").is_err());
     }
 
     #[test]

@@ -44,6 +44,13 @@ impl Ctx<'_> {
                 d.max_samples_per_leaf,
             )?,
             epsilon: number(&m.epsilon, d.epsilon),
+            split: match &m.split {
+                None => d.split,
+                Some(v) => v
+                    .get_ref()
+                    .parse::<config::SplitRule>()
+                    .map_err(|e| self.error(v.span(), e))?,
+            },
             spp: number(&m.spp, d.spp),
             seed: self.u32(&m.seed, "seed", 0, d.seed)?,
         };

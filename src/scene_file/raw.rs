@@ -270,6 +270,7 @@ pub(super) struct RawMdas {
     pub(super) candidates: Option<S<i64>>,
     pub(super) max_samples_per_leaf: Option<S<i64>>,
     pub(super) epsilon: Option<S<Num>>,
+    pub(super) split: Option<S<String>>,
     pub(super) spp: Option<S<Num>>,
     pub(super) seed: Option<S<i64>>,
 }

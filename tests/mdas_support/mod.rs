@@ -17,6 +17,7 @@ pub fn params(bits: u32, extra: u32, l: u32, spp: f32, seed: u32) -> MdasParams 
         candidates: 4,
         max_samples_per_leaf: 4,
         epsilon: mdas::integrator::mdas::config::EPSILON,
+        split: mdas::integrator::mdas::SplitRule::Extent,
         spp,
         seed,
     }

@@ -95,10 +95,20 @@ fn decide(k: u32, emax_bits: u32) -> Decision {
     let head = header_head(h);
     let count = min(header_count(h), MAX_PER_LEAF);
     var coords: array<u32, MAX_PER_LEAF * COORD_WORDS>;
+    // With the contrast split: each sample's channel sum, and whether it
+    // is finite.
+    var value: array<f32, MAX_PER_LEAF>;
+    var finite: array<bool, MAX_PER_LEAF>;
     var s = head;
     for (var i = 0u; i < count; i++) {
         for (var w = 0u; w < COORD_WORDS; w++) {
             coords[i * COORD_WORDS + w] = samples[s * SAMPLE_STRIDE + w];
+        }
+        if (SPLIT_CONTRAST == 1u) {
+            let bits = sample_value_bits(s);
+            finite[i] = finite_bits(bits);
+            let v = bitcast<vec3<f32>>(bits);
+            value[i] = v.x + v.y + v.z;
         }
         s = sample_next(s);
     }
@@ -138,6 +148,7 @@ fn decide(k: u32, emax_bits: u32) -> Decision {
         let n = count + 1u;
         let half = n / 2u;
         var best_extent = -1.0;
+        var best_contrast = -1.0;
         for (var axis = 0u; axis < DIMS; axis++) {
             var v: array<u32, 16>;
             for (var i = 0u; i < count; i++) {
@@ -156,10 +167,34 @@ fn decide(k: u32, emax_bits: u32) -> Decision {
             }
             if (v[half - 1u] < v[half]) {
                 let extent = f32(hi[axis] - lo[axis]) * quantum[axis];
-                if (extent > best_extent) {
+                let plane = (v[half - 1u] + v[half] + 1u) / 2u;
+                var contrast = 0.0;
+                if (SPLIT_CONTRAST == 1u) {
+                    // |mean below the plane − mean above| of the existing
+                    // finite samples' channel sums.
+                    var sum = vec2<f32>(0.0);
+                    var n = vec2<u32>(0u);
+                    for (var i = 0u; i < count; i++) {
+                        if (finite[i]) {
+                            let q = (coords[i * COORD_WORDS + axis / 2u] >> (16u * (axis % 2u))) & 0xffffu;
+                            if (q < plane) {
+                                sum.x += value[i];
+                                n.x += 1u;
+                            } else {
+                                sum.y += value[i];
+                                n.y += 1u;
+                            }
+                        }
+                    }
+                    if (n.x > 0u && n.y > 0u) {
+                        contrast = abs(sum.x / f32(n.x) - sum.y / f32(n.y));
+                    }
+                }
+                if (contrast > best_contrast || (contrast == best_contrast && extent > best_extent)) {
+                    best_contrast = contrast;
                     best_extent = extent;
                     d.axis = axis;
-                    d.plane = (v[half - 1u] + v[half] + 1u) / 2u;
+                    d.plane = plane;
                 }
             }
         }

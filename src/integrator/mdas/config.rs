@@ -41,6 +41,8 @@ pub struct MdasParams {
     pub max_samples_per_leaf: u32,
     /// ε of the contrast error E = V·(ε + c) (eq. 4; [`EPSILON`]).
     pub epsilon: f32,
+    /// How a full leaf picks its split axis ([`SplitRule`]).
+    pub split: SplitRule,
     pub spp: f32,
     pub seed: u32,
 }
@@ -56,9 +58,55 @@ impl Default for MdasParams {
             candidates: 4,
             max_samples_per_leaf: 4,
             epsilon: EPSILON,
+            split: SplitRule::Extent,
             spp: 8.0,
             seed: 0,
         }
+    }
+}
+
+/// How a full leaf picks the axis of its median split (the plane is the
+/// median of its samples and the candidate along that axis either way;
+/// only axes where the median separates them are eligible).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SplitRule {
+    /// The paper's: the largest extent, film axes scaled by sf × size.
+    #[default]
+    Extent,
+    /// The axis whose two halves' existing samples differ most in mean
+    /// value (the sum of the three channels, finite samples only; an axis
+    /// with no finite sample on one side scores 0), the scaled extent
+    /// breaking ties — so a flat leaf splits as with `Extent`. Not in the
+    /// paper or its code: it aims at film-space edges and temporal or lens
+    /// features without per-scene sf tuning.
+    Contrast,
+}
+
+impl SplitRule {
+    pub const ALL: [SplitRule; 2] = [SplitRule::Extent, SplitRule::Contrast];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            SplitRule::Extent => "extent",
+            SplitRule::Contrast => "contrast",
+        }
+    }
+}
+
+impl std::str::FromStr for SplitRule {
+    type Err = String;
+    fn from_str(s: &str) -> Result<SplitRule, String> {
+        SplitRule::ALL
+            .into_iter()
+            .find(|r| r.name() == s)
+            .ok_or_else(|| format!("unknown split rule '{s}', expected 'extent' or 'contrast'"))
+    }
+}
+
+impl std::fmt::Display for SplitRule {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
     }
 }
 
@@ -394,6 +442,10 @@ impl Config {
             .constant("SAMPLES_PER_CELL", self.params.initial_samples_per_cell)
             .constant("MAX_PER_LEAF", self.params.max_samples_per_leaf)
             .constant("CANDIDATES", self.params.candidates)
+            .constant(
+                "SPLIT_CONTRAST",
+                (self.params.split == SplitRule::Contrast) as u32,
+            )
             .constant("COORD_WORDS", self.coord_words)
             .constant("SAMPLE_STRIDE", self.sample_stride)
             .constant("LEAF_STRIDE", self.leaf_stride)

@@ -5,6 +5,7 @@
 //! and E_max from the snapshot drive the decisions; [`leaf_error`]
 //! recomputes them independently for comparison.
 
+use super::config::SplitRule;
 use super::debug::Snapshot;
 use super::words::leaf::{self, COLLAPSED_BIT, DIRTY, NIL};
 
@@ -158,6 +159,7 @@ pub fn decide(s: &Snapshot, k: u32) -> Decision {
         let n = leaf.count as usize + 1;
         let half = n / 2;
         let mut best_extent = -1.0f32;
+        let mut best_contrast = -1.0f32;
         for a in 0..dims {
             let mut v: Vec<u32> = list.iter().map(|&i| s.sample_q(i, a)).collect();
             v.push(d.cand[a as usize]);
@@ -165,10 +167,16 @@ pub fn decide(s: &Snapshot, k: u32) -> Decision {
             if v[half - 1] < v[half] {
                 let (lo, hi) = leaf.bounds[a as usize];
                 let extent = (hi - lo) as f32 * quantum[a as usize];
-                if extent > best_extent {
+                let plane = (v[half - 1] + v[half]).div_ceil(2);
+                let contrast = match s.params.split {
+                    SplitRule::Extent => 0.0,
+                    SplitRule::Contrast => side_contrast(s, &list, a, plane),
+                };
+                if contrast > best_contrast || (contrast == best_contrast && extent > best_extent) {
+                    best_contrast = contrast;
                     best_extent = extent;
                     d.axis = a;
-                    d.plane = (v[half - 1] + v[half]).div_ceil(2);
+                    d.plane = plane;
                 }
             }
         }
@@ -180,6 +188,25 @@ pub fn decide(s: &Snapshot, k: u32) -> Decision {
     }
     d.selected = true;
     d
+}
+
+/// |mean below `plane` − mean above| along `axis` of the finite samples'
+/// channel sums (0 when a side has none), as `adapt.wgsl` computes it.
+fn side_contrast(s: &Snapshot, list: &[u32], axis: u32, plane: u32) -> f32 {
+    let (mut sum, mut n) = ([0.0f32; 2], [0u32; 2]);
+    for &i in list {
+        let v = s.value(i);
+        if v.iter().all(|c| c.is_finite()) {
+            let side = (s.sample_q(i, axis) >= plane) as usize;
+            sum[side] += v[0] + v[1] + v[2];
+            n[side] += 1;
+        }
+    }
+    if n[0] > 0 && n[1] > 0 {
+        (sum[0] / n[0] as f32 - sum[1] / n[1] as f32).abs()
+    } else {
+        0.0
+    }
 }
 
 /// The predicted state after one iteration: raw leaf words, sample

@@ -108,7 +108,7 @@ use crate::gpu::Gpu;
 use crate::integrand::Integrand;
 use anyhow::Result;
 use config::Config;
-pub use config::MdasParams;
+pub use config::{MdasParams, SplitRule};
 use debug::Snapshot;
 use gpu_params::{GpuParams, Grid};
 use std::collections::HashMap;
