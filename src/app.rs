@@ -248,14 +248,16 @@ pub struct ReferenceSpec {
     pub seed: u32,
 }
 
-/// Cache file of a reference: a hash of the scene file's bytes, the
-/// parameters and the crate version.
+/// Cache file of a reference: a hash of the scene file's bytes, the bytes
+/// of every mesh it loads, the parameters and the crate version (an edited
+/// OBJ makes a new entry, never a stale hit).
 pub fn reference_cache_path(
     cache_dir: &Path,
     scene_path: &Path,
     spec: ReferenceSpec,
 ) -> Result<PathBuf> {
-    reference_cache_path_keyed(cache_dir, scene_path, spec, "")
+    let scene = SceneFile::load(scene_path)?;
+    reference_cache_path_keyed(cache_dir, scene_path, &scene.inputs, spec, "")
 }
 
 /// [`reference_cache_path`] with `extra` (e.g.
@@ -263,6 +265,7 @@ pub fn reference_cache_path(
 fn reference_cache_path_keyed(
     cache_dir: &Path,
     scene_path: &Path,
+    inputs: &[PathBuf],
     spec: ReferenceSpec,
     extra: &str,
 ) -> Result<PathBuf> {
@@ -270,6 +273,12 @@ fn reference_cache_path_keyed(
         .with_context(|| format!("cannot read {}", scene_path.display()))?;
     let mut h = Sha256::new();
     h.update(&bytes);
+    for input in inputs {
+        let bytes =
+            std::fs::read(input).with_context(|| format!("cannot read {}", input.display()))?;
+        h.update(format!("|input {} bytes|", bytes.len()));
+        h.update(&bytes);
+    }
     h.update(format!(
         "|spp={}|scale={}|seed={}|halton{extra}|v{}",
         spec.spp,
@@ -322,7 +331,7 @@ pub fn reference_with(
 ) -> Result<(Film, Vec<[f32; 3]>, PathBuf, bool)> {
     let scene = SceneFile::load(scene_path)?;
     let extra = overrides.cache_key(&scene.integrand)?;
-    let path = reference_cache_path_keyed(cache_dir, scene_path, spec, &extra)?;
+    let path = reference_cache_path_keyed(cache_dir, scene_path, &scene.inputs, spec, &extra)?;
     let prepared = prepare_loaded(gpu, scene, scene_path, spec.scale, overrides)?;
     if path.exists() {
         let (w, h, image) = image_io::read_exr(&path)?;

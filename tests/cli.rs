@@ -621,3 +621,43 @@ fn tune_ranks_a_grid_and_skips_what_cannot_run() {
     assert!(!bad.exists());
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// The reference cache's key covers the meshes a scene loads: editing the
+/// OBJ renders a new reference instead of reusing the stale one.
+#[test]
+fn reference_cache_sees_edited_meshes() {
+    let dir = temp_dir("ref-mesh");
+    let obj = dir.join("tri.obj");
+    std::fs::write(&obj, "v -1 0.5 -1\nv 1 0.5 -1\nv 0 0.5 1\nf 1 3 2\n").unwrap();
+    let scene = scene_variant(&dir, "with-mesh.toml", |t| {
+        let at = t.find("[[light]]").expect("a light table");
+        format!(
+            "{}[[shape]]\ntype = \"mesh\"\nmaterial = \"grey\"\nfile = \"tri.obj\"\n\n{}",
+            &t[..at],
+            &t[at..]
+        )
+    });
+    let cache = dir.join("cache");
+    let args = [
+        "reference",
+        scene.to_str().unwrap(),
+        "--spp",
+        "4",
+        "--scale",
+        "0.125",
+        "--cache",
+        cache.to_str().unwrap(),
+    ];
+    let run = |expect: &str| {
+        let o = mdas(&args);
+        assert!(o.status.success(), "stderr: {}", stderr(&o));
+        let out = String::from_utf8_lossy(&o.stdout).into_owned();
+        assert!(out.contains(expect), "expected '{expect}': {out}");
+    };
+    run("rendered");
+    run("cached");
+    // The triangle moves: a new entry, rendered.
+    std::fs::write(&obj, "v -1 0.8 -1\nv 1 0.8 -1\nv 0 0.8 1\nf 1 3 2\n").unwrap();
+    run("rendered");
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -102,7 +102,19 @@ impl Ctx<'_> {
             },
             integrand,
             mdas,
+            inputs: self.mesh_files(&raw),
         })
+    }
+
+    /// The OBJ files of the `mesh` shapes (already loaded, so they exist).
+    fn mesh_files(&self, raw: &RawScene) -> Vec<std::path::PathBuf> {
+        let dir = self.file.parent().unwrap_or(std::path::Path::new(""));
+        raw.shape
+            .iter()
+            .map(|s| s.get_ref())
+            .filter(|s| s.kind.get_ref() == "mesh")
+            .filter_map(|s| s.file.as_ref().map(|f| dir.join(f.get_ref())))
+            .collect()
     }
 
     pub(super) fn film(&self, f: &RawFilm) -> Result<Film> {

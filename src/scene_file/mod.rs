@@ -68,8 +68,11 @@ pub struct SceneFile {
     pub scene: Scene,
     /// `[integrand]` (area-light direct lighting when absent).
     pub integrand: IntegrandSpec,
-    /// `[mdas]` (the paper's defaults when absent).
+    /// `[mdas]` (missing keys from `MdasParams::for_film`).
     pub mdas: MdasParams,
+    /// The files the scene loaded besides itself (its OBJ meshes), in
+    /// order: what a cached render of it depends on.
+    pub inputs: Vec<std::path::PathBuf>,
 }
 
 impl SceneFile {
