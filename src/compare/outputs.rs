@@ -9,7 +9,7 @@
 use super::figure;
 use super::heatmap;
 use super::seeds::SeedStats;
-use super::CompareSpec;
+use super::{CompareSpec, Setup};
 use crate::app;
 use crate::film::Film;
 use crate::image_io;
@@ -17,6 +17,7 @@ use crate::integrator::Render;
 use crate::metrics;
 use anyhow::Result;
 use std::collections::BTreeMap;
+use std::path::Path;
 
 /// The linear range of FLIP maps (FLIP is in [0, 1]).
 pub const FLIP_RANGE: (f32, f32) = (0.0, 1.0);
@@ -61,82 +62,39 @@ pub(crate) fn write_outputs(o: &CompareOutputs) -> Result<Written> {
     let (spec, film, reference, density) = (o.spec, o.film, o.reference, o.density);
     let (mdas_render, halton_render) = (o.mdas, o.halton);
     let (w, h) = (film.width, film.height);
-    let mut files = BTreeMap::new();
-    let mut image = |key: &str,
-                     name: &str,
-                     pixels: &[[f32; 3]],
-                     attributes: &[(&str, image_io::ExrAttribute)]|
-     -> Result<()> {
-        app::write_outputs_with(
-            &spec.setup.out.join(format!("{name}.exr")),
-            film,
-            pixels,
-            attributes,
-        )?;
-        files.insert(key.to_string(), format!("{name}.exr"));
-        files.insert(format!("{key}_png"), format!("{name}.png"));
-        Ok(())
-    };
-    {
-        use image_io::ExrAttribute::{Text, F64, I32};
-        image(
-            "reference",
-            "reference",
-            reference,
-            &[
-                ("method", Text("halton".into())),
-                ("spp", F64(f64::from(spec.setup.ref_spp))),
-                ("seed", I32(spec.setup.ref_seed as i32)),
-            ],
-        )?;
-    }
+    let mut files = Files::new(&spec.setup.out, film);
+    files.image(
+        "reference",
+        "reference",
+        reference,
+        &reference_attributes(&spec.setup),
+    )?;
     let scene_path = &spec.setup.scene;
-    image(
+    files.image(
         "mdas",
         "mdas",
         &mdas_render.image,
         &app::render_attributes("mdas", o.mdas_seed, mdas_render, scene_path),
     )?;
-    image(
+    files.image(
         "halton",
         "halton",
         &halton_render.image,
         &app::render_attributes("halton", spec.setup.halton_seed, halton_render, scene_path),
     )?;
     if let Some(u) = o.uniform {
-        image(
+        files.image(
             "mdas_uniform",
             "mdas-uniform",
             &u.image,
             &app::render_attributes("mdas-uniform", o.mdas_seed, u, scene_path),
         )?;
-        let per_pixel = metrics::relmse_per_pixel(&u.image, reference)?;
-        let stem = spec.setup.out.join("relmse-mdas-uniform");
-        heatmap::write_map(&stem, w, h, &per_pixel, heatmap::RELMSE_RANGE)?;
-        files.insert(
-            "relmse_mdas_uniform".into(),
-            "relmse-mdas-uniform.exr".into(),
-        );
-        files.insert(
-            "relmse_mdas_uniform_png".into(),
-            "relmse-mdas-uniform.png".into(),
-        );
+        files.relmse_map("mdas_uniform", "mdas-uniform", &u.image, reference)?;
     }
     let mut relmse_maps = Vec::new();
     let mut flips = Vec::new();
     for (key, render) in [("mdas", mdas_render), ("halton", halton_render)] {
-        let per_pixel = metrics::relmse_per_pixel(&render.image, reference)?;
-        let name = format!("relmse-{key}");
-        heatmap::write_map(
-            &spec.setup.out.join(&name),
-            w,
-            h,
-            &per_pixel,
-            heatmap::RELMSE_RANGE,
-        )?;
-        files.insert(format!("relmse_{key}"), format!("{name}.exr"));
-        files.insert(format!("relmse_{key}_png"), format!("{name}.png"));
-        relmse_maps.push(per_pixel);
+        relmse_maps.push(files.relmse_map(key, key, &render.image, reference)?);
         let flip = metrics::flip(
             &render.image,
             reference,
@@ -152,8 +110,7 @@ pub(crate) fn write_outputs(o: &CompareOutputs) -> Result<Written> {
             &flip.per_pixel,
             FLIP_RANGE,
         )?;
-        files.insert(format!("flip_{key}"), format!("{name}.exr"));
-        files.insert(format!("flip_{key}_png"), format!("{name}.png"));
+        files.insert(&format!("flip_{key}"), &name);
         flips.push(flip.mean);
     }
     let density_range = heatmap::density_range(density);
@@ -164,8 +121,7 @@ pub(crate) fn write_outputs(o: &CompareOutputs) -> Result<Written> {
         density,
         density_range,
     )?;
-    files.insert("density_mdas".into(), "density-mdas.exr".into());
-    files.insert("density_mdas_png".into(), "density-mdas.png".into());
+    files.insert("density_mdas", "density-mdas");
 
     // The figure: images, insets, maps with colour bars.
     let total = mdas_render.samples;
@@ -251,10 +207,84 @@ pub(crate) fn write_outputs(o: &CompareOutputs) -> Result<Written> {
             crops: spec.crops.clone(),
         },
     )?;
-    files.insert("figure".into(), "figure.png".into());
+    files.list.insert("figure".into(), "figure.png".into());
     Ok(Written {
-        files,
+        files: files.list,
         flips: [flips[0], flips[1]],
         density_range,
     })
+}
+
+/// The files of one output directory, as `report.json` lists them (key →
+/// file name), each written atomically.
+pub(crate) struct Files<'a> {
+    out: &'a Path,
+    film: Film,
+    pub list: BTreeMap<String, String>,
+}
+
+impl<'a> Files<'a> {
+    pub fn new(out: &'a Path, film: Film) -> Files<'a> {
+        Files {
+            out,
+            film,
+            list: BTreeMap::new(),
+        }
+    }
+
+    /// Lists `NAME.exr` as `KEY` and `NAME.png` as `KEY_png`.
+    pub fn insert(&mut self, key: &str, name: &str) {
+        self.list.insert(key.to_string(), format!("{name}.exr"));
+        self.list
+            .insert(format!("{key}_png"), format!("{name}.png"));
+    }
+
+    /// Writes `NAME.exr` (with `attributes` in its header) and `NAME.png`.
+    pub fn image(
+        &mut self,
+        key: &str,
+        name: &str,
+        pixels: &[[f32; 3]],
+        attributes: &[(&str, image_io::ExrAttribute)],
+    ) -> Result<()> {
+        let exr = self.out.join(format!("{name}.exr"));
+        app::write_outputs_with(&exr, self.film, pixels, attributes)?;
+        self.insert(key, name);
+        Ok(())
+    }
+
+    /// Writes the per-pixel RelMSE of `pixels` as `relmse-NAME` (log
+    /// scale over `heatmap::RELMSE_RANGE`), listed as `relmse_KEY`, and
+    /// returns it.
+    pub fn relmse_map(
+        &mut self,
+        key: &str,
+        name: &str,
+        pixels: &[[f32; 3]],
+        reference: &[[f32; 3]],
+    ) -> Result<Vec<f32>> {
+        let per_pixel = metrics::relmse_per_pixel(pixels, reference)?;
+        let stem = format!("relmse-{name}");
+        let (w, h) = (self.film.width, self.film.height);
+        heatmap::write_map(
+            &self.out.join(&stem),
+            w,
+            h,
+            &per_pixel,
+            heatmap::RELMSE_RANGE,
+        )?;
+        self.insert(&format!("relmse_{key}"), &stem);
+        Ok(per_pixel)
+    }
+}
+
+/// The EXR header attributes of the reference: Halton at the setup's
+/// reference spp and seed.
+pub(crate) fn reference_attributes(setup: &Setup) -> Vec<(&'static str, image_io::ExrAttribute)> {
+    use image_io::ExrAttribute::{Text, F64, I32};
+    vec![
+        ("method", Text("halton".into())),
+        ("spp", F64(f64::from(setup.ref_spp))),
+        ("seed", I32(setup.ref_seed as i32)),
+    ]
 }

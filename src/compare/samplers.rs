@@ -31,20 +31,18 @@ use super::experiment::{
     check_budget, check_mdas, check_out_dir, cleaning_up, spinner, write_report, Budget, Setup,
 };
 use super::heatmap;
+use super::outputs::{reference_attributes, Files};
 use super::report::*;
 use super::timing::{halton_search, nearer, time_mdas, MdasTiming};
 use crate::accel::GpuScene;
 use crate::app;
 use crate::gpu::Gpu;
-use crate::image_io;
 use crate::integrand::Integrand;
 use crate::integrand::IntegrandSpec;
 use crate::integrator::mdas::MdasParams;
 use crate::lights::sampler::SamplerKind;
-use crate::metrics;
 use crate::scene_file::SceneFile;
 use anyhow::{bail, Result};
-use std::collections::BTreeMap;
 use std::sync::Arc;
 
 /// The sampler MDAS runs with.
@@ -183,63 +181,26 @@ fn run(gpu: &Gpu, spec: &SamplersSpec) -> Result<Report> {
 
     // 5. Files, report last.
     let (w, h) = (film.width, film.height);
-    let mut files = BTreeMap::new();
-    let mut image = |key: &str,
-                     name: &str,
-                     pixels: &[[f32; 3]],
-                     attributes: &[(&str, image_io::ExrAttribute)],
-                     map: bool|
-     -> Result<()> {
-        app::write_outputs_with(
-            &setup.out.join(format!("{name}.exr")),
-            film,
-            pixels,
-            attributes,
-        )?;
-        files.insert(key.to_string(), format!("{name}.exr"));
-        files.insert(format!("{key}_png"), format!("{name}.png"));
-        if map {
-            let per_pixel = metrics::relmse_per_pixel(pixels, &reference)?;
-            let map_name = format!("relmse-{name}");
-            heatmap::write_map(
-                &setup.out.join(&map_name),
-                w,
-                h,
-                &per_pixel,
-                heatmap::RELMSE_RANGE,
-            )?;
-            files.insert(format!("relmse_{key}"), format!("{map_name}.exr"));
-            files.insert(format!("relmse_{key}_png"), format!("{map_name}.png"));
-        }
-        Ok(())
-    };
-    {
-        use image_io::ExrAttribute::{Text, F64, I32};
-        let reference_attributes = [
-            ("method", Text("halton".into())),
-            ("spp", F64(f64::from(setup.ref_spp))),
-            ("seed", I32(setup.ref_seed as i32)),
-        ];
-        image(
-            "reference",
-            "reference",
-            &reference,
-            &reference_attributes,
-            false,
-        )?;
-    }
-    image(
+    let mut files = Files::new(&setup.out, film);
+    files.image(
+        "reference",
+        "reference",
+        &reference,
+        &reference_attributes(setup),
+    )?;
+    let mdas_image = &mdas_main.measured.render.image;
+    files.image(
         "mdas_tree",
         "mdas-tree",
-        &mdas_main.measured.render.image,
+        mdas_image,
         &app::render_attributes(
             "mdas+tree",
             params.seed,
             &mdas_main.measured.render,
             &setup.scene,
         ),
-        true,
     )?;
+    files.relmse_map("mdas_tree", "mdas-tree", mdas_image, &reference)?;
     let mut methods = vec![MethodReport::new(
         "mdas+tree",
         mdas_spp,
@@ -249,8 +210,9 @@ fn run(gpu: &Gpu, spec: &SamplersSpec) -> Result<Report> {
     for (kind, eq) in &searches {
         let run = nearer(eq);
         let name = format!("halton-{kind}");
-        image(
-            &format!("halton_{kind}"),
+        let key = format!("halton_{kind}");
+        files.image(
+            &key,
             &name,
             &run.measured.render.image,
             &app::render_attributes(
@@ -259,8 +221,8 @@ fn run(gpu: &Gpu, spec: &SamplersSpec) -> Result<Report> {
                 &run.measured.render,
                 &setup.scene,
             ),
-            true,
         )?;
+        files.relmse_map(&key, &name, &run.measured.render.image, &reference)?;
         methods.push(MethodReport::new(
             &format!("halton+{kind}"),
             run.spp as f64,
@@ -268,7 +230,7 @@ fn run(gpu: &Gpu, spec: &SamplersSpec) -> Result<Report> {
             &format!("{name}.exr"),
         ));
     }
-    files.insert("report".into(), "report.json".into());
+    files.list.insert("report".into(), "report.json".into());
 
     let reports: Vec<(SamplerKind, SearchReport)> = searches
         .iter()
@@ -355,7 +317,7 @@ fn run(gpu: &Gpu, spec: &SamplersSpec) -> Result<Report> {
             density_range: None,
             flip_range: None,
         },
-        files,
+        files: files.list,
         provenance: Some(crate::provenance::Provenance::new(
             gpu,
             &setup.scene,
