@@ -67,7 +67,11 @@ pub(crate) fn run(args: CompareArgs, ui: Ui) -> Result<()> {
         .out
         .clone()
         .unwrap_or_else(|| default_dir(&scene, "compare"));
-    let mdas_params = |p: MdasParams| common.mdas.params(p, common.scale, spp, common.seed);
+    let mdas_params = |p: MdasParams| {
+        common
+            .mdas
+            .params(p, common.reference.scale, spp, common.seed)
+    };
     let setup = common.setup(ui, scene, out.clone(), &mdas_params);
     let budget = time_ms.map_or(
         mdas::compare::Budget::MdasSpp,

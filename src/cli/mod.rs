@@ -248,9 +248,10 @@ pub(crate) enum Command {
     Info,
 }
 
-/// Options shared by `compare` and `sweep`.
+/// The film scale and the reference of an experiment (`compare`, `sweep`,
+/// `tune`).
 #[derive(clap::Args, Debug)]
-pub(crate) struct ExperimentArgs {
+pub(crate) struct ReferenceArgs {
     /// Render at this fraction of the scene's film size (same camera);
     /// the reference uses the same scale.
     #[arg(long, default_value_t = 1.0)]
@@ -265,6 +266,40 @@ pub(crate) struct ExperimentArgs {
     /// Reference cache directory (as `mdas reference --cache`).
     #[arg(long, default_value = ".cache/references")]
     pub(crate) cache: PathBuf,
+}
+
+impl ReferenceArgs {
+    /// The experiment's [`mdas::compare::Setup`] with these.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn setup<'a>(
+        &self,
+        ui: Ui,
+        scene: PathBuf,
+        out: PathBuf,
+        halton_seed: u32,
+        repeats: u32,
+        mdas_params: &'a dyn Fn(MdasParams) -> MdasParams,
+    ) -> mdas::compare::Setup<'a> {
+        mdas::compare::Setup {
+            scene,
+            scale: self.scale,
+            ref_spp: self.ref_spp,
+            ref_seed: self.ref_seed,
+            cache_dir: self.cache.clone(),
+            halton_seed,
+            repeats,
+            out,
+            progress: ui.progress(),
+            mdas_params,
+        }
+    }
+}
+
+/// Options shared by `compare` and `sweep`.
+#[derive(clap::Args, Debug)]
+pub(crate) struct ExperimentArgs {
+    #[command(flatten)]
+    pub(crate) reference: ReferenceArgs,
     /// Seed of the compared renders (default: 0 for Halton, the scene's
     /// [mdas] seed for MDAS).
     #[arg(long)]
@@ -291,18 +326,14 @@ impl ExperimentArgs {
         out: PathBuf,
         mdas_params: &'a dyn Fn(MdasParams) -> MdasParams,
     ) -> mdas::compare::Setup<'a> {
-        mdas::compare::Setup {
+        self.reference.setup(
+            ui,
             scene,
-            scale: self.scale,
-            ref_spp: self.ref_spp,
-            ref_seed: self.ref_seed,
-            cache_dir: self.cache.clone(),
-            halton_seed: self.seed.unwrap_or(0),
-            repeats: self.repeats,
             out,
-            progress: ui.progress(),
+            self.seed.unwrap_or(0),
+            self.repeats,
             mdas_params,
-        }
+        )
     }
 }
 

@@ -30,7 +30,11 @@ pub(crate) fn run(args: SweepArgs, ui: Ui) -> Result<()> {
         .out
         .clone()
         .unwrap_or_else(|| default_dir(&scene, "sweep"));
-    let mdas_params = |p: MdasParams| common.mdas.params(p, common.scale, None, common.seed);
+    let mdas_params = |p: MdasParams| {
+        common
+            .mdas
+            .params(p, common.reference.scale, None, common.seed)
+    };
     let spec = mdas::compare::sweep::SweepSpec {
         setup: common.setup(ui, scene, out.clone(), &mdas_params),
         spps,

@@ -26,18 +26,8 @@ pub(crate) struct TuneArgs {
     /// equal time.
     #[arg(long)]
     pub(crate) equal_samples: bool,
-    /// Render at this fraction of the scene's film size.
-    #[arg(long, default_value_t = 1.0)]
-    pub(crate) scale: f32,
-    /// Samples per pixel of the Halton reference.
-    #[arg(long, default_value_t = 65536, value_parser = clap::value_parser!(u32).range(1..))]
-    pub(crate) ref_spp: u32,
-    /// Seed of the reference.
-    #[arg(long, default_value_t = 1)]
-    pub(crate) ref_seed: u32,
-    /// Reference cache directory (as `mdas reference --cache`).
-    #[arg(long, default_value = ".cache/references")]
-    pub(crate) cache: PathBuf,
+    #[command(flatten)]
+    pub(crate) reference: ReferenceArgs,
     /// First seed of Halton's renders (default 0).
     #[arg(long, default_value_t = 0)]
     pub(crate) seed: u32,
@@ -59,34 +49,20 @@ pub(crate) fn run(args: TuneArgs, ui: Ui) -> Result<()> {
         grid,
         seeds,
         equal_samples,
-        scale,
-        ref_spp,
-        ref_seed,
-        cache,
+        reference,
         seed,
         out,
         mdas,
     } = args;
     let out = out.unwrap_or_else(|| default_dir(&scene, "tune"));
-    let mdas_params = |p: MdasParams| mdas.params(p, scale, spp, None);
+    let mdas_params = |p: MdasParams| mdas.params(p, reference.scale, spp, None);
     let grid = if grid.is_empty() {
         mdas::compare::tune::default_grid()
     } else {
         grid
     };
     let spec = mdas::compare::tune::TuneSpec {
-        setup: mdas::compare::Setup {
-            scene,
-            scale,
-            ref_spp,
-            ref_seed,
-            cache_dir: cache,
-            halton_seed: seed,
-            repeats: 1,
-            out: out.clone(),
-            progress: ui.progress(),
-            mdas_params: &mdas_params,
-        },
+        setup: reference.setup(ui, scene, out.clone(), seed, 1, &mdas_params),
         grid,
         seeds,
         equal_samples,
