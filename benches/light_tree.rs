@@ -2,9 +2,11 @@
 //! lightcuts Table 1) for 1k, 10k, 100k and 1M lights, on the process's
 //! adapter (a GPU if present, else lavapipe).
 //!
-//! Each criterion sample is one full build ([`GpuLightTree::build_timed`]:
-//! bounds, Morton codes, sort, leaves, internal levels, each submitted and
-//! timed by the profiler). After criterion's figure the bench prints the
+//! Each size is built without and with orientation cones (`tree` against
+//! `tree_cone`: the cost of cones is the difference). Each criterion sample
+//! is one full build ([`GpuLightTree::build_timed`]: bounds, Morton codes,
+//! sort, leaves, internal levels and, with cones, the cone levels, each
+//! submitted and timed by the profiler). After criterion's figure the bench prints the
 //! median of every phase over all builds (GPU timestamps where the adapter
 //! has them, else wall clock around a device sync). Lights: half points,
 //! half small triangles, uniform in a cube. Run: `cargo bench --bench light_tree`.
@@ -49,20 +51,26 @@ fn bench(c: &mut Criterion) {
     let gpu = Gpu::shared().expect("benches need a wgpu adapter");
     eprintln!("{}", gpu.describe());
     let mut rows = Vec::new();
-    for (label, n) in [
+    let sizes = [
         ("1k", 1_000u32),
         ("10k", 10_000),
         ("100k", 100_000),
         ("1M", 1 << 20),
-    ] {
+    ];
+    for ((size, n), cones) in sizes.into_iter().flat_map(|s| [(s, false), (s, true)]) {
+        let label = if cones {
+            format!("{size} +cones")
+        } else {
+            size.to_string()
+        };
         let prims = lights(n as usize);
         let buffer = gpu
             .buffer_from("bench.lights", &prims, wgpu::BufferUsages::STORAGE)
             .unwrap();
-        let mut tree = GpuLightTree::new(gpu, n).unwrap();
+        let mut tree = GpuLightTree::new(gpu, n, cones).unwrap();
         tree.build_timed(gpu, &buffer, n).unwrap(); // warm-up
         let mut times: Vec<BuildTimes> = Vec::new();
-        let mut group = c.benchmark_group(format!("light_tree_{label}"));
+        let mut group = c.benchmark_group(format!("light_tree_{}", label.replace(" +", "_")));
         group
             .sample_size(10)
             .warm_up_time(Duration::from_millis(1))
@@ -86,6 +94,7 @@ fn bench(c: &mut Criterion) {
                 m(|t| t.sort),
                 m(|t| t.leaves),
                 m(|t| t.internal),
+                m(|t| t.cones),
                 m(|t| t.total()),
             ],
             times.len(),
@@ -93,12 +102,12 @@ fn bench(c: &mut Criterion) {
     }
     let clock = mdas::gpu::Profiler::new(gpu).clock();
     eprintln!("\nlight tree build, median ms per phase ({clock:?}):");
-    eprintln!("| lights | bounds | morton | sort | leaves | internal | total | builds |");
-    eprintln!("|---:|---:|---:|---:|---:|---:|---:|---:|");
+    eprintln!("| lights | bounds | morton | sort | leaves | internal | cones | total | builds |");
+    eprintln!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for (label, t, count) in rows {
         eprintln!(
-            "| {label} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {count} |",
-            t[0], t[1], t[2], t[3], t[4], t[5]
+            "| {label} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {count} |",
+            t[0], t[1], t[2], t[3], t[4], t[5], t[6]
         );
     }
 }

@@ -117,7 +117,7 @@ fn radix_sort_refuses_over_capacity() {
 use glam::Vec3;
 use mdas::gpu::Profiler;
 use mdas::lights::gpu_build::{BuildTimes, GpuLightTree};
-use mdas::lights::{morton, perfect, LightPrim, TreeNode};
+use mdas::lights::{morton, perfect, LightCone, LightPrim, TreeNode};
 
 /// `n` lights in `[-s, s]^3`: points and triangles (edges up to `s/10`)
 /// alternating at random, with RGB emission in `[0, 4)`.
@@ -148,6 +148,7 @@ fn random_lights(rng: &mut StdRng, n: usize, s: f32) -> Vec<LightPrim> {
 
 struct Built {
     nodes: Vec<TreeNode>,
+    cones: Option<Vec<LightCone>>,
     leaf_of_light: Vec<u32>,
     sorted_ids: Vec<u32>,
     sorted_codes: Vec<u32>,
@@ -167,6 +168,10 @@ fn gpu_build(gpu: &Gpu, tree: &mut GpuLightTree, prims: &[LightPrim]) -> Built {
         nodes: gpu
             .read_buffer(&tree.nodes, tree.node_count() as usize)
             .unwrap(),
+        cones: tree
+            .cones
+            .as_ref()
+            .map(|c| gpu.read_buffer(c, tree.node_count() as usize).unwrap()),
         leaf_of_light: gpu.read_buffer(&tree.leaf_of_light, n).unwrap(),
         sorted_ids: gpu.read_buffer(&tree.sorted_ids, n).unwrap(),
         sorted_codes: gpu.read_buffer(&tree.sorted_codes, n).unwrap(),
@@ -200,12 +205,67 @@ fn check_tree(gpu: &Gpu, tree: &mut GpuLightTree, prims: &[LightPrim], what: &st
             perfect::level_of(i)
         );
     }
+    if let Some(cones) = &got.cones {
+        check_cones(cones, &want.cones, what);
+    }
+}
+
+/// Largest difference, in radians, between a GPU cone and the oracle's in
+/// axis and spread: rounding differences of a few ulp per operation (WGSL's
+/// `sqrt` and division are not exact) on unit vectors, accumulated over at
+/// most 21 merges, stay below 1e-5; 1e-4 leaves room for a driver's
+/// `normalize`. A cone whose spread is within 1e-3 of π is compared by
+/// spread only (its axis hardly matters).
+const CONE_TOLERANCE: f32 = 1e-4;
+
+/// The GPU's cones against the oracle's, and conservative on their own:
+/// every node's cone contains its children's.
+fn check_cones(got: &[LightCone], want: &[LightCone], what: &str) {
+    assert_eq!(got.len(), want.len(), "{what}: cone count");
+    let spread = |c: &LightCone| c.sin_o.atan2(c.cos_o);
+    let (mut max_spread, mut max_axis) = (0f32, 0f32);
+    for (i, (g, w)) in got.iter().zip(want).enumerate() {
+        assert_eq!(
+            g.is_empty(),
+            w.is_empty(),
+            "{what}: cone {i}: {g:?} vs {w:?}"
+        );
+        if w.is_empty() {
+            continue;
+        }
+        let (ga, wa) = (Vec3::from(g.axis), Vec3::from(w.axis));
+        let axis = ga.cross(wa).length().atan2(ga.dot(wa));
+        let d = (spread(g) - spread(w)).abs();
+        let wide = spread(w) > std::f32::consts::PI - 1e-3;
+        max_spread = max_spread.max(d);
+        if !wide {
+            max_axis = max_axis.max(axis);
+        }
+        assert!(
+            d <= CONE_TOLERANCE && (wide || axis <= CONE_TOLERANCE),
+            "{what}: cone {i}: spread differs by {d}, axis by {axis}:\n  gpu {g:?}\n  cpu {w:?}"
+        );
+        assert_eq!(
+            (g.cos_e, g.two_sided),
+            (w.cos_e, w.two_sided),
+            "{what}: cone {i}"
+        );
+        if i < got.len() / 2 {
+            for child in [2 * i + 1, 2 * i + 2] {
+                assert!(
+                    g.contains(&got[child], 1e-6),
+                    "{what}: cone {i} does not contain its child {child}"
+                );
+            }
+        }
+    }
+    eprintln!("{what}: GPU cones within {max_spread:e} rad (spread), {max_axis:e} rad (axis)");
 }
 
 #[test]
 fn tree_matches_cpu_oracle_bit_for_bit() {
     let gpu = common::gpu();
-    let mut tree = GpuLightTree::new(gpu, 20_000).unwrap();
+    let mut tree = GpuLightTree::new(gpu, 20_000, true).unwrap();
     let mut rng = StdRng::seed_from_u64(61);
     for n in [1usize, 2, 3, 5, 255, 256, 257, 1000, 12_146] {
         let prims = random_lights(&mut rng, n, 10.0);
@@ -217,12 +277,30 @@ fn tree_matches_cpu_oracle_bit_for_bit() {
         prims.extend(random_lights(&mut rng, 50, 2f32.powi(k)));
     }
     check_tree(gpu, &mut tree, &prims, "many scales");
+    // Triangles only, all facing roughly down (a ceiling of tilted
+    // panels): narrow cones on every level, merged by the general rule.
+    let panels: Vec<LightPrim> = (0..3000)
+        .map(|_| {
+            let c = Vec3::new(
+                rng.random_range(-8.0..8.0),
+                rng.random_range(2.0..3.0),
+                rng.random_range(-8.0..8.0),
+            );
+            let tilt = Vec3::new(
+                rng.random_range(-0.3..0.3),
+                0.0,
+                rng.random_range(-0.3..0.3),
+            );
+            LightPrim::triangle(c, c + Vec3::X * 0.2 + tilt, c + Vec3::Z * 0.2, Vec3::ONE)
+        })
+        .collect();
+    check_tree(gpu, &mut tree, &panels, "tilted panels");
 }
 
 #[test]
 fn tree_degenerate_light_sets() {
     let gpu = common::gpu();
-    let mut tree = GpuLightTree::new(gpu, 5000).unwrap();
+    let mut tree = GpuLightTree::new(gpu, 5000, true).unwrap();
     let mut rng = StdRng::seed_from_u64(62);
 
     // Every light at one point: all codes equal (zero extents), id order.
@@ -272,7 +350,7 @@ fn tree_degenerate_light_sets() {
 #[test]
 fn tree_rebuilds_per_frame_and_handles_no_lights() {
     let gpu = common::gpu();
-    let mut tree = GpuLightTree::new(gpu, 4096).unwrap();
+    let mut tree = GpuLightTree::new(gpu, 4096, false).unwrap();
     let mut rng = StdRng::seed_from_u64(63);
     // A large tree, then a smaller one with other lights in the same
     // buffers (stale nodes and leaf slots must not leak), then a third.
@@ -308,7 +386,7 @@ fn tree_rebuilds_per_frame_and_handles_no_lights() {
 fn tree_of_one_million_lights() {
     let gpu = common::gpu();
     let n = 1 << 20;
-    let mut tree = GpuLightTree::new(gpu, n).unwrap();
+    let mut tree = GpuLightTree::new(gpu, n, true).unwrap();
     let mut rng = StdRng::seed_from_u64(64);
     let prims = random_lights(&mut rng, n as usize, 50.0);
     check_tree(gpu, &mut tree, &prims, "1M lights");

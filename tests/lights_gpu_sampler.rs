@@ -19,14 +19,14 @@ use mdas::gpu::buffer::STORAGE;
 use mdas::gpu::shader::{storage_entry, Wgsl};
 use mdas::gpu::{Gpu, Profiler};
 use mdas::lights::bvh;
-use mdas::lights::cut::MAX_CUT;
+use mdas::lights::cut::{Importance, LightTree, MAX_CUT};
 use mdas::lights::gpu_build::GpuLightTree;
 use mdas::lights::gpu_sampler::{CutLayout, GpuSamplerData, TreeSource};
 use mdas::lights::perfect;
 use mdas::lights::{
     select_cut, LightSampler, PowerSampler, SamplerKind, Shading, TreeSampler, UniformSampler,
 };
-use mdas::lights::{LightPrim, NO_LIGHT};
+use mdas::lights::{LightCone, LightPrim, NO_LIGHT};
 use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
 
@@ -367,16 +367,17 @@ fn cut_layout() -> CutLayout {
 }
 
 /// Uploads the CPU cuts of every block; returns them.
-fn upload_cpu_cuts<T: mdas::lights::cut::LightTree>(
+fn upload_cpu_cuts<T: LightTree>(
     gpu: &Gpu,
     data: &GpuSamplerData,
     tree: &T,
+    importance: Importance,
     s: &Setup,
 ) -> Vec<Vec<u32>> {
     let cuts: Vec<_> = s
         .reps
         .iter()
-        .map(|r| select_cut(tree, r, CUT_SIZE))
+        .map(|r| select_cut(tree, importance, r, CUT_SIZE))
         .collect();
     let mut flat = vec![NO_LIGHT; (BLOCKS * CUT_SIZE) as usize];
     for (b, c) in cuts.iter().enumerate() {
@@ -398,6 +399,51 @@ fn compare_cuts(name: &str, gpu_cuts: &[Vec<u32>], cpu_cuts: &[Vec<u32>]) {
     assert!(differ <= 2, "{name}: {differ} cuts differ");
 }
 
+/// The CPU samplers of a tree kind, one per block (its CPU cuts uploaded to
+/// `data`) or one from the root.
+fn tree_samplers<T: LightTree + Clone + 'static>(
+    gpu: &Gpu,
+    data: &GpuSamplerData,
+    tree: &T,
+    s: &Setup,
+) -> Vec<Box<dyn LightSampler>> {
+    let imp = data.kind.importance();
+    if !data.kind.uses_cut() {
+        return vec![Box::new(TreeSampler::new(tree.clone(), imp))];
+    }
+    upload_cpu_cuts(gpu, data, tree, imp, s)
+        .into_iter()
+        .map(|c| Box::new(TreeSampler::with_cut(tree.clone(), imp, c)) as Box<dyn LightSampler>)
+        .collect()
+}
+
+/// Runs the probes of `data` and compares them with the CPU over `tree`:
+/// samples, pmfs and (kinds with cuts) the GPU's own cut selection.
+fn check_kind<T: LightTree + Clone + 'static>(
+    gpu: &Gpu,
+    h: &Harness,
+    name: &str,
+    data: &GpuSamplerData,
+    tree: &T,
+    s: &Setup,
+) {
+    let samplers = tree_samplers(gpu, data, tree, s);
+    let (answers, gpu_cuts) = h.run(gpu, data, s);
+    let cpu = |b: u32| -> &dyn LightSampler { samplers[b as usize % samplers.len()].as_ref() };
+    compare(name, &answers, s, &cpu);
+    if data.kind.uses_cut() {
+        let imp = data.kind.importance();
+        let want: Vec<_> = s
+            .reps
+            .iter()
+            .map(|r| select_cut(tree, imp, r, CUT_SIZE))
+            .collect();
+        compare_cuts(name, &gpu_cuts, &want);
+    } else {
+        assert!(gpu_cuts.iter().all(|c| c == &[0]), "{name}: {gpu_cuts:?}");
+    }
+}
+
 #[test]
 fn gpu_samplers_match_the_cpu() {
     let gpu = common::gpu();
@@ -405,97 +451,65 @@ fn gpu_samplers_match_the_cpu() {
     for (seed, n) in [(1u64, 1usize), (2, 5), (3, 300)] {
         let s = setup(seed, n);
         let tree = perfect::build(&s.prims).unwrap();
-        let bvh = bvh::build(&s.prims).unwrap();
         for kind in SamplerKind::ALL {
             let name = format!("{kind} ({n} lights)");
-            let source = if kind.uses_bvh() {
-                Some(TreeSource::Bvh(&bvh))
+            if kind.uses_bvh() {
+                let bvh = bvh::build(&s.prims, kind.bvh_cost()).unwrap();
+                let source = Some(TreeSource::Bvh(&bvh));
+                let data = GpuSamplerData::new(gpu, kind, &s.prims, source, cut_layout()).unwrap();
+                check_kind(gpu, &h, &name, &data, &bvh, &s);
             } else if kind.uses_perfect_tree() {
-                Some(TreeSource::Perfect(&tree))
+                let source = Some(TreeSource::Perfect(&tree));
+                let data = GpuSamplerData::new(gpu, kind, &s.prims, source, cut_layout()).unwrap();
+                check_kind(gpu, &h, &name, &data, &tree, &s);
             } else {
-                None
-            };
-            let data = GpuSamplerData::new(gpu, kind, &s.prims, source, cut_layout()).unwrap();
-            // CPU samplers per block.
-            let samplers: Vec<Box<dyn LightSampler>> = match kind {
-                SamplerKind::Uniform => vec![Box::new(UniformSampler { count: n as u32 })],
-                SamplerKind::Power => vec![Box::new(PowerSampler::new(&s.prims))],
-                SamplerKind::TreeNoCut => vec![Box::new(TreeSampler::new(tree.clone()))],
-                SamplerKind::UnbalancedNoCut => vec![Box::new(TreeSampler::new(bvh.clone()))],
-                SamplerKind::Tree => upload_cpu_cuts(gpu, &data, &tree, &s)
-                    .into_iter()
-                    .map(|c| {
-                        Box::new(TreeSampler::with_cut(tree.clone(), c)) as Box<dyn LightSampler>
-                    })
-                    .collect(),
-                SamplerKind::Unbalanced => upload_cpu_cuts(gpu, &data, &bvh, &s)
-                    .into_iter()
-                    .map(|c| {
-                        Box::new(TreeSampler::with_cut(bvh.clone(), c)) as Box<dyn LightSampler>
-                    })
-                    .collect(),
-            };
-            let (answers, gpu_cuts) = h.run(gpu, &data, &s);
-            let cpu =
-                |b: u32| -> &dyn LightSampler { samplers[b as usize % samplers.len()].as_ref() };
-            compare(&name, &answers, &s, &cpu);
-            match kind {
-                SamplerKind::Tree => {
-                    let want: Vec<_> = s
-                        .reps
-                        .iter()
-                        .map(|r| select_cut(&tree, r, CUT_SIZE))
-                        .collect();
-                    compare_cuts(&name, &gpu_cuts, &want);
-                }
-                SamplerKind::Unbalanced => {
-                    let want: Vec<_> = s
-                        .reps
-                        .iter()
-                        .map(|r| select_cut(&bvh, r, CUT_SIZE))
-                        .collect();
-                    compare_cuts(&name, &gpu_cuts, &want);
-                }
-                SamplerKind::TreeNoCut | SamplerKind::UnbalancedNoCut => {
-                    assert!(gpu_cuts.iter().all(|c| c == &[0]), "{name}: {gpu_cuts:?}");
-                }
-                _ => assert!(gpu_cuts.iter().all(|c| c.is_empty()), "{name}"),
+                let data = GpuSamplerData::new(gpu, kind, &s.prims, None, cut_layout()).unwrap();
+                let sampler: Box<dyn LightSampler> = match kind {
+                    SamplerKind::Uniform => Box::new(UniformSampler { count: n as u32 }),
+                    _ => Box::new(PowerSampler::new(&s.prims)),
+                };
+                let (answers, gpu_cuts) = h.run(gpu, &data, &s);
+                compare(&name, &answers, &s, &|_| sampler.as_ref());
+                assert!(gpu_cuts.iter().all(|c| c.is_empty()), "{name}");
             }
         }
     }
 }
 
+/// The perfect-tree kinds on the GPU-built tree. The nodes equal the CPU
+/// oracle's bit for bit; the cones are the GPU's own (within a tolerance of
+/// the oracle's, `tests/light_tree_gpu.rs`), so the CPU samples with the
+/// GPU's cones read back.
 #[test]
 fn gpu_built_tree_samples_like_the_cpu_tree() {
     let gpu = common::gpu();
     let h = Harness::new(gpu);
     let s = setup(4, 1000);
     let n = s.prims.len() as u32;
-    let mut built = GpuLightTree::new(gpu, n).unwrap();
+    let mut built = GpuLightTree::new(gpu, n, true).unwrap();
     let prims = gpu
         .buffer_from("test.lights.prims", &s.prims, STORAGE)
         .unwrap();
     built
         .build(gpu, &prims, n, &mut Profiler::new(gpu))
         .unwrap();
-    let tree = perfect::build(&s.prims).unwrap();
-    for kind in [SamplerKind::TreeNoCut, SamplerKind::Tree] {
+    let mut tree = perfect::build(&s.prims).unwrap();
+    tree.cones = gpu
+        .read_buffer::<LightCone>(built.cones.as_ref().unwrap(), tree.nodes.len())
+        .unwrap();
+    for kind in [
+        SamplerKind::TreeNoCut,
+        SamplerKind::Tree,
+        SamplerKind::TreeCone,
+    ] {
         let source = TreeSource::PerfectGpu {
             nodes: &built.nodes,
             leaf_of_light: &built.leaf_of_light,
+            cones: built.cones.as_ref(),
         };
         let data = GpuSamplerData::new(gpu, kind, &s.prims, Some(source), cut_layout()).unwrap();
-        let samplers: Vec<TreeSampler> = if kind.uses_cut() {
-            upload_cpu_cuts(gpu, &data, &tree, &s)
-                .into_iter()
-                .map(|c| TreeSampler::with_cut(tree.clone(), c))
-                .collect()
-        } else {
-            vec![TreeSampler::new(tree.clone())]
-        };
-        let (answers, _) = h.run(gpu, &data, &s);
-        let cpu = |b: u32| -> &dyn LightSampler { &samplers[b as usize % samplers.len()] };
-        compare(&format!("{kind} on the GPU-built tree"), &answers, &s, &cpu);
+        let name = format!("{kind} on the GPU-built tree");
+        check_kind(gpu, &h, &name, &data, &tree, &s);
     }
 }
 

@@ -375,6 +375,7 @@ fn bind_group_layouts_match_the_wgsl() {
 #[rustfmt::skip]
 fn mirrors() -> BTreeMap<(&'static str, &'static str), Layout> {
     use mdas::accel::trace::TraceParams;
+    use mdas::lights::LightCone;
     use mdas::integrator::halton::HaltonParams;
     use mdas::integrator::mdas::gpu_params::GpuParams;
     use obvhs::cwbvh::node::CwBvhNode;
@@ -418,13 +419,16 @@ fn mirrors() -> BTreeMap<(&'static str, &'static str), Layout> {
             p0, kind, p1, _pad0, p2, _pad1, emission, _pad2,
         })),
         ((prims, "TreeNode"), host!(TreeNode { min, intensity, max, id })),
+        (("lights/cone.wgsl", "LightCone"), host!(LightCone {
+            axis, cos_o, sin_o, cos_e, two_sided, _pad,
+        })),
         ((lights, "AliasEntry"), host!(AliasEntry { q, alias })),
         ((lights, "LightParams"), host!(LightParams {
             count, kind, levels, leaf_count, node_count, cut_size, block_size, blocks_per_row,
             alias_count, interleave, frame, time,
         })),
         (("lights/tree_bindings.wgsl", "BuildParams"), host!(BuildParams {
-            n, leaf_count, zero, src_level, levels_up, _pad,
+            n, leaf_count, zero, src_level, levels_up, cones, _pad,
         })),
         (("gpu/radix_sort.wgsl", "Params"), host!(radix_sort::Params {
             n, shift, mask, tiles, groups_x, _pad,

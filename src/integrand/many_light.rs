@@ -129,7 +129,7 @@ impl ManyLight {
             let sampler = if kind.uses_perfect_tree() && n > 0 {
                 // The tree is built from the sampler's own copy of the
                 // lights (one upload), into the buffers the sampler binds.
-                let mut t = GpuLightTree::new(gpu, n)?;
+                let mut t = GpuLightTree::new(gpu, n, kind.uses_cones())?;
                 let s = GpuSamplerData::new(
                     gpu,
                     kind,
@@ -137,6 +137,7 @@ impl ManyLight {
                     Some(TreeSource::PerfectGpu {
                         nodes: &t.nodes,
                         leaf_of_light: &t.leaf_of_light,
+                        cones: t.cones.as_ref(),
                     }),
                     cuts,
                 )?;

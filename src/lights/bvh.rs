@@ -1,7 +1,11 @@
 //! The unbalanced light tree: a binary BVH over the lights' bounds built on
-//! the CPU with binned SAH, one light per leaf — the paper's "unbalanced
-//! tree" baseline (real-time stochastic lightcuts §4, Figures 7–8; the
-//! paper clusters agglomeratively, this uses the cheaper top-down SAH).
+//! the CPU, one light per leaf — the paper's "unbalanced tree" baseline
+//! (real-time stochastic lightcuts §4, Figures 7–8; the paper clusters
+//! agglomeratively, this splits top-down with binned costs). Two costs
+//! ([`Cost`]): the surface area orientation heuristic of Conty & Kulla 2018
+//! (pbrt-v4's light BVH), which keeps lights that face different ways
+//! apart, for the `unbalanced` kinds that sample with cones; and the plain
+//! surface area heuristic for the cone-free `unbalanced_nocone`.
 //!
 //! # Layout (32-byte [`TreeNode`]s, node 0 = root)
 //!
@@ -17,16 +21,26 @@
 //! # Build
 //!
 //! Top-down, iterative: a node's lights are split by the cheapest of
-//! [`BINS`]−1 planes per axis of their centroid bounds under the surface
-//! area heuristic `A(L)·n_L + A(R)·n_R`, the areas taken of boxes grown by
-//! one bin width of the largest axis (so that point lights, whose boxes
-//! have no area, are still clustered by proximity). Coincident centroids, or a node
+//! [`BINS`]−1 planes per axis of their centroid bounds, the areas taken of
+//! boxes grown by one bin width of the largest axis (so that point lights,
+//! whose boxes have no area, are still clustered by proximity):
+//!
+//! * SAH: `A(L)·n_L + A(R)·n_R`;
+//! * SAOH: `Σ_side I·M_Ω·A·K_r` over both sides, with `I` the side's
+//!   intensity, `M_Ω` the solid-angle measure of its cone (Conty & Kulla
+//!   eq. 1: `2π(1 − cos θ_o) + π/2·(2θ_w sin θ_o − cos(θ_o − 2θ_w) −
+//!   2θ_o sin θ_o + cos θ_o)`, `θ_w = min(θ_o + θ_e, π)`) and
+//!   `K_r = (largest extent)/(extent along the split axis)` of the node's
+//!   bounds, which discourages slicing a long node across its short side.
+//!
+//! Every node carries its cone ([`LightCone::union`] of its children's, in
+//! the order the intensities are summed). Coincident centroids, or a node
 //! deeper than [`SAH_DEPTH`], are split at the median instead, so the tree
 //! depth never exceeds `SAH_DEPTH + 32` levels ([`MAX_DEPTH`]). The build
 //! is deterministic (stable partitions, ties broken by light id).
 
 use super::perfect::{gather, leaf_node};
-use super::{cut::LightTree, LightPrim, TreeNode, NO_LIGHT};
+use super::{cut::LightTree, LightCone, LightPrim, TreeNode, NO_LIGHT};
 use glam::Vec3;
 
 /// Marks an internal node's `id`; the low 31 bits are its left child.
@@ -48,6 +62,17 @@ pub struct LightBvh {
     pub leaf_of_light: Vec<u32>,
     /// Largest number of nodes on a root-to-leaf path.
     pub depth: u32,
+    /// Orientation bound of each node.
+    pub cones: Vec<LightCone>,
+}
+
+/// The split cost of a build (module docs).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Cost {
+    /// Surface area heuristic (bounds only).
+    Sah,
+    /// Surface area orientation heuristic (bounds, cones, intensity).
+    Saoh,
 }
 
 #[derive(Clone, Copy)]
@@ -74,14 +99,21 @@ impl Aabb {
     }
 }
 
-/// Builds the BVH; `None` for zero lights.
-pub fn build(prims: &[LightPrim]) -> Option<LightBvh> {
+/// Builds the BVH with the split cost `cost`; `None` for zero lights.
+pub fn build(prims: &[LightPrim], cost: Cost) -> Option<LightBvh> {
     let n = prims.len();
     if n == 0 {
         return None;
     }
     assert!(n < INTERNAL_BIT as usize, "at most 2^31 − 1 lights");
     let centroid: Vec<Vec3> = prims.iter().map(|p| p.centroid()).collect();
+    let leaf_cones: Vec<LightCone> = prims.iter().map(LightCone::of_prim).collect();
+    let info = Info {
+        prims,
+        centroid: &centroid,
+        cones: &leaf_cones,
+        cost,
+    };
     let mut order: Vec<u32> = (0..n as u32).collect();
     let mut nodes = vec![TreeNode::EMPTY; 2 * n - 1];
     let mut parent = vec![NO_LIGHT; 2 * n - 1];
@@ -98,7 +130,7 @@ pub fn build(prims: &[LightPrim]) -> Option<LightBvh> {
             leaf_of_light[id as usize] = node as u32;
             continue;
         }
-        let mid = split(prims, &centroid, &mut order[first..end], depth) + first;
+        let mid = split(&info, &mut order[first..end], depth) + first;
         let left = next;
         next += 2;
         nodes[node].id = INTERNAL_BIT | left as u32;
@@ -109,32 +141,96 @@ pub fn build(prims: &[LightPrim]) -> Option<LightBvh> {
     }
     debug_assert_eq!(next, 2 * n - 1);
     // Children always follow their parent: gather in reverse index order.
+    let mut cones = vec![LightCone::EMPTY; nodes.len()];
     for i in (0..nodes.len()).rev() {
         let id = nodes[i].id;
-        nodes[i] = if id & INTERNAL_BIT != 0 {
+        if id & INTERNAL_BIT != 0 {
             let l = (id & !INTERNAL_BIT) as usize;
-            TreeNode {
+            nodes[i] = TreeNode {
                 id,
                 ..gather(&nodes[l], &nodes[l + 1])
-            }
+            };
+            cones[i] = cones[l].union(&cones[l + 1]);
         } else {
-            leaf_node(&prims[id as usize], id)
-        };
+            nodes[i] = leaf_node(&prims[id as usize], id);
+            cones[i] = leaf_cones[id as usize];
+        }
     }
     Some(LightBvh {
         nodes,
         parent,
         leaf_of_light,
         depth: max_depth,
+        cones,
     })
+}
+
+/// What a split looks at.
+struct Info<'a> {
+    prims: &'a [LightPrim],
+    centroid: &'a [Vec3],
+    cones: &'a [LightCone],
+    cost: Cost,
+}
+
+/// The lights of one bin, or of one side of a split.
+#[derive(Clone, Copy)]
+struct Side {
+    bounds: Aabb,
+    count: usize,
+    intensity: f32,
+    cone: LightCone,
+}
+
+impl Side {
+    const EMPTY: Side = Side {
+        bounds: Aabb::EMPTY,
+        count: 0,
+        intensity: 0.0,
+        cone: LightCone::EMPTY,
+    };
+
+    fn add(&mut self, o: &Side) {
+        self.bounds.grow(o.bounds.min, o.bounds.max);
+        self.count += o.count;
+        self.intensity += o.intensity;
+        self.cone = self.cone.union(&o.cone);
+    }
+
+    /// The side's cost term (module docs); `k_r` is the node's `K_r`.
+    fn cost(&self, cost: Cost, pad: f32, k_r: f32) -> f32 {
+        let area = self.bounds.area(pad);
+        match cost {
+            Cost::Sah => area * self.count as f32,
+            Cost::Saoh => self.intensity * orientation_measure(&self.cone) * area * k_r,
+        }
+    }
+}
+
+/// `M_Ω` of a cone (Conty & Kulla 2018 eq. 1; module docs).
+pub fn orientation_measure(cone: &LightCone) -> f32 {
+    use std::f32::consts::PI;
+    let theta_o = cone.sin_o.atan2(cone.cos_o);
+    let theta_e = cone.cos_e.clamp(-1.0, 1.0).acos();
+    let theta_w = (theta_o + theta_e).min(PI);
+    2.0 * PI * (1.0 - cone.cos_o)
+        + PI / 2.0
+            * (2.0 * theta_w * cone.sin_o
+                - (theta_o - 2.0 * theta_w).cos()
+                - 2.0 * theta_o * cone.sin_o
+                + cone.cos_o)
 }
 
 /// Reorders `ids` (≥ 2 lights) into two non-empty groups and returns the
 /// size of the first.
-fn split(prims: &[LightPrim], centroid: &[Vec3], ids: &mut [u32], depth: u32) -> usize {
+fn split(info: &Info, ids: &mut [u32], depth: u32) -> usize {
+    let centroid = info.centroid;
     let mut cb = Aabb::EMPTY;
+    let mut nb = Aabb::EMPTY;
     for &i in ids.iter() {
         cb.grow(centroid[i as usize], centroid[i as usize]);
+        let p = &info.prims[i as usize];
+        nb.grow(p.bounds_min(), p.bounds_max());
     }
     let extent = cb.max - cb.min;
     let axis = extent.max_position();
@@ -146,38 +242,42 @@ fn split(prims: &[LightPrim], centroid: &[Vec3], ids: &mut [u32], depth: u32) ->
         let t = (c[a] - cb.min[a]) / extent[a] * BINS as f32;
         (t as usize).min(BINS - 1)
     };
+    let node_extent = (nb.max - nb.min).max(Vec3::ZERO) + Vec3::splat(pad);
     // (cost, axis, split): lights in bins < split go left.
     let mut best: Option<(f32, usize, usize)> = None;
     for a in 0..3 {
         if extent[a] <= 0.0 {
             continue;
         }
-        let mut boxes = [Aabb::EMPTY; BINS];
-        let mut counts = [0usize; BINS];
+        let k_r = node_extent.max_element() / node_extent[a];
+        let mut bins = [Side::EMPTY; BINS];
         for &i in ids.iter() {
-            let b = bin_of(centroid[i as usize], a);
-            counts[b] += 1;
-            let p = &prims[i as usize];
-            boxes[b].grow(p.bounds_min(), p.bounds_max());
+            let p = &info.prims[i as usize];
+            let mut bounds = Aabb::EMPTY;
+            bounds.grow(p.bounds_min(), p.bounds_max());
+            bins[bin_of(centroid[i as usize], a)].add(&Side {
+                bounds,
+                count: 1,
+                intensity: p.intensity(),
+                cone: info.cones[i as usize],
+            });
         }
         // Suffix sweep for the right sides, prefix sweep for the left.
-        let mut right_area = [0.0f32; BINS];
+        let mut right_cost = [0.0f32; BINS];
         let mut right_count = [0usize; BINS];
-        let (mut acc, mut cnt) = (Aabb::EMPTY, 0);
+        let mut acc = Side::EMPTY;
         for b in (1..BINS).rev() {
-            acc.grow(boxes[b].min, boxes[b].max);
-            cnt += counts[b];
-            right_area[b] = acc.area(pad);
-            right_count[b] = cnt;
+            acc.add(&bins[b]);
+            right_cost[b] = acc.cost(info.cost, pad, k_r);
+            right_count[b] = acc.count;
         }
-        let (mut acc, mut cnt) = (Aabb::EMPTY, 0);
+        let mut acc = Side::EMPTY;
         for s in 1..BINS {
-            acc.grow(boxes[s - 1].min, boxes[s - 1].max);
-            cnt += counts[s - 1];
-            if cnt == 0 || right_count[s] == 0 {
+            acc.add(&bins[s - 1]);
+            if acc.count == 0 || right_count[s] == 0 {
                 continue;
             }
-            let cost = acc.area(pad) * cnt as f32 + right_area[s] * right_count[s] as f32;
+            let cost = acc.cost(info.cost, pad, k_r) + right_cost[s];
             if best.is_none_or(|(c, _, _)| cost < c) {
                 best = Some((cost, a, s));
             }
@@ -208,6 +308,9 @@ fn median_split(centroid: &[Vec3], ids: &mut [u32], axis: usize) -> usize {
 impl LightTree for LightBvh {
     fn nodes(&self) -> &[TreeNode] {
         &self.nodes
+    }
+    fn cones(&self) -> &[LightCone] {
+        &self.cones
     }
     fn children(&self, node: usize) -> Option<(usize, usize)> {
         let id = self.nodes[node].id;
@@ -248,7 +351,7 @@ mod tests {
                 Vec3::ONE,
             ));
         }
-        let bvh = build(&prims).unwrap();
+        let bvh = build(&prims, Cost::Sah).unwrap();
         assert_eq!(bvh.nodes.len(), 15);
         let (l, r) = bvh.children(0).unwrap();
         assert!(bvh.nodes[l].max[0] < 1.0 && bvh.nodes[r].min[0] > 9.0);
@@ -259,7 +362,7 @@ mod tests {
     #[test]
     fn coincident_lights_split_at_the_median() {
         let prims = vec![LightPrim::point(Vec3::ONE, Vec3::ONE); 9];
-        let bvh = build(&prims).unwrap();
+        let bvh = build(&prims, Cost::Sah).unwrap();
         assert_eq!(bvh.depth, 5);
         for (light, &leaf) in bvh.leaf_of_light.iter().enumerate() {
             assert_eq!(bvh.nodes[leaf as usize].id, light as u32);

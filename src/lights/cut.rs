@@ -14,7 +14,8 @@
 //!
 //! [`LightTree`] abstracts the two node layouts: the perfect tree
 //! (children by index arithmetic) and the unbalanced BVH (explicit child
-//! links); [`TreeSampler`] works on either.
+//! links); [`TreeSampler`] works on either, with or without the trees'
+//! orientation cones ([`Importance`]).
 //!
 //! The probability of a light (`pmf`) repeats exactly the f32 operations
 //! of `sample` along the light's path and multiplies the same f32
@@ -26,7 +27,7 @@ use super::importance::{
 };
 use super::perfect::PerfectTree;
 use super::sampler::{LightSample, LightSampler};
-use super::{TreeNode, NO_LIGHT};
+use super::{LightCone, TreeNode, NO_LIGHT};
 
 /// Largest cut a sampler supports (the WGSL cut arrays have this size).
 pub const MAX_CUT: u32 = 64;
@@ -35,6 +36,8 @@ pub const MAX_CUT: u32 = 64;
 pub trait LightTree {
     /// All nodes; node 0 is the root.
     fn nodes(&self) -> &[TreeNode];
+    /// The orientation bound of every node (same indices as `nodes`).
+    fn cones(&self) -> &[LightCone];
     /// Children `(left, right)` of an internal node; `None` for a leaf.
     fn children(&self, node: usize) -> Option<(usize, usize)>;
     /// Parent of a node; `None` for the root.
@@ -50,6 +53,9 @@ pub trait LightTree {
 impl LightTree for PerfectTree {
     fn nodes(&self) -> &[TreeNode] {
         &self.nodes
+    }
+    fn cones(&self) -> &[LightCone] {
+        &self.cones
     }
     fn children(&self, node: usize) -> Option<(usize, usize)> {
         (!self.is_leaf(node)).then(|| (2 * node + 1, 2 * node + 2))
@@ -68,9 +74,36 @@ impl LightTree for PerfectTree {
     }
 }
 
+/// Which node importance a tree sampler uses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Importance {
+    /// The paper's: bounds and intensity only (`tree`, `tree_nocut`,
+    /// `unbalanced_nocone`).
+    Plain,
+    /// With the orientation cones and the clamped near distance
+    /// (`tree_cone`, `unbalanced`, `unbalanced_nocut`).
+    Cones,
+}
+
+impl Importance {
+    /// The importance of `node` of `tree` at `s`.
+    pub fn of<T: LightTree + ?Sized>(self, tree: &T, node: usize, s: &Shading) -> NodeImportance {
+        let cone = match self {
+            Importance::Plain => None,
+            Importance::Cones => Some(&tree.cones()[node]),
+        };
+        node_importance(&tree.nodes()[node], cone, s)
+    }
+}
+
 /// The greedy cut of at most `cut_size` (1..=[`MAX_CUT`]) nodes for the
 /// representative shading point `s` (docs/light-sampling.md "Cuts").
-pub fn select_cut<T: LightTree + ?Sized>(tree: &T, s: &Shading, cut_size: u32) -> Vec<u32> {
+pub fn select_cut<T: LightTree + ?Sized>(
+    tree: &T,
+    importance: Importance,
+    s: &Shading,
+    cut_size: u32,
+) -> Vec<u32> {
     assert!(
         (1..=MAX_CUT).contains(&cut_size),
         "cut_size must be in 1..={MAX_CUT}, got {cut_size}"
@@ -80,7 +113,7 @@ pub fn select_cut<T: LightTree + ?Sized>(tree: &T, s: &Shading, cut_size: u32) -
     // Keys of the cut nodes (NaN = not refinable), kept beside the cut.
     let key = |node: usize| -> f32 {
         match tree.children(node) {
-            Some(_) if nodes[node].intensity > 0.0 => cut_key(&node_importance(&nodes[node], s)),
+            Some(_) if nodes[node].intensity > 0.0 => cut_key(&importance.of(tree, node, s)),
             _ => f32::NAN,
         }
     };
@@ -112,17 +145,14 @@ pub fn select_cut<T: LightTree + ?Sized>(tree: &T, s: &Shading, cut_size: u32) -
 /// multiplied by every child probability taken. `None` on a dead branch.
 fn descend<T: LightTree + ?Sized>(
     tree: &T,
+    importance: Importance,
     mut node: usize,
     s: &Shading,
     mut u: f32,
     mut pmf: f64,
 ) -> Option<LightSample> {
-    let nodes = tree.nodes();
     while let Some((l, r)) = tree.children(node) {
-        let p = p_left(
-            &node_importance(&nodes[l], s),
-            &node_importance(&nodes[r], s),
-        )?;
+        let p = p_left(&importance.of(tree, l, s), &importance.of(tree, r, s))?;
         let (left, p_taken, u_next) = choose_child(p, u);
         pmf *= p_taken as f64;
         u = u_next;
@@ -136,32 +166,36 @@ fn descend<T: LightTree + ?Sized>(
 #[derive(Clone, Debug)]
 pub struct TreeSampler<T: LightTree = PerfectTree> {
     pub tree: T,
+    pub importance: Importance,
     /// Node indices of the cut, in selection order.
     pub cut: Vec<u32>,
 }
 
 impl<T: LightTree> TreeSampler<T> {
     /// Sampling from the root (no cut).
-    pub fn new(tree: T) -> Self {
-        TreeSampler { tree, cut: vec![0] }
+    pub fn new(tree: T, importance: Importance) -> Self {
+        Self::with_cut(tree, importance, vec![0])
     }
 
     /// Sampling from a given cut (which must cover every light once).
-    pub fn with_cut(tree: T, cut: Vec<u32>) -> Self {
-        TreeSampler { tree, cut }
+    pub fn with_cut(tree: T, importance: Importance, cut: Vec<u32>) -> Self {
+        TreeSampler {
+            tree,
+            importance,
+            cut,
+        }
     }
 
     /// Sampling from the greedy cut for the representative point `s`.
-    pub fn with_cut_at(tree: T, s: &Shading, cut_size: u32) -> Self {
-        let cut = select_cut(&tree, s, cut_size);
-        TreeSampler { tree, cut }
+    pub fn with_cut_at(tree: T, importance: Importance, s: &Shading, cut_size: u32) -> Self {
+        let cut = select_cut(&tree, importance, s, cut_size);
+        Self::with_cut(tree, importance, cut)
     }
 
     fn cut_importance(&self, s: &Shading) -> Vec<NodeImportance> {
-        let nodes = self.tree.nodes();
         self.cut
             .iter()
-            .map(|&c| node_importance(&nodes[c as usize], s))
+            .map(|&c| self.importance.of(&self.tree, c as usize, s))
             .collect()
     }
 }
@@ -170,7 +204,14 @@ impl<T: LightTree> LightSampler for TreeSampler<T> {
     fn sample(&self, s: &Shading, u: f32) -> Option<LightSample> {
         let probs = cut_probabilities(&self.cut_importance(s))?;
         let (j, u) = choose_cut_node(&probs, u);
-        descend(&self.tree, self.cut[j] as usize, s, u, probs[j] as f64)
+        descend(
+            &self.tree,
+            self.importance,
+            self.cut[j] as usize,
+            s,
+            u,
+            probs[j] as f64,
+        )
     }
 
     fn pmf(&self, s: &Shading, light: u32) -> f64 {
@@ -192,15 +233,12 @@ impl<T: LightTree> LightSampler for TreeSampler<T> {
         let Some(probs) = cut_probabilities(&self.cut_importance(s)) else {
             return 0.0;
         };
-        let nodes = self.tree.nodes();
         let mut pmf = probs[j] as f64;
         for step in path.windows(2).rev() {
             let (child, node) = (step[0], step[1]);
             let (l, r) = self.tree.children(node).expect("path nodes are internal");
-            let Some(p) = p_left(
-                &node_importance(&nodes[l], s),
-                &node_importance(&nodes[r], s),
-            ) else {
+            let imp = |n| self.importance.of(&self.tree, n, s);
+            let Some(p) = p_left(&imp(l), &imp(r)) else {
                 return 0.0;
             };
             pmf *= if child == l { p } else { 1.0 - p } as f64;
@@ -225,10 +263,11 @@ mod tests {
             p: Vec3::new(0.0, 1.0, 0.0),
             n: Vec3::ZERO,
         };
-        assert_eq!(select_cut(&tree, &s, 1), vec![0]);
-        assert_eq!(select_cut(&tree, &s, 2), vec![1, 2]);
+        let cut = |size| select_cut(&tree, Importance::Plain, &s, size);
+        assert_eq!(cut(1), vec![0]);
+        assert_eq!(cut(2), vec![1, 2]);
         // Node 1 (lights at x = 0, 1) is closer: refined first.
-        assert_eq!(select_cut(&tree, &s, 3), vec![3, 2, 4]);
-        assert_eq!(select_cut(&tree, &s, 64), vec![3, 5, 4, 6]);
+        assert_eq!(cut(3), vec![3, 2, 4]);
+        assert_eq!(cut(64), vec![3, 5, 4, 6]);
     }
 }

@@ -3,7 +3,7 @@
 
 use super::alias::PowerSampler;
 use super::bvh::{self, LightBvh};
-use super::cut::{LightTree, TreeSampler};
+use super::cut::{Importance, LightTree, TreeSampler};
 use super::importance::Shading;
 use super::perfect::{self, PerfectTree};
 use super::sampler::{LightSample, LightSampler, SamplerKind};
@@ -40,8 +40,7 @@ impl LightSampler for UniformSampler {
 pub type UnbalancedSampler = TreeSampler<LightBvh>;
 
 /// A CPU sampler of `kind` over `prims`. `cut_at` = (representative
-/// shading point, cut size) selects the cut of the `tree` and `unbalanced`
-/// kinds (without it they sample from the root); the other kinds ignore it.
+/// shading point, cut size) selects the cut of the kinds with cuts (without it they sample from the root); the other kinds ignore it.
 /// Zero lights give a sampler that never returns a light.
 pub fn new_sampler(
     kind: SamplerKind,
@@ -50,11 +49,12 @@ pub fn new_sampler(
 ) -> Box<dyn LightSampler + Send + Sync> {
     fn tree<T: LightTree + Send + Sync + 'static>(
         t: T,
+        importance: Importance,
         cut_at: Option<(&Shading, u32)>,
     ) -> Box<dyn LightSampler + Send + Sync> {
         match cut_at {
-            Some((s, size)) => Box::new(TreeSampler::with_cut_at(t, s, size)),
-            None => Box::new(TreeSampler::new(t)),
+            Some((s, size)) => Box::new(TreeSampler::with_cut_at(t, importance, s, size)),
+            None => Box::new(TreeSampler::new(t, importance)),
         }
     }
     if prims.is_empty() {
@@ -66,11 +66,15 @@ pub fn new_sampler(
             count: prims.len() as u32,
         }),
         SamplerKind::Power => Box::new(PowerSampler::new(prims)),
-        SamplerKind::Tree | SamplerKind::TreeNoCut => {
-            tree::<PerfectTree>(perfect::build(prims).unwrap(), cut_at)
+        SamplerKind::Tree | SamplerKind::TreeNoCut | SamplerKind::TreeCone => {
+            tree::<PerfectTree>(perfect::build(prims).unwrap(), kind.importance(), cut_at)
         }
-        SamplerKind::Unbalanced | SamplerKind::UnbalancedNoCut => {
-            tree::<LightBvh>(bvh::build(prims).unwrap(), cut_at)
+        SamplerKind::Unbalanced | SamplerKind::UnbalancedNoCut | SamplerKind::UnbalancedNoCone => {
+            tree::<LightBvh>(
+                bvh::build(prims, kind.bvh_cost()).unwrap(),
+                kind.importance(),
+                cut_at,
+            )
         }
     }
 }

@@ -5,7 +5,7 @@
 //! # Algorithm
 //!
 //! [`GpuLightTree::build`] takes the frame's `array<LightPrim>` (already on
-//! the GPU: lights may be animated) and runs five phases, each one compute
+//! the GPU: lights may be animated) and runs five phases (six with cones), each one compute
 //! pass timed by the [`Profiler`]:
 //!
 //! | phase | kernel | work |
@@ -15,6 +15,7 @@
 //! | `light_tree.sort` | `wgsl/gpu/radix_sort.wgsl` | stable radix sort of (code, id) over 30 bits ([`RadixSort`]) |
 //! | `light_tree.leaves` | `wgsl/lights/tree_build.wgsl` `leaves` | leaf slot `s < N` = leaf of light `sorted[s]`, slots `N..P` bogus ([`TreeNode::EMPTY`]), `leaf_of_light[sorted[s]] = s` |
 //! | `light_tree.internal` | `wgsl/lights/tree_build.wgsl` `internal` | levels bottom-up, up to 7 per dispatch from one source level |
+//! | `light_tree.cones` | `wgsl/lights/tree_build.wgsl` `cone_level` | with cones only: each level's cones from the level below, one dispatch per level (the leaves' cones are written by `leaves`) |
 //!
 //! The internal levels are built in groups as in the paper (§4): a dispatch
 //! reads source level `ℓs` once; each workgroup loads `B = 2^k` (≤ 128)
@@ -69,8 +70,14 @@
 //! No phase depends on scheduling: the only atomics are integer maxima
 //! (commutative), the sort is reduce-then-scan without spin-waits, and every
 //! other write goes to a position computed from the input alone.
+//!
+//! The cones ([`super::cone`]) are the one exception to bit-for-bit
+//! equality: their union takes square roots and divisions, which WGSL does
+//! not round exactly, so they are compared with the oracle's within a
+//! stated tolerance; every cone is widened so that it bounds its lights
+//! either way.
 
-use super::{luminance, LightPrim, TreeNode, KIND_TRIANGLE, NO_LIGHT};
+use super::{cone, luminance, LightCone, LightPrim, TreeNode, KIND_TRIANGLE, NO_LIGHT};
 use crate::gpu::buffer::STORAGE;
 use crate::gpu::profiler::PhaseTimes;
 use crate::gpu::radix_sort::RadixSort;
@@ -88,12 +95,13 @@ const WG: u32 = 128;
 const CODE_BITS: u32 = 30;
 
 /// Profiler phase names, in the order they run.
-pub const PHASES: [&str; 5] = [
+pub const PHASES: [&str; 6] = [
     "light_tree.bounds",
     "light_tree.morton",
     "light_tree.sort",
     "light_tree.leaves",
     "light_tree.internal",
+    "light_tree.cones",
 ];
 
 const _: () = assert!(std::mem::size_of::<LightPrim>() == 64);
@@ -109,7 +117,8 @@ pub struct BuildParams {
     pub zero: u32,
     pub src_level: u32,
     pub levels_up: u32,
-    pub _pad: [u32; 3],
+    pub cones: u32,
+    pub _pad: [u32; 2],
 }
 
 /// Per-phase build times in milliseconds (GPU timestamps where the adapter
@@ -121,6 +130,9 @@ pub struct BuildTimes {
     pub sort: f64,
     pub leaves: f64,
     pub internal: f64,
+    /// The internal nodes' cones (0 for a tree without cones; the leaves'
+    /// cones are part of `leaves`).
+    pub cones: f64,
 }
 
 impl BuildTimes {
@@ -134,19 +146,24 @@ impl BuildTimes {
             sort: get(2),
             leaves: get(3),
             internal: get(4),
+            cones: get(5),
         }
     }
 
     pub fn total(&self) -> f64 {
-        self.bounds + self.morton + self.sort + self.leaves + self.internal
+        self.bounds + self.morton + self.sort + self.leaves + self.internal + self.cones
     }
 }
 
-/// The shared WGSL of light primitives and tree nodes with its generated
-/// constants (`wgsl/lights/light_prim.wgsl`), for kernels that read lights
-/// or nodes exactly as the CPU does.
+/// The shared WGSL of light primitives, tree nodes and cones with their
+/// generated constants (`wgsl/lights/light_prim.wgsl`,
+/// `wgsl/lights/cone.wgsl`), for kernels that read lights or nodes exactly
+/// as the CPU does.
 pub fn prim_wgsl() -> Wgsl {
     Wgsl::new()
+        .constant("CONE_SLACK_COS_BITS", cone::SLACK.cos().to_bits())
+        .constant("CONE_SLACK_SIN_BITS", cone::SLACK.sin().to_bits())
+        .constant("CONE_EMPTY_COS_BITS", cone::EMPTY_COS.to_bits())
         .constant("LUM_R_BITS", luminance(Vec3::X).to_bits())
         .constant("LUM_G_BITS", luminance(Vec3::Y).to_bits())
         .constant("LUM_B_BITS", luminance(Vec3::Z).to_bits())
@@ -155,6 +172,7 @@ pub fn prim_wgsl() -> Wgsl {
         .constant("EMPTY_MIN_BITS", TreeNode::EMPTY_MIN.to_bits())
         .constant("EMPTY_MAX_BITS", TreeNode::EMPTY_MAX.to_bits())
         .part(wgsl_file!("lights/light_prim.wgsl"))
+        .part(wgsl_file!("lights/cone.wgsl"))
 }
 
 /// A perfect light tree for up to `capacity` lights, rebuilt on the GPU by
@@ -171,6 +189,12 @@ pub struct GpuLightTree {
     pub sorted_ids: wgpu::Buffer,
     /// After a build: the Morton codes in leaf order (`u32`).
     pub sorted_codes: wgpu::Buffer,
+    /// With cones: the [`LightCone`] of each node, indexed like `nodes`
+    /// (widened, not bit-equal to [`super::perfect::build`]'s: see
+    /// [`super::cone`]); without: `None`.
+    pub cones: Option<wgpu::Buffer>,
+    /// Binds in place of `cones` when the tree has none.
+    no_cones: wgpu::Buffer,
     centroid_bounds: wgpu::Buffer,
     sorter: RadixSort,
     layout: wgpu::BindGroupLayout,
@@ -178,6 +202,7 @@ pub struct GpuLightTree {
     morton_pipeline: wgpu::ComputePipeline,
     leaves_pipeline: wgpu::ComputePipeline,
     internal_pipeline: wgpu::ComputePipeline,
+    cone_pipeline: wgpu::ComputePipeline,
     light_count: u32,
 }
 
@@ -193,24 +218,29 @@ impl GpuLightTree {
     }
 
     /// The one layout of the build kernels (`lights/tree_bindings.wgsl`):
-    /// parameters, the lights (read-only), then five read-write buffers.
+    /// parameters, the lights (read-only), then six read-write buffers.
     pub fn layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
         let mut entries = vec![uniform_entry(0), storage_entry(1, true)];
-        entries.extend((2..=6).map(|b| storage_entry(b, false)));
+        entries.extend((2..=7).map(|b| storage_entry(b, false)));
         entries
     }
 
     /// Compiles the kernels and allocates a tree for up to `capacity`
     /// lights (`2P − 1` nodes of 32 bytes, `P = capacity` rounded up to a
-    /// power of two, plus 20 bytes per light of scratch). Fails with a
-    /// clear message when the adapter cannot hold or dispatch it.
-    pub fn new(gpu: &Gpu, capacity: u32) -> Result<GpuLightTree> {
+    /// power of two, as many 32-byte cones when `with_cones`, plus 20 bytes
+    /// per light of scratch). Fails with a clear message when the adapter
+    /// cannot hold or dispatch it.
+    pub fn new(gpu: &Gpu, capacity: u32, with_cones: bool) -> Result<GpuLightTree> {
         if capacity > 1 << 31 {
             bail!("a light tree holds at most 2^31 lights; {capacity} requested");
         }
         let p = capacity.max(1).next_power_of_two() as u64;
         let node_bytes = (2 * p - 1) * std::mem::size_of::<TreeNode>() as u64;
         gpu.check_binding_size("light_tree.nodes", node_bytes)?;
+        let cone_bytes = (2 * p - 1) * std::mem::size_of::<LightCone>() as u64;
+        if with_cones {
+            gpu.check_binding_size("light_tree.cones", cone_bytes)?;
+        }
         let (_, gy) = gpu.dispatch_dims(p.div_ceil(WG as u64) as u32);
         if gy > gpu.limits.max_compute_workgroups_per_dimension {
             bail!("a light tree of {capacity} lights needs more workgroups than this adapter can dispatch");
@@ -246,6 +276,11 @@ impl GpuLightTree {
             wgsl_file!("lights/tree_build.wgsl"),
             "internal",
         )?;
+        let cone_pipeline = pipeline(
+            "light_tree.cones",
+            wgsl_file!("lights/tree_build.wgsl"),
+            "cone_level",
+        )?;
 
         let light_bytes = 4 * capacity as u64;
         Ok(GpuLightTree {
@@ -254,6 +289,12 @@ impl GpuLightTree {
             leaf_of_light: gpu.buffer_zeroed("light_tree.leaf_of_light", light_bytes, STORAGE)?,
             sorted_ids: gpu.buffer_zeroed("light_tree.sorted_ids", light_bytes, STORAGE)?,
             sorted_codes: gpu.buffer_zeroed("light_tree.codes", light_bytes, STORAGE)?,
+            cones: if with_cones {
+                Some(gpu.buffer_zeroed("light_tree.cones", cone_bytes, STORAGE)?)
+            } else {
+                None
+            },
+            no_cones: gpu.buffer_zeroed("light_tree.no_cones", 32, STORAGE)?,
             centroid_bounds: gpu.buffer_zeroed("light_tree.centroid_bounds", 32, STORAGE)?,
             sorter,
             layout,
@@ -261,6 +302,7 @@ impl GpuLightTree {
             morton_pipeline,
             leaves_pipeline,
             internal_pipeline,
+            cone_pipeline,
             light_count: 0,
         })
     }
@@ -341,18 +383,27 @@ impl GpuLightTree {
             steps.push((src, k));
             src -= k;
         }
+        // Then one entry per cone level, leaf_level − 1 down to 0.
+        let cone_levels: Vec<u32> = match self.cones {
+            Some(_) => (0..leaf_level).rev().collect(),
+            None => Vec::new(),
+        };
         let stride = (std::mem::size_of::<BuildParams>() as u64)
             .next_multiple_of(gpu.limits.min_uniform_buffer_offset_alignment as u64);
-        let mut bytes = vec![0u8; (stride * (1 + steps.len() as u64)) as usize];
+        let params_count = 1 + steps.len() + cone_levels.len();
+        let mut bytes = vec![0u8; stride as usize * params_count];
         let entry = |src_level: u32, levels_up: u32| BuildParams {
             n: count,
             leaf_count: p,
             zero: 0,
             src_level,
             levels_up,
-            _pad: [0; 3],
+            cones: self.cones.is_some() as u32,
+            _pad: [0; 2],
         };
-        let entries = std::iter::once(entry(0, 0)).chain(steps.iter().map(|&(s, k)| entry(s, k)));
+        let entries = std::iter::once(entry(0, 0))
+            .chain(steps.iter().map(|&(s, k)| entry(s, k)))
+            .chain(cone_levels.iter().map(|&l| entry(l, 0)));
         for (i, e) in entries.enumerate() {
             let at = i * stride as usize;
             bytes[at..at + std::mem::size_of::<BuildParams>()]
@@ -385,6 +436,7 @@ impl GpuLightTree {
                     binding(4, &self.sorted_ids),
                     binding(5, &self.nodes),
                     binding(6, &self.leaf_of_light),
+                    binding(7, self.cones.as_ref().unwrap_or(&self.no_cones)),
                 ],
             })
         };
@@ -456,6 +508,22 @@ impl GpuLightTree {
                     pass.set_pipeline(&self.internal_pipeline);
                     for (&(src, k), g) in steps.iter().zip(&internal) {
                         let (gx, gy) = gpu.dispatch_dims(1 << (src - k));
+                        pass.set_bind_group(0, g, &[]);
+                        pass.dispatch_workgroups(gx, gy, 1);
+                    }
+                })?;
+            }
+            let first = 1 + steps.len();
+            let cone_groups: Vec<_> = (first..first + cone_levels.len()).map(group).collect();
+            if !cone_levels.is_empty() {
+                profiler.phase(PHASES[5], |encoder, timestamps| {
+                    let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                        label: Some(PHASES[5]),
+                        timestamp_writes: timestamps,
+                    });
+                    pass.set_pipeline(&self.cone_pipeline);
+                    for (&level, g) in cone_levels.iter().zip(&cone_groups) {
+                        let (gx, gy) = gpu.dispatch_dims((1u32 << level).div_ceil(WG));
                         pass.set_bind_group(0, g, &[]);
                         pass.dispatch_workgroups(gx, gy, 1);
                     }

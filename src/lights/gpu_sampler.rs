@@ -1,5 +1,5 @@
 //! The GPU side of the light samplers: the buffers of `@group(1)` bindings
-//! 16–21 that `wgsl/lights/sample.wgsl` reads, their layout entries and the
+//! 16–22 that `wgsl/lights/sample.wgsl` reads, their layout entries and the
 //! WGSL to include.
 //!
 //! | binding | WGSL | contents |
@@ -10,6 +10,7 @@
 //! | 19 | `light_alias: array<AliasEntry>` | power: the alias table |
 //! | 20 | `light_cuts: array<u32>` | tree kinds with cuts: `cut_size` nodes per k×k block, `NO_LIGHT`-padded |
 //! | 21 | `light_params: LightParams` | uniform: counts, kind, tree shape, cut layout |
+//! | 22 | `light_cones: array<LightCone>` | cone kinds: the orientation bound of every node, same indices as `light_nodes` |
 //!
 //! Unused bindings hold one zeroed element. The cuts buffer is writable
 //! (`STORAGE | COPY_DST`): a cut pre-pass binds it read-write in its own
@@ -21,7 +22,7 @@ use super::bvh::{self, LightBvh, INTERNAL_BIT};
 use super::cut::MAX_CUT;
 use super::perfect::{self, PerfectTree};
 use super::sampler::SamplerKind;
-use super::{gpu_build, LightPrim, TreeNode, NO_LIGHT};
+use super::{gpu_build, LightCone, LightPrim, TreeNode, NO_LIGHT};
 use crate::gpu::buffer::STORAGE;
 use crate::gpu::shader::{storage_entry, uniform_entry, Wgsl};
 use crate::gpu::Gpu;
@@ -108,21 +109,24 @@ impl CutLayout {
 pub enum TreeSource<'a> {
     /// A perfect tree built on the CPU.
     Perfect(&'a PerfectTree),
-    /// A perfect tree built on the GPU: its `2P − 1` nodes and the leaf
-    /// slot of each light (the buffers are bound as they are).
+    /// A perfect tree built on the GPU: its `2P − 1` nodes, the leaf slot
+    /// of each light and, for the cone kinds, the nodes' cones (the
+    /// buffers are bound as they are).
     PerfectGpu {
         nodes: &'a wgpu::Buffer,
         leaf_of_light: &'a wgpu::Buffer,
+        cones: Option<&'a wgpu::Buffer>,
     },
     /// The unbalanced BVH.
     Bvh(&'a LightBvh),
 }
 
-/// The buffers of bindings 16–21 for one sampler kind.
+/// The buffers of bindings 16–22 for one sampler kind.
 pub struct GpuSamplerData {
     pub kind: SamplerKind,
     pub params: LightParams,
     pub nodes: wgpu::Buffer,
+    pub cones: wgpu::Buffer,
     pub prims: wgpu::Buffer,
     pub index: wgpu::Buffer,
     pub alias: wgpu::Buffer,
@@ -165,6 +169,14 @@ impl GpuSamplerData {
         let mut alias = None;
         let mut index = None;
         let mut nodes = None;
+        let mut cones = None;
+        let upload_cones = |c: &[LightCone]| -> Result<Option<wgpu::Buffer>> {
+            Ok(if kind.uses_cones() {
+                Some(gpu.buffer_from(&label("cones"), c, STORAGE)?)
+            } else {
+                None
+            })
+        };
         if n > 0 {
             match kind {
                 SamplerKind::Uniform => {}
@@ -175,7 +187,7 @@ impl GpuSamplerData {
                     let bits: Vec<u32> = power.pmf.iter().map(|p| p.to_bits()).collect();
                     index = Some(gpu.buffer_from(&label("index"), &bits, STORAGE)?);
                 }
-                SamplerKind::Tree | SamplerKind::TreeNoCut => {
+                SamplerKind::Tree | SamplerKind::TreeNoCut | SamplerKind::TreeCone => {
                     let p = n.next_power_of_two();
                     params.leaf_count = p;
                     params.levels = p.trailing_zeros() + 1;
@@ -202,29 +214,43 @@ impl GpuSamplerData {
                                 &t.leaf_of_light,
                                 STORAGE,
                             )?);
+                            cones = upload_cones(&t.cones)?;
                         }
                         TreeSource::PerfectGpu {
                             nodes: gpu_nodes,
                             leaf_of_light,
+                            cones: gpu_cones,
                         } => {
-                            let need = params.node_count as u64 * size_of::<TreeNode>() as u64;
+                            let count = params.node_count as u64;
+                            let need = count * size_of::<TreeNode>() as u64;
                             if gpu_nodes.size() < need || leaf_of_light.size() < 4 * n as u64 {
                                 bail!("GPU light tree buffers too small for {n} lights");
                             }
                             nodes = Some(gpu_nodes.clone());
                             index = Some(leaf_of_light.clone());
+                            if kind.uses_cones() {
+                                let need = count * size_of::<LightCone>() as u64;
+                                match gpu_cones {
+                                    Some(c) if c.size() >= need => cones = Some(c.clone()),
+                                    _ => bail!(
+                                        "sampler '{kind}' needs the GPU tree's cones for {n} lights"
+                                    ),
+                                }
+                            }
                         }
                         TreeSource::Bvh(_) => {
                             bail!("sampler '{kind}' needs a perfect tree, got a BVH")
                         }
                     }
                 }
-                SamplerKind::Unbalanced | SamplerKind::UnbalancedNoCut => {
+                SamplerKind::Unbalanced
+                | SamplerKind::UnbalancedNoCut
+                | SamplerKind::UnbalancedNoCone => {
                     let built;
                     let b = match tree {
                         Some(TreeSource::Bvh(b)) => b,
                         None => {
-                            built = bvh::build(prims).unwrap();
+                            built = bvh::build(prims, kind.bvh_cost()).unwrap();
                             &built
                         }
                         Some(_) => bail!("sampler '{kind}' needs a light BVH, got a perfect tree"),
@@ -237,6 +263,7 @@ impl GpuSamplerData {
                     }
                     params.node_count = b.nodes.len() as u32;
                     nodes = Some(gpu.buffer_from(&label("nodes"), &b.nodes, STORAGE)?);
+                    cones = upload_cones(&b.cones)?;
                     let table: Vec<u32> =
                         b.leaf_of_light.iter().chain(&b.parent).copied().collect();
                     index = Some(gpu.buffer_from(&label("index"), &table, STORAGE)?);
@@ -257,6 +284,10 @@ impl GpuSamplerData {
             params,
             nodes: nodes.map_or_else(
                 || gpu.buffer_from::<TreeNode>(&label("unused"), &[], STORAGE),
+                Ok,
+            )?,
+            cones: cones.map_or_else(
+                || gpu.buffer_from::<LightCone>(&label("unused"), &[], STORAGE),
                 Ok,
             )?,
             prims: gpu.buffer_from(&label("prims"), prims, STORAGE)?,
@@ -294,13 +325,14 @@ impl GpuSamplerData {
         Ok(())
     }
 
-    /// Layout entries of bindings 16–21 (compute, read-only storage and a
+    /// Layout entries of bindings 16–22 (compute, read-only storage and a
     /// uniform), to merge into a `@group(1)` layout.
     pub fn layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
         let mut e: Vec<_> = (0..5)
             .map(|i| storage_entry(FIRST_BINDING + i, true))
             .collect();
         e.push(uniform_entry(FIRST_BINDING + 5));
+        e.push(storage_entry(FIRST_BINDING + 6, true));
         e
     }
 
@@ -313,6 +345,7 @@ impl GpuSamplerData {
             &self.alias,
             &self.cuts,
             &self.uniform,
+            &self.cones,
         ]
         .into_iter()
         .enumerate()
@@ -324,8 +357,8 @@ impl GpuSamplerData {
     }
 
     /// The WGSL of the samplers: the light structs
-    /// ([`gpu_build::prim_wgsl`]: `lights/light_prim.wgsl` with its
-    /// constants, `NO_LIGHT` among them), the bindings and `light_sample`, `light_pmf`,
+    /// ([`gpu_build::prim_wgsl`]: `lights/light_prim.wgsl` and
+    /// `lights/cone.wgsl` with their constants, `NO_LIGHT` among them), the bindings and `light_sample`, `light_pmf`,
     /// `select_cut`, with the constants they use.
     pub fn wgsl() -> Wgsl {
         let mut w = gpu_build::prim_wgsl()

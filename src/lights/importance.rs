@@ -13,6 +13,18 @@
 //!   the sphere or `n = 0`);
 //! * `W = F·I`, 0 for dead nodes (zero intensity or EMPTY bounds).
 //!
+//! The cone kinds (`tree_cone`, `unbalanced`, `unbalanced_nocut`) also
+//! bound where the node's lights emit ([`LightCone::emission_bound`], `G`)
+//! and clamp the near distance to the node's size:
+//!
+//! * `W = F·G·I`;
+//! * `dmin² = max(dmin², r²)` with `r` the half-diagonal of the box: a
+//!   node of intensity `I` spread over a region of size `r` cannot deliver
+//!   much more than `I/r²` to a point near or inside it, so a shading
+//!   point inside an upper node's box no longer gives that node a
+//!   distance-free weight (pbrt-v4 clamps to `|diagonal|/2`, a length
+//!   compared with a squared distance; this compares squares).
+//!
 //! Two children `j` (left) and `k` (right) are weighted as the paper's
 //! eq. 2 averages the probabilities obtained with the minimum and the
 //! maximum distance: `p_min = W_j/dmin_j² ∕ (W_j/dmin_j² + W_k/dmin_k²)`,
@@ -21,7 +33,7 @@
 //! back to `W_j / (W_j + W_k)`), `p_max` likewise, `p_left = (p_min + p_max)/2`
 //! and `p_right = 1 − p_left`.
 
-use super::TreeNode;
+use super::{LightCone, TreeNode};
 use glam::Vec3;
 
 /// The largest f32 below 1 (`0x1.fffffep-1`): descents clamp `u` to it.
@@ -46,11 +58,12 @@ pub struct NodeImportance {
     pub w: f32,
 }
 
-/// `dmin²`, `dmax²` and `W` of `node` at `s`. Dead nodes (I = 0 or EMPTY
-/// bounds) get all three 0: their distances never matter since `W = 0`
-/// makes every rule that uses them give the same result, and EMPTY
+/// `dmin²`, `dmax²` and `W` of `node` at `s`, with the node's orientation
+/// bound `cone` for the cone kinds (module docs). Dead nodes (I = 0 or
+/// EMPTY bounds) get all three 0: their distances never matter since
+/// `W = 0` makes every rule that uses them give the same result, and EMPTY
 /// bounds would overflow them.
-pub fn node_importance(node: &TreeNode, s: &Shading) -> NodeImportance {
+pub fn node_importance(node: &TreeNode, cone: Option<&LightCone>, s: &Shading) -> NodeImportance {
     if node.intensity == 0.0 || node.is_empty() {
         return NodeImportance::default();
     }
@@ -64,10 +77,21 @@ pub fn node_importance(node: &TreeNode, s: &Shading) -> NodeImportance {
         dmax2 += dmax * dmax;
     }
     let f = reflectance_bound(node, s);
+    let Some(cone) = cone else {
+        return NodeImportance {
+            dmin2,
+            dmax2,
+            w: f * node.intensity,
+        };
+    };
+    let c: [f32; 3] = std::array::from_fn(|a| 0.5 * (node.min[a] + node.max[a]));
+    let h: [f32; 3] = std::array::from_fn(|a| 0.5 * (node.max[a] - node.min[a]));
+    let r2 = h[0] * h[0] + h[1] * h[1] + h[2] * h[2];
+    let g = cone.emission_bound(c, r2.sqrt(), x);
     NodeImportance {
-        dmin2,
+        dmin2: dmin2.max(r2),
         dmax2,
-        w: f * node.intensity,
+        w: (f * g) * node.intensity,
     }
 }
 
@@ -233,19 +257,19 @@ mod tests {
             p: Vec3::ZERO,
             n: Vec3::Y,
         };
-        let imp = node_importance(&node([1.0, 0.0, 0.0], [2.0, 1.0, 0.0], 2.0), &s);
+        let imp = node_importance(&node([1.0, 0.0, 0.0], [2.0, 1.0, 0.0], 2.0), None, &s);
         assert_eq!(imp.dmin2, 1.0);
         assert_eq!(imp.dmax2, 5.0);
         assert!(imp.w > 0.0 && imp.w <= 2.0);
         // Entirely below the surface: F = 0.
-        let below = node_importance(&node([-1.0, -3.0, -1.0], [1.0, -2.0, 1.0], 1.0), &s);
+        let below = node_importance(&node([-1.0, -3.0, -1.0], [1.0, -2.0, 1.0], 1.0), None, &s);
         assert_eq!(below.w, 0.0);
         assert!(below.dmin2 > 0.0);
         // Inside: dmin² = 0, F = 1.
-        let inside = node_importance(&node([-1.0; 3], [1.0; 3], 3.0), &s);
+        let inside = node_importance(&node([-1.0; 3], [1.0; 3], 3.0), None, &s);
         assert_eq!((inside.dmin2, inside.w), (0.0, 3.0));
         assert_eq!(
-            node_importance(&TreeNode::EMPTY, &s),
+            node_importance(&TreeNode::EMPTY, None, &s),
             NodeImportance::default()
         );
     }

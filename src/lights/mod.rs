@@ -43,6 +43,7 @@
 
 pub mod alias;
 pub mod bvh;
+pub mod cone;
 pub mod cut;
 pub mod factory;
 pub mod gpu_build;
@@ -54,6 +55,7 @@ pub mod sampler;
 pub mod scene_lights;
 
 pub use alias::{AliasEntry, PowerSampler};
+pub use cone::LightCone;
 pub use cut::{select_cut, LightTree, TreeSampler};
 pub use factory::{new_sampler, UniformSampler};
 pub use importance::Shading;

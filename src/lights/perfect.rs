@@ -9,7 +9,7 @@
 //! The GPU builder must produce these nodes bit for bit; this module is its
 //! reference.
 
-use super::{morton, LightPrim, TreeNode, NO_LIGHT};
+use super::{morton, LightCone, LightPrim, TreeNode, NO_LIGHT};
 
 /// A perfect light tree over `N ≥ 1` lights.
 #[derive(Clone, Debug, PartialEq)]
@@ -24,6 +24,10 @@ pub struct PerfectTree {
     pub sorted: Vec<u32>,
     /// Leaf slot of each light id.
     pub leaf_of_light: Vec<u32>,
+    /// Orientation bound of each node (same indices as `nodes`; bogus
+    /// leaves [`LightCone::EMPTY`]), merged in the same pairwise order as
+    /// the intensities. Only the cone kinds read them.
+    pub cones: Vec<LightCone>,
 }
 
 /// First node index of level `level` (`2^level − 1`).
@@ -95,8 +99,13 @@ pub fn build(prims: &[LightPrim]) -> Option<PerfectTree> {
     for (slot, &id) in sorted.iter().enumerate() {
         nodes[p - 1 + slot] = leaf_node(&prims[id as usize], id);
     }
+    let mut cones = vec![LightCone::EMPTY; 2 * p - 1];
+    for (slot, &id) in sorted.iter().enumerate() {
+        cones[p - 1 + slot] = LightCone::of_prim(&prims[id as usize]);
+    }
     for i in (0..p - 1).rev() {
         nodes[i] = gather(&nodes[2 * i + 1], &nodes[2 * i + 2]);
+        cones[i] = cones[2 * i + 1].union(&cones[2 * i + 2]);
     }
     Some(PerfectTree {
         nodes,
@@ -104,6 +113,7 @@ pub fn build(prims: &[LightPrim]) -> Option<PerfectTree> {
         leaf_count: p as u32,
         sorted,
         leaf_of_light,
+        cones,
     })
 }
 

@@ -1,7 +1,7 @@
 //! The light-sampler contract (pbrt-v4's `LightSampler`): `sample(ctx, u)`
 //! picks one light with its probability, `pmf(ctx, light)` gives the same
 //! probability independently; and the sampler names ([`SamplerKind`]).
-//! This module depends on nothing but [`Shading`]; the implementations
+//! This module depends on little more than [`Shading`]; the implementations
 //! depend on it, and [`super::factory::new_sampler`] builds one by kind:
 //!
 //! | kind | sampler | paper |
@@ -10,12 +10,16 @@
 //! | `power` | [`PowerSampler`](super::alias::PowerSampler) (alias table, `I_i/ΣI`) | pbrt-v4 |
 //! | `tree_nocut` | [`TreeSampler`](super::cut::TreeSampler) over a [`PerfectTree`](super::perfect::PerfectTree), cut = root | §3.2 |
 //! | `tree` | same, with a greedy cut per pixel block | §3.2–3.3 |
-//! | `unbalanced_nocut` | [`TreeSampler`](super::cut::TreeSampler) over a [`LightBvh`](super::bvh::LightBvh), cut = root | §4 |
-//! | `unbalanced` | same, with a greedy cut | §4 |
+//! | `tree_cone` | `tree` with orientation cones ([`Importance::Cones`](super::cut::Importance)) | §3.1 + Conty & Kulla 2018 |
+//! | `unbalanced_nocut` | [`TreeSampler`](super::cut::TreeSampler) with cones over a SAOH [`LightBvh`](super::bvh::LightBvh), cut = root | §4, pbrt-v4 |
+//! | `unbalanced` | same, with a greedy cut | §4, pbrt-v4 |
+//! | `unbalanced_nocone` | a cone-free SAH BVH with a greedy cut | §4 |
 //!
 //! A sampler's pmf is an f64 product of the f32 probabilities the
 //! sampling decisions use, so `sample(s, u).pmf == pmf(s, light)` exactly.
 
+use super::bvh::Cost;
+use super::cut::Importance;
 use super::importance::Shading;
 use std::fmt;
 use std::str::FromStr;
@@ -43,18 +47,22 @@ pub enum SamplerKind {
     Power,
     TreeNoCut,
     Tree,
+    TreeCone,
     Unbalanced,
     UnbalancedNoCut,
+    UnbalancedNoCone,
 }
 
 impl SamplerKind {
-    pub const ALL: [SamplerKind; 6] = [
+    pub const ALL: [SamplerKind; 8] = [
         SamplerKind::Uniform,
         SamplerKind::Power,
         SamplerKind::TreeNoCut,
         SamplerKind::Tree,
+        SamplerKind::TreeCone,
         SamplerKind::Unbalanced,
         SamplerKind::UnbalancedNoCut,
+        SamplerKind::UnbalancedNoCone,
     ];
 
     pub fn name(self) -> &'static str {
@@ -63,8 +71,10 @@ impl SamplerKind {
             SamplerKind::Power => "power",
             SamplerKind::TreeNoCut => "tree_nocut",
             SamplerKind::Tree => "tree",
+            SamplerKind::TreeCone => "tree_cone",
             SamplerKind::Unbalanced => "unbalanced",
             SamplerKind::UnbalancedNoCut => "unbalanced_nocut",
+            SamplerKind::UnbalancedNoCone => "unbalanced_nocone",
         }
     }
 
@@ -80,17 +90,55 @@ impl SamplerKind {
 
     /// Whether the kind samples from per-block cuts.
     pub fn uses_cut(self) -> bool {
-        matches!(self, SamplerKind::Tree | SamplerKind::Unbalanced)
+        matches!(
+            self,
+            SamplerKind::Tree
+                | SamplerKind::TreeCone
+                | SamplerKind::Unbalanced
+                | SamplerKind::UnbalancedNoCone
+        )
     }
 
     /// Whether the kind samples the perfect tree.
     pub fn uses_perfect_tree(self) -> bool {
-        matches!(self, SamplerKind::Tree | SamplerKind::TreeNoCut)
+        matches!(
+            self,
+            SamplerKind::Tree | SamplerKind::TreeNoCut | SamplerKind::TreeCone
+        )
     }
 
     /// Whether the kind samples the unbalanced BVH.
     pub fn uses_bvh(self) -> bool {
-        matches!(self, SamplerKind::Unbalanced | SamplerKind::UnbalancedNoCut)
+        matches!(
+            self,
+            SamplerKind::Unbalanced | SamplerKind::UnbalancedNoCut | SamplerKind::UnbalancedNoCone
+        )
+    }
+
+    /// Whether the kind's node importance uses orientation cones.
+    pub fn uses_cones(self) -> bool {
+        matches!(
+            self,
+            SamplerKind::TreeCone | SamplerKind::Unbalanced | SamplerKind::UnbalancedNoCut
+        )
+    }
+
+    /// The node importance of the tree kinds.
+    pub fn importance(self) -> Importance {
+        if self.uses_cones() {
+            Importance::Cones
+        } else {
+            Importance::Plain
+        }
+    }
+
+    /// The split cost of the BVH kinds' build.
+    pub fn bvh_cost(self) -> Cost {
+        if self.uses_cones() {
+            Cost::Saoh
+        } else {
+            Cost::Sah
+        }
     }
 }
 

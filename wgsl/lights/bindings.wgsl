@@ -1,6 +1,6 @@
-// Light-sampler bindings at @group(1), 16–21 (src/lights/gpu_sampler.rs owns
+// Light-sampler bindings at @group(1), 16–22 (src/lights/gpu_sampler.rs owns
 // the layout and the buffers). TreeNode and LightPrim come from
-// lights/light_prim.wgsl; constants from Rust: MAX_CUT, LIGHT_MAX_DEPTH,
+// lights/light_prim.wgsl, LightCone from lights/cone.wgsl; constants from Rust: MAX_CUT, LIGHT_MAX_DEPTH,
 // LIGHT_INTERNAL_BIT, NO_LIGHT, LIGHT_KIND_* (SamplerKind::index).
 //
 // 16 light_nodes   perfect tree (2P − 1 nodes, level by level) or the
@@ -16,6 +16,9 @@
 //                  block, row-major over blocks, NO_LIGHT-padded; written by
 //                  the cut pre-pass (select_cut) or uploaded
 // 21 light_params  the uniform below
+// 22 light_cones   cone kinds (tree_cone, unbalanced, unbalanced_nocut): the
+//                  orientation bound of every node, indexed like light_nodes;
+//                  others: unused
 
 // AliasEntry { q, alias } of src/lights/alias.rs (`alias` is a WGSL keyword).
 struct AliasEntry {
@@ -53,6 +56,7 @@ struct LightParams {
 @group(1) @binding(19) var<storage, read> light_alias: array<AliasEntry>;
 @group(1) @binding(20) var<storage, read> light_cuts: array<u32>;
 @group(1) @binding(21) var<uniform> light_params: LightParams;
+@group(1) @binding(22) var<storage, read> light_cones: array<LightCone>;
 
 // The part [start, end) of the block's cut this pixel samples: the whole cut
 // unless interleaved sampling is on (light_cut_base sets it).

@@ -1,7 +1,7 @@
 // Light sampling on the GPU: the WGSL mirror of src/lights/{importance,cut,
 // alias,sampler}.rs, following docs/light-sampling.md operation by operation
-// (real-time stochastic lightcuts §3.2–3.3). Needs lights/light_prim.wgsl and
-// lights/bindings.wgsl.
+// (real-time stochastic lightcuts §3.2–3.3). Needs lights/light_prim.wgsl,
+// lights/cone.wgsl and lights/bindings.wgsl.
 //
 //   light_sample(p, n, cut_base, u) -> LightPick  one light and its pmf
 //   light_pmf(p, n, cut_base, light) -> LightPmf  the pmf of a given light
@@ -51,11 +51,18 @@ fn light_no_pick() -> LightPick {
 }
 
 fn light_uses_bvh() -> bool {
-    return light_params.kind == LIGHT_KIND_UNBALANCED || light_params.kind == LIGHT_KIND_UNBALANCED_NOCUT;
+    let k = light_params.kind;
+    return k == LIGHT_KIND_UNBALANCED || k == LIGHT_KIND_UNBALANCED_NOCUT || k == LIGHT_KIND_UNBALANCED_NOCONE;
 }
 
 fn light_uses_cut() -> bool {
-    return light_params.kind == LIGHT_KIND_TREE || light_params.kind == LIGHT_KIND_UNBALANCED;
+    let k = light_params.kind;
+    return k == LIGHT_KIND_TREE || k == LIGHT_KIND_TREE_CONE || k == LIGHT_KIND_UNBALANCED || k == LIGHT_KIND_UNBALANCED_NOCONE;
+}
+
+fn light_uses_cones() -> bool {
+    let k = light_params.kind;
+    return k == LIGHT_KIND_TREE_CONE || k == LIGHT_KIND_UNBALANCED || k == LIGHT_KIND_UNBALANCED_NOCUT;
 }
 
 fn light_is_leaf(node: u32) -> bool {
@@ -100,7 +107,14 @@ fn light_reflectance_bound(node: TreeNode, x: vec3<f32>, n: vec3<f32>) -> f32 {
 }
 
 // dmin², dmax² and W = F·I; all 0 for dead nodes (I = 0 or EMPTY bounds).
-fn light_node_importance(node: TreeNode, x: vec3<f32>, n: vec3<f32>) -> NodeImportance {
+// With a cone (`cones`): W = F·G·I and dmin² clamped to r² (importance.rs).
+fn light_node_importance(
+    node: TreeNode,
+    cones: bool,
+    cone: LightCone,
+    x: vec3<f32>,
+    n: vec3<f32>,
+) -> NodeImportance {
     if (node.intensity == 0.0 || node.bmin.x > node.bmax.x) {
         return NodeImportance(0.0, 0.0, 0.0);
     }
@@ -108,11 +122,22 @@ fn light_node_importance(node: TreeNode, x: vec3<f32>, n: vec3<f32>) -> NodeImpo
     let dmax = max(abs(x - node.bmin), abs(x - node.bmax));
     let dmin2 = dmin.x * dmin.x + dmin.y * dmin.y + dmin.z * dmin.z;
     let dmax2 = dmax.x * dmax.x + dmax.y * dmax.y + dmax.z * dmax.z;
-    return NodeImportance(dmin2, dmax2, light_reflectance_bound(node, x, n) * node.intensity);
+    let f = light_reflectance_bound(node, x, n);
+    if (!cones) {
+        return NodeImportance(dmin2, dmax2, f * node.intensity);
+    }
+    let c = 0.5 * (node.bmin + node.bmax);
+    let h = 0.5 * (node.bmax - node.bmin);
+    let r2 = h.x * h.x + h.y * h.y + h.z * h.z;
+    let g = light_emission_bound(cone, c, sqrt(r2), x);
+    return NodeImportance(max(dmin2, r2), dmax2, (f * g) * node.intensity);
 }
 
 fn light_importance_of(node: u32, x: vec3<f32>, n: vec3<f32>) -> NodeImportance {
-    return light_node_importance(light_nodes[node], x, n);
+    if (light_uses_cones()) {
+        return light_node_importance(light_nodes[node], true, light_cones[node], x, n);
+    }
+    return light_node_importance(light_nodes[node], false, cone_sphere(), x, n);
 }
 
 fn light_ratio(w_j: f32, d_j: f32, w_k: f32, d_k: f32) -> f32 {
@@ -407,7 +432,7 @@ fn light_pmf(s_p: vec3<f32>, s_n: vec3<f32>, cut_base: u32, light: u32) -> Light
             }
             return light_pmf_from(bitcast<f32>(light_index[light]));
         }
-        case LIGHT_KIND_UNBALANCED, LIGHT_KIND_UNBALANCED_NOCUT: {
+        case LIGHT_KIND_UNBALANCED, LIGHT_KIND_UNBALANCED_NOCUT, LIGHT_KIND_UNBALANCED_NOCONE: {
             return light_pmf_bvh(s_p, s_n, cut_base, light);
         }
         default: {
@@ -420,11 +445,10 @@ fn light_pmf(s_p: vec3<f32>, s_n: vec3<f32>, cut_base: u32, light: u32) -> Light
 // inside the box gives the largest f32 (the CPU's +∞), other keys W/dmin²
 // stay below it.
 fn light_cut_key(node: u32, x: vec3<f32>, n: vec3<f32>) -> f32 {
-    let nd = light_nodes[node];
-    if (light_is_leaf(node) || !(nd.intensity > 0.0)) {
+    if (light_is_leaf(node) || !(light_nodes[node].intensity > 0.0)) {
         return -1.0;
     }
-    let imp = light_node_importance(nd, x, n);
+    let imp = light_importance_of(node, x, n);
     if (imp.dmin2 == 0.0) {
         return bitcast<f32>(0x7f7fffffu);
     }

@@ -8,10 +8,12 @@ struct BuildParams {
     leaf_count: u32,
     // 0, for mul_rn (light_prim.wgsl).
     zero: u32,
-    // internal: the source level ℓs and how many levels k it builds above it.
+    // internal: the source level ℓs and how many levels k it builds above it;
+    // cone_level: the level ℓ it builds.
     src_level: u32,
     levels_up: u32,
-    _pad0: u32,
+    // 1: also build the nodes' cones (binding 7).
+    cones: u32,
     _pad1: u32,
     _pad2: u32,
 }
@@ -25,6 +27,9 @@ struct BuildParams {
 @group(0) @binding(4) var<storage, read_write> sorted_ids: array<u32>;
 @group(0) @binding(5) var<storage, read_write> nodes: array<TreeNode>;
 @group(0) @binding(6) var<storage, read_write> leaf_of_light: array<u32>;
+// The nodes' orientation bounds (2P − 1, indexed like nodes) when
+// params.cones == 1; a dummy otherwise.
+@group(0) @binding(7) var<storage, read_write> cones: array<LightCone>;
 
 // Linear invocation index of a 2D dispatch of WG-wide workgroups.
 fn linear_index(wid: vec3<u32>, groups: vec3<u32>, lid: u32) -> u32 {

@@ -1,6 +1,7 @@
 // The perfect light tree's nodes (real-time stochastic lightcuts §3.1, §4):
 // `leaves` copies the Morton-sorted lights into the leaf level, pads it with
-// bogus leaves and records each light's leaf slot; `internal` builds k
+// bogus leaves and records each light's leaf slot (and their cones when
+// asked); `cone_level` merges the cones of one level; `internal` builds k
 // levels above a source level ℓs in one dispatch. src/lights/gpu_build.rs
 // explains why the result equals the level-by-level CPU oracle bit for bit.
 
@@ -18,9 +19,30 @@ fn leaves(@builtin(workgroup_id) wid: vec3<u32>,
         let id = sorted_ids[slot];
         nodes[p - 1u + slot] = leaf_node(prims[id], id);
         leaf_of_light[id] = slot;
+        if (params.cones != 0u) {
+            cones[p - 1u + slot] = cone_of_prim(prims[id]);
+        }
     } else {
         nodes[p - 1u + slot] = empty_node();
+        if (params.cones != 0u) {
+            cones[p - 1u + slot] = cone_empty();
+        }
     }
+}
+
+// The cones of level ℓ = params.src_level from the level below (one
+// dispatch per level, after `leaves`): the same pairwise order as the CPU's.
+@compute @workgroup_size(WG)
+fn cone_level(@builtin(workgroup_id) wid: vec3<u32>,
+              @builtin(num_workgroups) groups: vec3<u32>,
+              @builtin(local_invocation_index) lid: u32) {
+    let j = linear_index(wid, groups, lid);
+    let level = params.src_level;
+    if (j >= (1u << level)) {
+        return;
+    }
+    let i = (1u << level) - 1u + j;
+    cones[i] = cone_union(cones[2u * i + 1u], cones[2u * i + 2u]);
 }
 
 // A workgroup loads B = 2^k consecutive nodes of level ℓs and gathers them
