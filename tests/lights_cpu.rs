@@ -899,6 +899,7 @@ fn check_cones_bound_their_lights<T: LightTree>(prims: &[LightPrim], t: &T, what
             let c = &t.cones()[x];
             if prim.kind == mdas::lights::KIND_POINT {
                 assert!(c.is_sphere(), "{what}: node {x} over a point light: {c:?}");
+                assert_eq!(c.points, 1, "{what}: node {x} over a point light");
             } else if !c.is_sphere() {
                 let spread = c.sin_o.atan2(c.cos_o);
                 let a = angle(Vec3::from(c.axis), normal);

@@ -461,7 +461,7 @@ fn bad_many_light_input_is_an_error_at_its_position() {
     let integrand = |body: &str| format!("{BASE}[integrand]\ntype = \"many_light\"\n{body}");
     let m = error_at("sampler", &integrand("sampler = \"bvh\"\n"), 14, 11);
     assert!(
-        m.contains("unknown sampler 'bvh', expected one of 'uniform', 'power', 'tree_nocut', 'tree', 'unbalanced', 'unbalanced_nocut'"),
+        m.contains("unknown sampler 'bvh', expected one of 'uniform', 'power', 'tree_nocut', 'tree', 'tree_cone', 'unbalanced', 'unbalanced_nocut', 'unbalanced_nocone'"),
         "{m}"
     );
     let m = error_at("cut0", &integrand("cut_size = 0\n"), 14, 12);

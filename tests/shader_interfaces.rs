@@ -420,7 +420,7 @@ fn mirrors() -> BTreeMap<(&'static str, &'static str), Layout> {
         })),
         ((prims, "TreeNode"), host!(TreeNode { min, intensity, max, id })),
         (("lights/cone.wgsl", "LightCone"), host!(LightCone {
-            axis, cos_o, sin_o, cos_e, two_sided, _pad,
+            axis, cos_o, sin_o, cos_e, two_sided, points,
         })),
         ((lights, "AliasEntry"), host!(AliasEntry { q, alias })),
         ((lights, "LightParams"), host!(LightParams {

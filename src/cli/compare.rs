@@ -22,7 +22,8 @@ pub(crate) struct CompareArgs {
     #[arg(long, value_name = "NAME", conflicts_with = "samplers")]
     pub(crate) sampler: Option<SamplerKind>,
     /// Compare these light samplers (comma-separated: uniform, power,
-    /// tree_nocut, tree, unbalanced, unbalanced_nocut) under Halton at
+    /// tree_nocut, tree, tree_cone, unbalanced, unbalanced_nocut,
+    /// unbalanced_nocone) under Halton at
     /// equal time; MDAS with `tree` sets the target (or --time-ms). The
     /// scene's integrand must be many_light.
     #[arg(long, value_name = "NAMES", value_delimiter = ',')]

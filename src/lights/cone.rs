@@ -6,6 +6,7 @@
 //! | light | axis | `θ_o` | `θ_e` |
 //! |---|---|---|---|
 //! | isotropic point light | any | π (every direction) | π/2 |
+//! | degenerate (zero-area) triangle | any | π | π/2 |
 //! | one-sided Lambertian triangle | its normal | 0 (+ [`SLACK`]) | π/2 |
 //! | a node | from [`LightCone::union`] | covers its children | min of the children's |
 //!
@@ -61,7 +62,10 @@ pub struct LightCone {
     pub cos_e: f32,
     /// 1 when the lights may emit about `−w` as well.
     pub two_sided: u32,
-    pub _pad: u32,
+    /// 1 when a point light lies below: its irradiance has no bound near
+    /// it, so the samplers' near-distance clamp does not apply
+    /// ([`super::importance::NEAR_CLAMP`]).
+    pub points: u32,
 }
 
 /// An angle in `[0, 2π)` as the unit pair `(cos, sin)`.
@@ -125,17 +129,23 @@ impl LightCone {
         sin_o: 0.0,
         cos_e: 1.0,
         two_sided: 0,
-        _pad: 0,
+        points: 0,
     };
 
-    /// Every direction (an isotropic emitter), with `θ_e = π/2`.
+    /// Every direction, with `θ_e = π/2` (a degenerate triangle).
     pub const SPHERE: LightCone = LightCone {
         axis: [0.0, 0.0, 1.0],
         cos_o: -1.0,
         sin_o: 0.0,
         cos_e: 0.0,
         two_sided: 0,
-        _pad: 0,
+        points: 0,
+    };
+
+    /// An isotropic point light: every direction, a point.
+    pub const POINT: LightCone = LightCone {
+        points: 1,
+        ..LightCone::SPHERE
     };
 
     pub fn is_empty(&self) -> bool {
@@ -182,7 +192,7 @@ impl LightCone {
     /// The cone of one light primitive (module docs table), widened.
     pub fn of_prim(prim: &LightPrim) -> LightCone {
         if prim.kind != KIND_TRIANGLE {
-            return LightCone::SPHERE;
+            return LightCone::POINT;
         }
         let (a, b, c) = (
             Vec3::from(prim.p0),
@@ -218,6 +228,7 @@ impl LightCone {
         let base = LightCone {
             cos_e: a.cos_e.min(b.cos_e),
             two_sided: a.two_sided | b.two_sided,
+            points: a.points | b.points,
             ..*a
         };
         let sphere = LightCone {

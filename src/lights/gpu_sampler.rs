@@ -20,6 +20,7 @@
 use super::alias::{AliasEntry, PowerSampler};
 use super::bvh::{self, LightBvh, INTERNAL_BIT};
 use super::cut::MAX_CUT;
+use super::importance::NEAR_CLAMP;
 use super::perfect::{self, PerfectTree};
 use super::sampler::SamplerKind;
 use super::{gpu_build, LightCone, LightPrim, TreeNode, NO_LIGHT};
@@ -364,7 +365,8 @@ impl GpuSamplerData {
         let mut w = gpu_build::prim_wgsl()
             .constant("MAX_CUT", MAX_CUT)
             .constant("LIGHT_MAX_DEPTH", bvh::MAX_DEPTH)
-            .constant("LIGHT_INTERNAL_BIT", INTERNAL_BIT);
+            .constant("LIGHT_INTERNAL_BIT", INTERNAL_BIT)
+            .constant("LIGHT_NEAR_CLAMP_BITS", NEAR_CLAMP.to_bits());
         for k in SamplerKind::ALL {
             let name = format!("LIGHT_KIND_{}", k.name().to_uppercase());
             w = w.constant(&name, k.index());

@@ -5,11 +5,9 @@
 //
 //   cone_of_prim(l) -> LightCone           the cone of one light, widened
 //   cone_union(a, b) -> LightCone          a cone containing both, widened
-//   light_emission_bound(cone, c, r, x)    the bound cos θ' toward x
 //
-// The build functions need not round as the CPU does (every cone is widened
-// by cone::SLACK); light_emission_bound repeats the CPU's f32 operations in
-// order, so that samplers over the same cones take the same decisions.
+// These need not round as the CPU does (every cone is widened by
+// cone::SLACK). The samplers' emission bound is in lights/sample.wgsl.
 
 struct LightCone {
     axis: vec3<f32>,
@@ -17,7 +15,8 @@ struct LightCone {
     sin_o: f32,
     cos_e: f32,
     two_sided: u32,
-    _pad: u32,
+    // 1 when a point light lies below (no near-distance clamp).
+    points: u32,
 }
 
 // An angle as the unit pair (cos, sin).
@@ -63,6 +62,10 @@ fn cone_sphere() -> LightCone {
     return LightCone(vec3<f32>(0.0, 0.0, 1.0), -1.0, 0.0, 0.0, 0u, 0u);
 }
 
+fn cone_point() -> LightCone {
+    return LightCone(vec3<f32>(0.0, 0.0, 1.0), -1.0, 0.0, 0.0, 0u, 1u);
+}
+
 fn cone_is_empty(c: LightCone) -> bool {
     return c.cos_o > 1.0;
 }
@@ -72,7 +75,7 @@ fn cone_is_sphere(c: LightCone) -> bool {
 }
 
 fn cone_with(c: LightCone, axis: vec3<f32>, spread: vec2<f32>) -> LightCone {
-    return LightCone(axis, spread.x, spread.y, c.cos_e, c.two_sided, 0u);
+    return LightCone(axis, spread.x, spread.y, c.cos_e, c.two_sided, c.points);
 }
 
 fn cone_widened(c: LightCone) -> LightCone {
@@ -86,7 +89,7 @@ fn cone_widened(c: LightCone) -> LightCone {
 
 fn cone_of_prim(l: LightPrim) -> LightCone {
     if (l.kind != KIND_TRIANGLE) {
-        return cone_sphere();
+        return cone_point();
     }
     let n = cross(l.p1 - l.p0, l.p2 - l.p0);
     let a = abs(n);
@@ -106,7 +109,7 @@ fn cone_union(a: LightCone, b: LightCone) -> LightCone {
     if (cone_is_empty(b)) {
         return a;
     }
-    let base = LightCone(a.axis, a.cos_o, a.sin_o, min(a.cos_e, b.cos_e), a.two_sided | b.two_sided, 0u);
+    let base = LightCone(a.axis, a.cos_o, a.sin_o, min(a.cos_e, b.cos_e), a.two_sided | b.two_sided, a.points | b.points);
     let sphere = cone_with(base, a.axis, vec2<f32>(-1.0, 0.0));
     if (cone_is_sphere(a) || cone_is_sphere(b)) {
         return sphere;
@@ -135,38 +138,4 @@ fn cone_union(a: LightCone, b: LightCone) -> LightCone {
     let sa = cone_add(ta, da);
     let sb = cone_add(tb, db);
     return cone_widened(cone_with(base, w, select(sb, sa, sa.x <= sb.x)));
-}
-
-// LightCone::emission_bound, operation by operation.
-fn light_emission_bound(cone: LightCone, c: vec3<f32>, r: f32, x: vec3<f32>) -> f32 {
-    if (cone.cos_o <= -1.0) {
-        return 1.0;
-    }
-    let v = x - c;
-    let dist = sqrt(v.x * v.x + v.y * v.y + v.z * v.z);
-    if (dist <= r) {
-        return 1.0;
-    }
-    let w = cone.axis;
-    var cos_w = (w.x * v.x + w.y * v.y + w.z * v.z) / dist;
-    if (cone.two_sided != 0u) {
-        cos_w = abs(cos_w);
-    }
-    let sin_w = sqrt(max(1.0 - cos_w * cos_w, 0.0));
-    var cos_x = 1.0;
-    var sin_x = 0.0;
-    if (!(cos_w > cone.cos_o)) {
-        cos_x = cos_w * cone.cos_o + sin_w * cone.sin_o;
-        sin_x = sin_w * cone.cos_o - cos_w * cone.sin_o;
-    }
-    let sin_b = r / dist;
-    let cos_b = sqrt(max(1.0 - sin_b * sin_b, 0.0));
-    var cos_p = 1.0;
-    if (!(cos_x > cos_b)) {
-        cos_p = cos_x * cos_b + sin_x * sin_b;
-    }
-    if (cos_p <= cone.cos_e) {
-        return 0.0;
-    }
-    return cos_p;
 }

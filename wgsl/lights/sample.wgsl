@@ -84,30 +84,77 @@ fn light_length(v: vec3<f32>) -> f32 {
     return sqrt(v.x * v.x + v.y * v.y + v.z * v.z);
 }
 
-// The cosine bound F of the node's bounding sphere (importance.rs).
-fn light_reflectance_bound(node: TreeNode, x: vec3<f32>, n: vec3<f32>) -> f32 {
-    if (all(n == vec3<f32>(0.0))) {
-        return 1.0;
-    }
+// A node's bounding sphere seen from x: v = c − x, dist = |v|, the squared
+// radius, and the sine and cosine of its half-angle θ_b (meaningless when
+// x is inside, dist ≤ r). Shared by both bounds; each value is computed by
+// the same f32 operations as importance.rs and cone.rs compute it.
+struct LightSphere {
+    v: vec3<f32>,
+    dist: f32,
+    r2: f32,
+    inside: bool,
+    sin_b: f32,
+    cos_b: f32,
+}
+
+fn light_sphere(node: TreeNode, x: vec3<f32>) -> LightSphere {
     let c = 0.5 * (node.bmin + node.bmax);
-    let r = light_length(0.5 * (node.bmax - node.bmin));
+    let h = 0.5 * (node.bmax - node.bmin);
+    let r2 = h.x * h.x + h.y * h.y + h.z * h.z;
+    let r = sqrt(r2);
     let v = c - x;
     let dist = light_length(v);
-    if (dist <= r) {
-        return 1.0;
-    }
-    let cos_n = (n.x * v.x + n.y * v.y + n.z * v.z) / dist;
     let sin_b = r / dist;
     let cos_b = sqrt(max(1.0 - sin_b * sin_b, 0.0));
-    if (cos_n >= cos_b) {
+    return LightSphere(v, dist, r2, dist <= r, sin_b, cos_b);
+}
+
+// The cosine bound F of the node's bounding sphere (importance.rs).
+fn light_reflectance_bound(sp: LightSphere, n: vec3<f32>) -> f32 {
+    if (all(n == vec3<f32>(0.0)) || sp.inside) {
+        return 1.0;
+    }
+    let v = sp.v;
+    let cos_n = (n.x * v.x + n.y * v.y + n.z * v.z) / sp.dist;
+    if (cos_n >= sp.cos_b) {
         return 1.0;
     }
     let sin_n = sqrt(max(1.0 - cos_n * cos_n, 0.0));
-    return max(cos_n * cos_b + sin_n * sin_b, 0.0);
+    return max(cos_n * sp.cos_b + sin_n * sp.sin_b, 0.0);
+}
+
+// The emission bound G = cos θ' of the node's cone toward x
+// (LightCone::emission_bound; its v is x − c = −sp.v, negated exactly).
+fn light_emission_bound(cone: LightCone, sp: LightSphere) -> f32 {
+    if (cone.cos_o <= -1.0 || sp.inside) {
+        return 1.0;
+    }
+    let w = cone.axis;
+    let v = sp.v;
+    var cos_w = -(w.x * v.x + w.y * v.y + w.z * v.z) / sp.dist;
+    if (cone.two_sided != 0u) {
+        cos_w = abs(cos_w);
+    }
+    let sin_w = sqrt(max(1.0 - cos_w * cos_w, 0.0));
+    var cos_x = 1.0;
+    var sin_x = 0.0;
+    if (!(cos_w > cone.cos_o)) {
+        cos_x = cos_w * cone.cos_o + sin_w * cone.sin_o;
+        sin_x = sin_w * cone.cos_o - cos_w * cone.sin_o;
+    }
+    var cos_p = 1.0;
+    if (!(cos_x > sp.cos_b)) {
+        cos_p = cos_x * sp.cos_b + sin_x * sp.sin_b;
+    }
+    if (cos_p <= cone.cos_e) {
+        return 0.0;
+    }
+    return cos_p;
 }
 
 // dmin², dmax² and W = F·I; all 0 for dead nodes (I = 0 or EMPTY bounds).
-// With a cone (`cones`): W = F·G·I and dmin² clamped to r² (importance.rs).
+// With a cone (`cones`): W = F·G·I and, without point lights below,
+// dmin² ≥ NEAR_CLAMP·r² (importance.rs).
 fn light_node_importance(
     node: TreeNode,
     cones: bool,
@@ -122,15 +169,17 @@ fn light_node_importance(
     let dmax = max(abs(x - node.bmin), abs(x - node.bmax));
     let dmin2 = dmin.x * dmin.x + dmin.y * dmin.y + dmin.z * dmin.z;
     let dmax2 = dmax.x * dmax.x + dmax.y * dmax.y + dmax.z * dmax.z;
-    let f = light_reflectance_bound(node, x, n);
+    let sp = light_sphere(node, x);
+    let f = light_reflectance_bound(sp, n);
     if (!cones) {
         return NodeImportance(dmin2, dmax2, f * node.intensity);
     }
-    let c = 0.5 * (node.bmin + node.bmax);
-    let h = 0.5 * (node.bmax - node.bmin);
-    let r2 = h.x * h.x + h.y * h.y + h.z * h.z;
-    let g = light_emission_bound(cone, c, sqrt(r2), x);
-    return NodeImportance(max(dmin2, r2), dmax2, (f * g) * node.intensity);
+    let g = light_emission_bound(cone, sp);
+    var near = dmin2;
+    if (cone.points == 0u) {
+        near = max(dmin2, bitcast<f32>(LIGHT_NEAR_CLAMP_BITS) * sp.r2);
+    }
+    return NodeImportance(near, dmax2, (f * g) * node.intensity);
 }
 
 fn light_importance_of(node: u32, x: vec3<f32>, n: vec3<f32>) -> NodeImportance {
