@@ -119,8 +119,8 @@ use mdas::gpu::Profiler;
 use mdas::lights::gpu_build::{BuildTimes, GpuLightTree};
 use mdas::lights::{morton, perfect, LightCone, LightPrim, TreeNode};
 
-/// `n` lights in `[-s, s]^3`: points and triangles (edges up to `s/10`)
-/// alternating at random, with RGB emission in `[0, 4)`.
+/// `n` lights in `[-s, s]^3`: points, VPLs and triangles (edges up to
+/// `s/10`) at random, with RGB emission in `[0, 4)`.
 fn random_lights(rng: &mut StdRng, n: usize, s: f32) -> Vec<LightPrim> {
     let v = |rng: &mut StdRng, r: f32| {
         Vec3::new(
@@ -137,10 +137,10 @@ fn random_lights(rng: &mut StdRng, n: usize, s: f32) -> Vec<LightPrim> {
                 rng.random_range(0.0..4.0),
                 rng.random_range(0.0..4.0),
             );
-            if rng.random::<bool>() {
-                LightPrim::point(p, e)
-            } else {
-                LightPrim::triangle(p, p + v(rng, s / 10.0), p + v(rng, s / 10.0), e)
+            match rng.random_range(0..5) {
+                0 | 1 => LightPrim::point(p, e),
+                2 => LightPrim::vpl(p, v(rng, 1.0).normalize_or(Vec3::Y), e),
+                _ => LightPrim::triangle(p, p + v(rng, s / 10.0), p + v(rng, s / 10.0), e),
             }
         })
         .collect()

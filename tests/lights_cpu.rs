@@ -49,8 +49,11 @@ fn random_scene(rng: &mut StdRng, n: usize) -> Vec<LightPrim> {
                     rng.random_range(0.0..10.0),
                 )
             };
-            if rng.random::<f32>() < 0.7 {
+            let kind = rng.random::<f32>();
+            if kind < 0.55 {
                 LightPrim::point(c, e)
+            } else if kind < 0.7 {
+                LightPrim::vpl(c, random_unit(rng), e)
             } else {
                 let mut v = || {
                     c + Vec3::new(
@@ -886,20 +889,28 @@ fn angle(u: Vec3, v: Vec3) -> f32 {
 }
 
 /// Every node's cone holds the emission direction of every light below it
-/// (triangle normals within θ_o of the axis; points only under a
-/// whole-sphere cone), checked leaf by leaf up to the root.
+/// (triangle and VPL normals within θ_o of the axis; points only under a
+/// whole-sphere cone; points and VPLs set the `points` flag), checked leaf
+/// by leaf up to the root.
 fn check_cones_bound_their_lights<T: LightTree>(prims: &[LightPrim], t: &T, what: &str) {
     for light in 0..t.light_count() {
         let prim = &prims[light as usize];
-        let normal = (Vec3::from(prim.p1) - Vec3::from(prim.p0))
-            .cross(Vec3::from(prim.p2) - Vec3::from(prim.p0))
-            .normalize();
+        // The emission axis: a VPL's normal, a triangle's face normal.
+        let normal = if prim.kind == mdas::lights::KIND_VPL {
+            Vec3::from(prim.p1)
+        } else {
+            (Vec3::from(prim.p1) - Vec3::from(prim.p0))
+                .cross(Vec3::from(prim.p2) - Vec3::from(prim.p0))
+                .normalize()
+        };
         let mut node = t.leaf_of_light(light);
         while let Some(x) = node {
             let c = &t.cones()[x];
             if prim.kind == mdas::lights::KIND_POINT {
                 assert!(c.is_sphere(), "{what}: node {x} over a point light: {c:?}");
                 assert_eq!(c.points, 1, "{what}: node {x} over a point light");
+            } else if prim.kind == mdas::lights::KIND_VPL && c.points != 1 {
+                panic!("{what}: node {x} over a VPL without the points flag");
             } else if !c.is_sphere() {
                 let spread = c.sin_o.atan2(c.cos_o);
                 let a = angle(Vec3::from(c.axis), normal);

@@ -103,6 +103,8 @@ fn scene(rng: &mut StdRng, n: usize) -> Vec<LightPrim> {
                     c + Vec3::new(0.0, d.y, d.z),
                     e,
                 )
+            } else if i % 4 == 1 {
+                LightPrim::vpl(c, unit(rng), e)
             } else {
                 LightPrim::point(c, e)
             }

@@ -9,6 +9,7 @@ use mdas::integrand::IntegrandSpec;
 use mdas::integrand::ManyLightSpec;
 use mdas::lights::sampler::SamplerKind;
 use mdas::lights::scene_lights::{light_count, light_counts, light_prims, LightCounts};
+use mdas::lights::vpl::VplSpec;
 use mdas::lights::{LightPrim, KIND_POINT, KIND_TRIANGLE};
 use mdas::scene_file;
 use std::path::Path;
@@ -434,7 +435,13 @@ fn many_light_integrand_parses_with_defaults() {
             block: 8,
             interleave: 1,
             time: 0.0,
-            frame: 0
+            frame: 0,
+            vpl: VplSpec {
+                paths: 0,
+                bounces: 1,
+                seed: 0,
+                clamp: 0.0
+            },
         }
     );
     for sampler in SamplerKind::ALL {
@@ -450,10 +457,28 @@ fn many_light_integrand_parses_with_defaults() {
                 block: 4,
                 interleave: 2,
                 time: 2.5,
-                frame: 7
+                frame: 7,
+                vpl: VplSpec::default(),
             })
         );
     }
+    let s = ok(
+        "ml-vpl",
+        &format!("{BASE}[integrand]\ntype = \"many_light\"\nvpls = 1000\nvpl_bounces = 3\nvpl_seed = 9\nvpl_clamp = 0.25\n"),
+    );
+    let IntegrandSpec::ManyLight(spec) = s.integrand else {
+        panic!("many_light")
+    };
+    assert_eq!(
+        spec.vpl,
+        VplSpec {
+            paths: 1000,
+            bounces: 3,
+            seed: 9,
+            clamp: 0.25
+        }
+    );
+    assert_eq!(spec.vpl.count(), 3000);
 }
 
 #[test]
@@ -462,6 +487,27 @@ fn bad_many_light_input_is_an_error_at_its_position() {
     let m = error_at("sampler", &integrand("sampler = \"bvh\"\n"), 14, 11);
     assert!(
         m.contains("unknown sampler 'bvh', expected one of 'uniform', 'power', 'tree_nocut', 'tree', 'tree_cone', 'unbalanced', 'unbalanced_nocut', 'unbalanced_nocone'"),
+        "{m}"
+    );
+    let m = error_at("vpls", &integrand("vpls = -1\n"), 14, 8);
+    assert!(m.contains("vpls must be in 0..=4194304"), "{m}");
+    let m = error_at(
+        "vplmax",
+        &integrand("vpl_bounces = 8\nvpls = 600000\n"),
+        15,
+        8,
+    );
+    assert!(
+        m.contains("vpls must be in 0..=524288 (at most 4194304 VPLs of 8 per path)"),
+        "{m}"
+    );
+    let m = error_at("bounce0", &integrand("vpl_bounces = 0\n"), 14, 15);
+    assert!(m.contains("vpl_bounces must be at least 1, found 0"), "{m}");
+    let m = error_at("bounce9", &integrand("vpl_bounces = 9\n"), 14, 15);
+    assert!(m.contains("vpl_bounces must be at most 8, found 9"), "{m}");
+    let m = error_at("clamp", &integrand("vpl_clamp = -0.5\n"), 14, 13);
+    assert!(
+        m.contains("vpl_clamp must be a finite distance ≥ 0, found -0.5"),
         "{m}"
     );
     let m = error_at("cut0", &integrand("cut_size = 0\n"), 14, 12);

@@ -648,7 +648,8 @@ fn many_light_scenes_parse_their_integrand_and_light_sets() {
             block: 8,
             interleave: 1,
             time: 0.5,
-            frame: 0
+            frame: 0,
+            vpl: Default::default(),
         })
     );
     assert!(s.scene.point_light_sets.is_empty());

@@ -48,6 +48,7 @@ use mdas::integrator::mdas::{
     adapt, config::Config, error, evaluate, gpu_params, initial, plan, reconstruct, scan, stats,
 };
 use mdas::lights::gpu_build::{BuildParams, GpuLightTree};
+use mdas::lights::vpl::{VplGenerator, VplParams};
 use mdas::lights::{alias::AliasEntry, gpu_sampler::LightParams, LightPrim, TreeNode};
 use mdas::wgsl_file;
 use naga::valid::{Capabilities, ModuleInfo, ValidationFlags, Validator};
@@ -188,6 +189,8 @@ fn kernels() -> Vec<Kernel> {
         let name = format!("light_tree[{}]", file.0);
         all.push(kernel(name, &GpuLightTree::source(file), &tree));
     }
+    let vpl = [VplGenerator::layout_entries(), GpuScene::layout_entries()];
+    all.push(kernel("vpl", &VplGenerator::source(), &vpl));
     all
 }
 
@@ -425,10 +428,13 @@ fn mirrors() -> BTreeMap<(&'static str, &'static str), Layout> {
         ((lights, "AliasEntry"), host!(AliasEntry { q, alias })),
         ((lights, "LightParams"), host!(LightParams {
             count, kind, levels, leaf_count, node_count, cut_size, block_size, blocks_per_row,
-            alias_count, interleave, frame, time,
+            alias_count, interleave, frame, time, vpl_clamp2, _pad,
         })),
         (("lights/tree_bindings.wgsl", "BuildParams"), host!(BuildParams {
             n, leaf_count, zero, src_level, levels_up, cones, _pad,
+        })),
+        (("lights/vpl.wgsl", "VplParams"), host!(VplParams {
+            paths, bounces, seed, source_count, center, radius, time, _pad,
         })),
         (("gpu/radix_sort.wgsl", "Params"), host!(radix_sort::Params {
             n, shift, mask, tiles, groups_x, _pad,

@@ -3,7 +3,8 @@
 // u[1..3] a uniform point on a selected emissive triangle (only when
 // ML_TRIANGLES = 1). One shadow ray; the estimate is
 //   L_e(x) + ρ(x)/π · C(y) · cosθ_x · V(x, y) / pmf(light),
-// C = I/d² (point) or L_e·cosθ_y·area/d² (one-sided triangle).
+// C = I/d² (point), L_e·cosθ_y·area/d² (one-sided triangle) or
+// I·cosθ_v/max(d², clamp²) (VPL, a cosine lobe about its normal).
 // Constant from Rust: ML_TRIANGLES. The frame time and number are
 // uniforms (light_params.time, light_params.frame): a new frame compiles
 // no new shader.
@@ -52,6 +53,14 @@ fn ml_direct(s: Surface, px: vec2<u32>, u: vec3<f32>, time: f32) -> vec3<f32> {
         return vec3<f32>(0.0);
     }
     var c = l.emission * (cos_x / dist2);
+    if (l.kind == KIND_VPL) {
+        // A cosine lobe about the VPL's normal, 1/d² clamped.
+        let cos_v = -dot(l.p1, wi);
+        if (cos_v <= 0.0) {
+            return vec3<f32>(0.0);
+        }
+        c = l.emission * (cos_x * cos_v / max(dist2, light_params.vpl_clamp2));
+    }
     if (l.kind == KIND_TRIANGLE) {
         let cos_y = -dot(ng, wi);
         if (cos_y <= 0.0 || !(area > 0.0)) {

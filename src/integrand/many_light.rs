@@ -47,6 +47,7 @@ use crate::lights::gpu_build::GpuLightTree;
 use crate::lights::gpu_sampler::{CutLayout, GpuSamplerData, TreeSource, FIRST_BINDING};
 use crate::lights::sampler::SamplerKind;
 use crate::lights::scene_lights::light_prims;
+use crate::lights::vpl::{self, VplGenerator};
 use crate::lights::KIND_TRIANGLE;
 use crate::scene::Scene;
 use crate::wgsl_file;
@@ -116,13 +117,28 @@ impl ManyLight {
         spec: &ManyLightSpec,
     ) -> Result<ManyLight> {
         let kind = spec.sampler;
-        let prims = light_prims(scene, spec.time);
-        let n = u32::try_from(prims.len()).context("more than 2^32 lights")?;
+        let mut prims = light_prims(scene, spec.time);
         let triangles = prims.iter().any(|l| l.kind == KIND_TRIANGLE);
         let cuts = CutLayout::for_film(film.width, film.height, spec.block, spec.cut_size)
             .interleaved(spec.interleave, spec.frame);
         let mut profiler = Profiler::new(gpu);
         let mut cpu_build_ms = None;
+        if spec.vpl.paths > 0 {
+            // The frame's VPLs follow the scene's own lights.
+            let sources = vpl::sources(scene, &prims);
+            let sphere = vpl::scene_sphere(scene, spec.time);
+            let vpls = VplGenerator::new(gpu)?.generate(
+                gpu,
+                &gpu_scene,
+                &sources,
+                sphere,
+                &spec.vpl,
+                spec.time,
+                &mut profiler,
+            )?;
+            prims.extend(vpls);
+        }
+        let n = u32::try_from(prims.len()).context("more than 2^32 lights")?;
 
         let (mut sampler, tree) = gpu.scoped("many_light set-up", || {
             let mut tree = None;
@@ -154,6 +170,7 @@ impl ManyLight {
             };
             Ok((sampler, tree))
         })?;
+        sampler.params.vpl_clamp2 = spec.vpl.clamp * spec.vpl.clamp;
         sampler.set_time(gpu, spec.time);
 
         let layout = gpu

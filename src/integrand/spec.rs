@@ -4,6 +4,7 @@
 //! come from the integrand modules (e.g. [`super::path::max_bounces_limit`]).
 
 use crate::lights::sampler::SamplerKind;
+use crate::lights::vpl::VplSpec;
 
 /// Which integrand renders the scene, with its parameters (scene file
 /// `[integrand] type = …`; dimension orders in the integrand modules).
@@ -61,6 +62,9 @@ pub struct ManyLightSpec {
     pub time: f32,
     /// Frame number, rotates the per-frame random choices.
     pub frame: u32,
+    /// Virtual point lights generated per frame by instant radiosity
+    /// (`paths = 0`: none).
+    pub vpl: VplSpec,
 }
 
 impl Default for ManyLightSpec {
@@ -72,6 +76,7 @@ impl Default for ManyLightSpec {
             interleave: 1,
             time: 0.0,
             frame: 0,
+            vpl: VplSpec::default(),
         }
     }
 }

@@ -7,6 +7,7 @@
 //! |---|---|---|---|
 //! | isotropic point light | any | π (every direction) | π/2 |
 //! | degenerate (zero-area) triangle | any | π | π/2 |
+//! | virtual point light (a cosine lobe) | its normal | 0 (+ [`SLACK`]) | π/2 |
 //! | one-sided Lambertian triangle | its normal | 0 (+ [`SLACK`]) | π/2 |
 //! | a node | from [`LightCone::union`] | covers its children | min of the children's |
 //!
@@ -36,7 +37,7 @@
 //! every direction. `θ_e` is the smaller of the two (the larger angle),
 //! two-sided if either is.
 
-use super::{LightPrim, KIND_TRIANGLE};
+use super::{LightPrim, KIND_TRIANGLE, KIND_VPL};
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
@@ -191,6 +192,20 @@ impl LightCone {
 
     /// The cone of one light primitive (module docs table), widened.
     pub fn of_prim(prim: &LightPrim) -> LightCone {
+        if prim.kind == KIND_VPL {
+            // A cosine lobe about the normal, singular as a point.
+            let n = Vec3::from(prim.p1);
+            if !n.is_finite() || !(n.length_squared() > 0.0) {
+                return LightCone::POINT;
+            }
+            return LightCone {
+                axis: n.normalize().into(),
+                cos_o: 1.0,
+                sin_o: 0.0,
+                ..LightCone::POINT
+            }
+            .widened();
+        }
         if prim.kind != KIND_TRIANGLE {
             return LightCone::POINT;
         }

@@ -77,7 +77,7 @@
 //! stated tolerance; every cone is widened so that it bounds its lights
 //! either way.
 
-use super::{cone, luminance, LightCone, LightPrim, TreeNode, KIND_TRIANGLE, NO_LIGHT};
+use super::{cone, luminance, LightCone, LightPrim, TreeNode, KIND_TRIANGLE, KIND_VPL, NO_LIGHT};
 use crate::gpu::buffer::STORAGE;
 use crate::gpu::profiler::PhaseTimes;
 use crate::gpu::radix_sort::RadixSort;
@@ -168,6 +168,7 @@ pub fn prim_wgsl() -> Wgsl {
         .constant("LUM_G_BITS", luminance(Vec3::Y).to_bits())
         .constant("LUM_B_BITS", luminance(Vec3::Z).to_bits())
         .constant("KIND_TRIANGLE", KIND_TRIANGLE)
+        .constant("KIND_VPL", KIND_VPL)
         .constant("NO_LIGHT", NO_LIGHT)
         .constant("EMPTY_MIN_BITS", TreeNode::EMPTY_MIN.to_bits())
         .constant("EMPTY_MAX_BITS", TreeNode::EMPTY_MAX.to_bits())

@@ -61,6 +61,10 @@ pub struct LightParams {
     /// Frame time in scene time units (shading and shadow rays are traced
     /// at it); a uniform, so a new frame time compiles no new shader.
     pub time: f32,
+    /// Square of the VPL distance clamp: a VPL's `1/d²` uses
+    /// `max(d², vpl_clamp2)` (0 = no clamp).
+    pub vpl_clamp2: f32,
+    pub _pad: [u32; 3],
 }
 
 /// How the film is tiled into cut-sharing blocks (§3.3).

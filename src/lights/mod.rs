@@ -39,7 +39,7 @@
 //! The tree's `‖I‖` is the luminance (Rec. 709 weights) of the radiant
 //! intensity bound: `I` for a point light, `L_e · area` for a one-sided
 //! Lambertian emissive triangle (its on-axis intensity; its flux is
-//! `L_e · area · π`).
+//! `L_e · area · π`), the on-axis intensity for a VPL.
 
 pub mod alias;
 pub mod bvh;
@@ -53,6 +53,7 @@ pub mod morton;
 pub mod perfect;
 pub mod sampler;
 pub mod scene_lights;
+pub mod vpl;
 
 pub use alias::{AliasEntry, PowerSampler};
 pub use cone::LightCone;
@@ -75,13 +76,18 @@ pub fn luminance(c: Vec3) -> f32 {
 /// Kind of a [`LightPrim`].
 pub const KIND_POINT: u32 = 0;
 pub const KIND_TRIANGLE: u32 = 1;
+pub const KIND_VPL: u32 = 2;
 
 /// One light primitive at one frame time, as uploaded to the GPU.
 ///
 /// Point light: `p0` = position, `emission` = radiant intensity I (RGB,
 /// W/sr), `p1`/`p2` unused (equal to `p0`). Triangle: vertices `p0, p1,
 /// p2` (counter-clockwise; emits on the side of `(p1 − p0) × (p2 − p0)`),
-/// `emission` = radiance L_e.
+/// `emission` = radiance L_e. Virtual point light ([`super::vpl`]):
+/// `p0` = position, `p1` = unit normal, `p2` = `p0`, `emission` = the
+/// on-axis intensity of its one-sided cosine lobe, `I(ω) = emission ·
+/// max(0, n·ω)` (W/sr). Points and VPLs are placed at `p0` exactly: their
+/// bounds and centroid are `p0`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct LightPrim {
@@ -118,6 +124,19 @@ impl LightPrim {
         }
     }
 
+    /// A virtual point light at `position` emitting `intensity·max(0, n·ω)`
+    /// about the unit `normal`.
+    pub fn vpl(position: Vec3, normal: Vec3, intensity: Vec3) -> LightPrim {
+        LightPrim {
+            p0: position.into(),
+            kind: KIND_VPL,
+            p1: normal.into(),
+            p2: position.into(),
+            emission: intensity.into(),
+            ..Default::default()
+        }
+    }
+
     pub fn area(&self) -> f32 {
         match self.kind {
             KIND_TRIANGLE => {
@@ -141,18 +160,27 @@ impl LightPrim {
         }
     }
 
-    /// Centroid (the point light's position).
+    /// Centroid (a point light's or VPL's position).
     pub fn centroid(&self) -> Vec3 {
+        if self.kind != KIND_TRIANGLE {
+            return Vec3::from(self.p0);
+        }
         (Vec3::from(self.p0) + Vec3::from(self.p1) + Vec3::from(self.p2)) / 3.0
     }
 
     pub fn bounds_min(&self) -> Vec3 {
+        if self.kind != KIND_TRIANGLE {
+            return Vec3::from(self.p0);
+        }
         Vec3::from(self.p0)
             .min(Vec3::from(self.p1))
             .min(Vec3::from(self.p2))
     }
 
     pub fn bounds_max(&self) -> Vec3 {
+        if self.kind != KIND_TRIANGLE {
+            return Vec3::from(self.p0);
+        }
         Vec3::from(self.p0)
             .max(Vec3::from(self.p1))
             .max(Vec3::from(self.p2))

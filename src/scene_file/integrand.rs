@@ -7,6 +7,7 @@ use super::raw::*;
 use super::*;
 use crate::integrand::ManyLightSpec;
 use crate::lights::sampler::SamplerKind;
+use crate::lights::vpl::{self, VplSpec};
 
 impl Ctx<'_> {
     /// `emissive`: whether any mesh emits (then the path tracer spends two
@@ -82,9 +83,57 @@ impl Ctx<'_> {
                     interleave,
                     time: r.time.as_ref().map_or(d.time, |v| v.get_ref().0),
                     frame: self.u32(&r.frame, "frame", 0, d.frame)?,
+                    vpl: self.vpl(r)?,
                 })
             }
             _ => unreachable!("INTEGRAND_TYPES and this match list the same types"),
+        })
+    }
+
+    /// The VPL keys of a `many_light` `[integrand]`.
+    fn vpl(&self, r: &RawIntegrand) -> Result<VplSpec> {
+        let d = VplSpec::default();
+        let bounces = self.opt_int(
+            &r.vpl_bounces,
+            "vpl_bounces",
+            1..=vpl::MAX_BOUNCES as i64,
+            d.bounces as i64,
+        )? as u32;
+        let max_paths = (vpl::MAX_VPLS / bounces) as i64;
+        let paths = match &r.vpls {
+            None => d.paths,
+            Some(v) => {
+                let x = *v.get_ref();
+                if !(0..=max_paths).contains(&x) {
+                    return Err(self.error(
+                        v.span(),
+                        format!(
+                            "vpls must be in 0..={max_paths} (at most {} VPLs of {bounces} per path), found {x}",
+                            vpl::MAX_VPLS
+                        ),
+                    ));
+                }
+                x as u32
+            }
+        };
+        let clamp = match &r.vpl_clamp {
+            None => d.clamp,
+            Some(v) => {
+                let x = v.get_ref().0;
+                if !(x >= 0.0 && x.is_finite()) {
+                    return Err(self.error(
+                        v.span(),
+                        format!("vpl_clamp must be a finite distance ≥ 0, found {x}"),
+                    ));
+                }
+                x
+            }
+        };
+        Ok(VplSpec {
+            paths,
+            bounces,
+            seed: self.u32(&r.vpl_seed, "vpl_seed", 0, d.seed)?,
+            clamp,
         })
     }
 }

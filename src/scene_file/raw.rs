@@ -232,11 +232,16 @@ pub(super) struct RawIntegrand {
     pub(super) interleave: Option<S<i64>>,
     pub(super) time: Option<S<Num>>,
     pub(super) frame: Option<S<i64>>,
+    pub(super) vpls: Option<S<i64>>,
+    pub(super) vpl_bounces: Option<S<i64>>,
+    pub(super) vpl_seed: Option<S<i64>>,
+    pub(super) vpl_clamp: Option<S<Num>>,
 }
 
 impl RawIntegrand {
     pub(super) fn type_keys(&self) -> Vec<(&'static str, Range<usize>)> {
-        present_keys!(self; max_bounces, radius, sampler, cut_size, block, interleave, time, frame)
+        present_keys!(self; max_bounces, radius, sampler, cut_size, block, interleave, time, frame,
+            vpls, vpl_bounces, vpl_seed, vpl_clamp)
     }
 }
 
@@ -255,6 +260,10 @@ pub(super) const INTEGRAND_TYPES: [(&str, &[&str]); 6] = [
             "interleave",
             "time",
             "frame",
+            "vpls",
+            "vpl_bounces",
+            "vpl_seed",
+            "vpl_clamp",
         ],
     ),
 ];

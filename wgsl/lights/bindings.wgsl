@@ -48,6 +48,11 @@ struct LightParams {
     frame: u32,
     // Frame time (scene time units).
     time: f32,
+    // Square of the VPL distance clamp (0 = none): 1/max(d², vpl_clamp2).
+    vpl_clamp2: f32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 @group(1) @binding(16) var<storage, read> light_nodes: array<TreeNode>;

@@ -88,6 +88,14 @@ fn cone_widened(c: LightCone) -> LightCone {
 }
 
 fn cone_of_prim(l: LightPrim) -> LightCone {
+    if (l.kind == KIND_VPL) {
+        let nv = l.p1;
+        let len2 = dot(nv, nv);
+        if (!(len2 > 0.0) || len2 > 3.0e38) {
+            return cone_point();
+        }
+        return cone_widened(LightCone(nv / sqrt(len2), 1.0, 0.0, 0.0, 0u, 1u));
+    }
     if (l.kind != KIND_TRIANGLE) {
         return cone_point();
     }

@@ -1,6 +1,6 @@
 // Light primitives and tree nodes (src/lights/mod.rs), with the per-light
 // quantities computed exactly as the CPU computes them (LightPrim::centroid,
-// ::intensity, ::bounds_min/max), so that the GPU tree equals the CPU oracle
+// ::intensity, ::bounds_min/max; points and VPLs sit at p0), so that the GPU tree equals the CPU oracle
 // bit for bit. src/lights/gpu_build.rs explains each rule; in short:
 //   * no product may be fused with a following addition (drivers may contract
 //     a·b + c into an fma, which rounds once instead of twice): products that
@@ -78,6 +78,9 @@ fn vmax(a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
 }
 
 fn prim_centroid(l: LightPrim) -> vec3<f32> {
+    if (l.kind != KIND_TRIANGLE) {
+        return l.p0;
+    }
     let s = (l.p0 + l.p1) + l.p2;
     return vec3<f32>(div3_rn(s.x), div3_rn(s.y), div3_rn(s.z));
 }
@@ -108,6 +111,9 @@ fn prim_intensity(l: LightPrim) -> f32 {
 }
 
 fn leaf_node(l: LightPrim, id: u32) -> TreeNode {
+    if (l.kind != KIND_TRIANGLE) {
+        return TreeNode(l.p0, prim_intensity(l), l.p0, id);
+    }
     return TreeNode(
         vmin(vmin(l.p0, l.p1), l.p2),
         prim_intensity(l),
