@@ -1,8 +1,10 @@
 //! Light-sampling cost of the `many_light` integrand per sampler: the
-//! frame set-up (GPU light-tree build phases, CPU builds, cut pre-pass) and
+//! frame set-up (VPL generation where the scene has VPLs, GPU light-tree
+//! build phases, CPU builds, cut pre-pass) and
 //! the time per sample of a Halton render (one camera ray, one light
 //! selection, one shadow ray), on the known-answer plane with 4,096 point
-//! lights and the two many-light scenes of the paper's comparisons.
+//! lights, `cornell_lights`, the isotropic VPL stand-in and `vpl_atrium`
+//! with its 100,000 generated VPLs.
 //!
 //! Method: each (scene, sampler) integrand is set up once (set-up times from
 //! its own profiler), then rendered with Halton at `SPP` samples per pixel:
@@ -35,11 +37,12 @@ fn main() -> anyhow::Result<()> {
         "adapter: {} ({:?}), {SPP} spp, median of {RUNS}",
         gpu.info.name, gpu.info.backend
     );
-    println!("| scene | film | lights | sampler | set-up ms (build / cuts) | render ms | ns/sample | vs uniform |");
+    println!("| scene | film | lights | sampler | set-up ms (VPLs / build / cuts) | render ms | ns/sample | vs uniform |");
     println!("|---|---|---:|---|---:|---:|---:|---:|");
     for (file, s) in [
         ("scenes/tests/point_lights_plane.toml", 1.0),
         ("scenes/cornell_lights.toml", scale),
+        ("scenes/tests/vpl_atrium_points.toml", scale),
         ("scenes/vpl_atrium.toml", scale),
     ] {
         let loaded = mdas::scene_file::load(Path::new(file))?;
@@ -58,7 +61,8 @@ fn main() -> anyhow::Result<()> {
             let integrand = ManyLight::new(gpu, scene, gpu_scene.clone(), film, &spec)?;
             let setup = integrand.setup_times();
             let cuts = setup.get("many_light.cuts").unwrap_or(0.0);
-            let build = setup.total() - cuts;
+            let vpls = setup.get("many_light.vpl").unwrap_or(0.0);
+            let build = setup.total() - cuts - vpls;
             let mut halton = Halton::new(SPP, 1);
             halton.render(gpu, &integrand)?;
             let mut times: Vec<f64> = (0..RUNS)
@@ -70,7 +74,7 @@ fn main() -> anyhow::Result<()> {
             let ns = ms * 1e6 / samples;
             let base = *uniform_ns.get_or_insert(ns);
             println!(
-                "| `{}` | {}×{} | {} | {kind} | {:.2} / {:.2} | {ms:.1} | {ns:.0} | {:+.0} ns |",
+                "| `{}` | {}×{} | {} | {kind} | {vpls:.2} / {:.2} | {ms:.1} | {ns:.0} | {:+.0} ns |",
                 Path::new(file).file_stem().unwrap().to_string_lossy(),
                 film.width,
                 film.height,

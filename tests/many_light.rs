@@ -264,15 +264,16 @@ fn renders_are_deterministic() {
     assert_eq!(image_bits(&ma), image_bits(&mb));
 }
 
-/// The three many-light scenes render at a small scale under Halton and
-/// MDAS (the scene's sampler, `tree`) with no non-finite sample and a
-/// non-black image; the light tree is built on the GPU (1M lights for
-/// `lights_1m`).
+/// The many-light scenes render at a small scale under Halton and MDAS
+/// (the scene's sampler, `tree`) with no non-finite sample and a non-black
+/// image; the light tree is built on the GPU (1M lights for `lights_1m`,
+/// 100,000 VPLs generated on the GPU for `vpl_atrium`).
 #[test]
 fn many_light_scenes_render_under_halton_and_mdas() {
     for (file, scale) in [
         ("scenes/cornell_lights.toml", 1.0 / 8.0),
         ("scenes/vpl_atrium.toml", 1.0 / 8.0),
+        ("scenes/tests/vpl_atrium_points.toml", 1.0 / 8.0),
         ("scenes/lights_1m.toml", 1.0 / 8.0),
     ] {
         let p = app::prepare(gpu(), Path::new(file), scale).unwrap();

@@ -89,8 +89,30 @@ fn cornell_lights_has_twelve_animated_mesh_lights_of_1000_triangles() {
 }
 
 #[test]
-fn vpl_atrium_has_100k_surface_lights_on_the_hall() {
+fn vpl_atrium_is_lit_by_its_skylight_and_100k_vpls() {
     let s = scene_file::load(&scene_path("vpl_atrium.toml")).unwrap();
+    let IntegrandSpec::ManyLight(spec) = &s.integrand else {
+        panic!("vpl_atrium is a many_light scene")
+    };
+    // The skylight quad is the only light; the VPLs come per frame.
+    assert_eq!(
+        light_counts(&s.scene),
+        LightCounts {
+            points: 0,
+            set_points: 0,
+            triangles: 2
+        }
+    );
+    assert_eq!(spec.vpl.count(), 100_000);
+    assert_eq!((spec.vpl.bounces, spec.vpl.clamp), (2, 0.5));
+    // The hall of the isotropic stand-in, plus the skylight.
+    let points = scene_file::load(&scene_path("tests/vpl_atrium_points.toml")).unwrap();
+    assert_eq!(s.scene.triangle_count(), points.scene.triangle_count() + 2);
+}
+
+#[test]
+fn vpl_atrium_points_has_100k_surface_lights_on_the_hall() {
+    let s = scene_file::load(&scene_path("tests/vpl_atrium_points.toml")).unwrap();
     assert!(matches!(s.integrand, IntegrandSpec::ManyLight(_)));
     assert_eq!(
         light_counts(&s.scene),
@@ -128,7 +150,7 @@ fn vpl_atrium_has_100k_surface_lights_on_the_hall() {
             })
             .sum();
         let radiance = 0.6 / std::f32::consts::PI * e;
-        eprintln!("vpl_atrium: unoccluded radiance {radiance} at {p}");
+        eprintln!("vpl_atrium_points: unoccluded radiance {radiance} at {p}");
         assert!((0.1..1.0).contains(&radiance), "radiance {radiance} at {p}");
     }
 }

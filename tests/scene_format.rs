@@ -659,7 +659,7 @@ fn many_light_scenes_parse_their_integrand_and_light_sets() {
         assert_eq!(a, b);
     }
     for (file, count, orbit) in [
-        ("vpl_atrium.toml", 100_000, 0.0),
+        ("tests/vpl_atrium_points.toml", 100_000, 0.0),
         ("lights_1m.toml", 1_000_000, 0.05),
     ] {
         let s = spec(file);

@@ -7,15 +7,19 @@
 //! 3–4, present only when the scene has emissive triangles, are a uniform
 //! point on the selected triangle. The estimator is
 //! L_e(x) + ρ(x)/π · C(y) · cosθ_x · V(x, y) / pmf(light), with
-//! C = I/d² for a point light and C = L_e·cosθ_y·area/d² for a triangle
-//! (one-sided: 0 behind it). The camera ray is a pinhole ray at the frame
+//! C = I/d² for a point light, C = L_e·cosθ_y·area/d² for a triangle
+//! (one-sided: 0 behind it) and C = I_0·cosθ_v/max(d², clamp²) for a VPL
+//! (a cosine lobe about its normal, 0 behind it). The camera ray is a pinhole ray at the frame
 //! time `time` of the `[integrand]` table; shading normals face the
 //! viewer (two-sided reflection) and are what the sampler bounds use.
 //!
 //! # One frame
 //!
 //! [`ManyLight::new`] sets up one frame: the light primitives at the frame
-//! time ([`crate::lights::scene_lights::light_prims`]) are uploaded; the
+//! time ([`crate::lights::scene_lights::light_prims`]), followed, when the
+//! `[integrand]` asks for VPLs, by the VPLs traced from them on the GPU
+//! ([`crate::lights::vpl`], profiler phase `many_light.vpl`; read back and
+//! appended), are uploaded; the
 //! tree kinds build their perfect light tree **on the GPU**
 //! ([`GpuLightTree`]), the `unbalanced` kinds build their BVH on the CPU,
 //! `power` its alias table. Kinds with cuts (`tree`, `unbalanced`) then run
