@@ -74,7 +74,7 @@ fn main() -> anyhow::Result<()> {
             let ns = ms * 1e6 / samples;
             let base = *uniform_ns.get_or_insert(ns);
             println!(
-                "| `{}` | {}×{} | {} | {kind} | {vpls:.2} / {:.2} | {ms:.1} | {ns:.0} | {:+.0} ns |",
+                "| `{}` | {}×{} | {} | {kind} | {vpls:.2} / {:.2} / {:.2} | {ms:.1} | {ns:.0} | {:+.0} ns |",
                 Path::new(file).file_stem().unwrap().to_string_lossy(),
                 film.width,
                 film.height,
