@@ -195,7 +195,7 @@ impl LightCone {
         if prim.kind == KIND_VPL {
             // A cosine lobe about the normal, singular as a point.
             let n = Vec3::from(prim.p1);
-            if !n.is_finite() || !(n.length_squared() > 0.0) {
+            if !n.is_finite() || n.length_squared() == 0.0 {
                 return LightCone::POINT;
             }
             return LightCone {
@@ -218,7 +218,7 @@ impl LightCone {
         // tiny and huge triangles neither underflow nor overflow.
         let n = (b - a).cross(c - a);
         let m = n.abs().max_element();
-        if !(m > 0.0) || !m.is_finite() {
+        if m == 0.0 || !m.is_finite() {
             return LightCone::SPHERE;
         }
         let n = n / m;

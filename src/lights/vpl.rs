@@ -129,7 +129,7 @@ pub fn scene_sphere(scene: &Scene, time: f32) -> (Vec3, f32) {
             hi = hi.max(p);
         }
     }
-    if !(lo.x <= hi.x) {
+    if lo.x > hi.x || !lo.is_finite() || !hi.is_finite() {
         return (Vec3::ZERO, 0.0);
     }
     ((lo + hi) * 0.5, (hi - lo).length() * 0.5)
