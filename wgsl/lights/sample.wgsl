@@ -152,16 +152,11 @@ fn light_emission_bound(cone: LightCone, sp: LightSphere) -> f32 {
     return cos_p;
 }
 
-// dmin², dmax² and W = F·I; all 0 for dead nodes (I = 0 or EMPTY bounds).
-// With a cone (`cones`): W = F·G·I and, without point lights below,
-// dmin² ≥ NEAR_CLAMP·r² (importance.rs).
-fn light_node_importance(
-    node: TreeNode,
-    cones: bool,
-    cone: LightCone,
-    x: vec3<f32>,
-    n: vec3<f32>,
-) -> NodeImportance {
+// dmin², dmax² and W = F·I of node `index`; all 0 for dead nodes (I = 0 or
+// EMPTY bounds). With cones (`cones`): W = F·G·I and, without point lights
+// below, dmin² ≥ NEAR_CLAMP·r² (importance.rs). The cone is read only when
+// F > 0: W = 0 whatever G is otherwise (the same result as the CPU's).
+fn light_node_importance(node: TreeNode, index: u32, cones: bool, x: vec3<f32>, n: vec3<f32>) -> NodeImportance {
     if (node.intensity == 0.0 || node.bmin.x > node.bmax.x) {
         return NodeImportance(0.0, 0.0, 0.0);
     }
@@ -174,19 +169,20 @@ fn light_node_importance(
     if (!cones) {
         return NodeImportance(dmin2, dmax2, f * node.intensity);
     }
-    let g = light_emission_bound(cone, sp);
+    let cone = light_cones[index];
     var near = dmin2;
     if (cone.points == 0u) {
         near = max(dmin2, bitcast<f32>(LIGHT_NEAR_CLAMP_BITS) * sp.r2);
     }
+    if (f == 0.0) {
+        return NodeImportance(near, dmax2, 0.0);
+    }
+    let g = light_emission_bound(cone, sp);
     return NodeImportance(near, dmax2, (f * g) * node.intensity);
 }
 
 fn light_importance_of(node: u32, x: vec3<f32>, n: vec3<f32>) -> NodeImportance {
-    if (light_uses_cones()) {
-        return light_node_importance(light_nodes[node], true, light_cones[node], x, n);
-    }
-    return light_node_importance(light_nodes[node], false, cone_sphere(), x, n);
+    return light_node_importance(light_nodes[node], node, light_uses_cones(), x, n);
 }
 
 fn light_ratio(w_j: f32, d_j: f32, w_k: f32, d_k: f32) -> f32 {
