@@ -9,9 +9,10 @@
 //! L_e(x) + ρ(x)/π · C(y) · cosθ_x · V(x, y) / pmf(light), with
 //! C = I/d² for a point light, C = L_e·cosθ_y·area/d² for a triangle
 //! (one-sided: 0 behind it) and C = I_0·cosθ_v/max(d², clamp²) for a VPL
-//! (a cosine lobe about its normal, 0 behind it). The camera ray is a pinhole ray at the frame
-//! time `time` of the `[integrand]` table; shading normals face the
-//! viewer (two-sided reflection) and are what the sampler bounds use.
+//! (a cosine lobe about its normal, 0 behind it). The camera ray is a
+//! pinhole ray at the frame time `time` of the `[integrand]` table;
+//! shading normals face the viewer (two-sided reflection) and are what the
+//! sampler bounds use.
 //!
 //! # One frame
 //!
@@ -19,10 +20,11 @@
 //! time ([`crate::lights::scene_lights::light_prims`]), followed, when the
 //! `[integrand]` asks for VPLs, by the VPLs traced from them on the GPU
 //! ([`crate::lights::vpl`], profiler phase `many_light.vpl`; read back and
-//! appended), are uploaded; the
-//! tree kinds build their perfect light tree **on the GPU**
-//! ([`GpuLightTree`]), the `unbalanced` kinds build their BVH on the CPU,
-//! `power` its alias table. Kinds with cuts (`tree`, `unbalanced`) then run
+//! appended), are uploaded; the tree kinds build their perfect light tree
+//! **on the GPU** ([`GpuLightTree`], with cones for `tree_cone`), the
+//! `unbalanced` kinds build their BVH on the CPU, `power` its alias table.
+//! Kinds with cuts (`tree`, `tree_cone`, `unbalanced`,
+//! `unbalanced_nocone`) then run
 //! the cut-sharing pre-pass (paper §3.3): one invocation per k×k pixel
 //! block picks a representative pixel at random (a hash of the block and
 //! the frame number), traces its primary ray through the pixel centre and
@@ -174,6 +176,7 @@ impl ManyLight {
             };
             Ok((sampler, tree))
         })?;
+        // set_time uploads the whole parameter block, the clamp with it.
         sampler.params.vpl_clamp2 = spec.vpl.clamp * spec.vpl.clamp;
         sampler.set_time(gpu, spec.time);
 

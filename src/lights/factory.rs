@@ -40,7 +40,8 @@ impl LightSampler for UniformSampler {
 pub type UnbalancedSampler = TreeSampler<LightBvh>;
 
 /// A CPU sampler of `kind` over `prims`. `cut_at` = (representative
-/// shading point, cut size) selects the cut of the kinds with cuts (without it they sample from the root); the other kinds ignore it.
+/// shading point, cut size) selects the cut of the kinds with cuts
+/// (without it they sample from the root); the other kinds ignore it.
 /// Zero lights give a sampler that never returns a light.
 pub fn new_sampler(
     kind: SamplerKind,

@@ -78,6 +78,14 @@ fn generate_vpls(@builtin(workgroup_id) wid: vec3<u32>,
     let k_src = vpl_pick_source(u0);
     let below = select(0.0, vpl_cdf[max(k_src, 1u) - 1u], k_src > 0u);
     let pmf = vpl_cdf[k_src] - below;
+    if (!(pmf > 0.0)) {
+        // A flux too small to survive the f32 CDF: never picked in exact
+        // arithmetic; dark rather than infinite.
+        for (var k = 0u; k < vpl_params.bounces; k++) {
+            vpls[first + k] = vpl_dark(vpl_params.center);
+        }
+        return;
+    }
     let src = vpl_sources[k_src];
     let scale = 1.0 / (pmf * f32(vpl_params.paths));
     let ua = vec2<f32>(vpl_rand(path, 1u), vpl_rand(path, 2u));
