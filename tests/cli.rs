@@ -455,6 +455,56 @@ fn compare_bad_input_fails_without_a_report() {
         ],
         "cannot be used with",
     );
+    run(
+        &[
+            "compare",
+            "scenes/area_light_plane.toml",
+            "--max-spp",
+            "0",
+            "--out",
+            o,
+        ],
+        "0 is not in 1..",
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A budget search that cannot reach the target (`--max-spp 1` against a
+/// 60-second budget) is reported as such on the console, next to the
+/// ratio, and in report.json.
+#[test]
+fn compare_says_when_times_are_not_equal() {
+    let dir = temp_dir("compare-unequal");
+    let out = dir.join("cmp");
+    let o = mdas(&[
+        "compare",
+        "scenes/area_light_plane.toml",
+        "--scale",
+        "0.125",
+        "--time-ms",
+        "60000",
+        "--max-spp",
+        "1",
+        "--ref-spp",
+        "16",
+        "--repeats",
+        "1",
+        "--seeds",
+        "1",
+        "--out",
+        out.to_str().unwrap(),
+        "--cache",
+        dir.join("cache").to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "stderr: {}", stderr(&o));
+    let text = format!("{}{}", String::from_utf8_lossy(&o.stdout), stderr(&o));
+    assert!(
+        text.contains("NOT AT EQUAL TIME: Halton's search did not reach 60000.000 ms"),
+        "{text}"
+    );
+    assert!(text.contains("— NOT at equal time"), "{text}");
+    let report = std::fs::read_to_string(out.join("report.json")).unwrap();
+    assert!(report.contains("\"bracketed\": false"), "{report}");
     std::fs::remove_dir_all(&dir).ok();
 }
 

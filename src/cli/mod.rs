@@ -307,8 +307,11 @@ pub(crate) struct ExperimentArgs {
     /// Timed runs per measurement, after one warm-up; times are medians.
     #[arg(long, default_value_t = 3)]
     pub(crate) repeats: u32,
-    /// Largest spp a budget search may try.
-    #[arg(long, default_value_t = 65536)]
+    /// Largest spp a budget search may try (at least 1). When a search
+    /// cannot reach the target time within it, the report says the times
+    /// are not equal.
+    #[arg(long, default_value_t = 65536,
+          value_parser = clap::value_parser!(u32).range(1..))]
     pub(crate) max_spp: u32,
     /// Output directory. Default: out/compare-<scene> (sweep: out/sweep-<scene>).
     #[arg(long)]

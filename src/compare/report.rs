@@ -433,6 +433,23 @@ pub fn table(report: &Report) -> String {
             m.lo.spp, m.lo.time_ms, m.hi.spp, m.hi.time_ms, m.relmse
         );
     }
+    // Searches that could not reach the target: say so plainly.
+    let unequal: Vec<(&str, &SearchReport)> = std::iter::once((halton_name, h))
+        .chain(e.mdas.as_ref().map(|m| (mdas_name, m)))
+        .chain(
+            e.samplers
+                .iter()
+                .flatten()
+                .map(|s| (s.method.as_str(), &s.search)),
+        )
+        .filter(|(_, s)| !s.bracketed)
+        .collect();
+    for (name, s) in &unequal {
+        out += &format!(
+            "NOT AT EQUAL TIME: {name}'s search did not reach {:.3} ms (its runs took {:.3} ms at {} spp to {:.3} ms at {} spp; raise --max-spp or lower --time-ms); its errors are those of its nearest run\n",
+            s.target_ms, s.lo.time_ms, s.lo.spp, s.hi.time_ms, s.hi.spp
+        );
+    }
     if let Some(samplers) = &e.samplers {
         let sw = samplers
             .iter()
@@ -498,10 +515,15 @@ pub fn table(report: &Report) -> String {
         ci.map_or_else(String::new, |[lo, hi]| format!(" [{lo:.4}, {hi:.4}]"))
     };
     out += &format!(
-        "equal-time RelMSE ratio {mdas_name}/{halton_name}: {:.4}{} ({:+.1}%)\n",
+        "equal-time RelMSE ratio {mdas_name}/{halton_name}: {:.4}{} ({:+.1}%){}\n",
         e.relmse_ratio,
         interval(e.relmse_ratio_ci95),
-        100.0 * (e.relmse_ratio - 1.0)
+        100.0 * (e.relmse_ratio - 1.0),
+        if unequal.is_empty() {
+            ""
+        } else {
+            " — NOT at equal time (see above)"
+        }
     );
     if let Some(q) = &e.equal_samples {
         out += &format!(
