@@ -88,6 +88,13 @@ impl BuiltScene {
     /// non-finite vertices or a hierarchy too deep for the GPU stack.
     pub fn new(scene: &Scene) -> Result<BuiltScene> {
         let groups = groups(scene)?;
+        for g in &groups {
+            let tri = |t: &Triangle| [t.v0, t.v1, t.v2].map(Vec3::from);
+            if let Some(pile) = crate::scene::shapes::coincident_triangles(g.tris.iter().map(tri)) {
+                let mesh = &scene.meshes[g.source[pile.first[0]][0] as usize].name;
+                bail!("the geometry around mesh '{mesh}' is degenerate: {pile}");
+            }
+        }
         let start = Instant::now();
         let mut core = Duration::ZERO;
 

@@ -92,6 +92,72 @@ impl TriMesh {
     }
 }
 
+/// The most triangles that may share one bounding-box centre. A BVH
+/// builder separates triangles by their centres, so a pile of coincident
+/// ones (the same face written many times) cannot be split: obvhs then
+/// peels them off a few at a time, in time quadratic in the pile and to a
+/// depth the GPU traversal stack cannot hold (80,000 copies of one face
+/// took 96 s to fail). A real mesh has at most a few faces with the same
+/// centre (a face and its reverse), so 16 refuses only broken input.
+pub const MAX_COINCIDENT_TRIANGLES: usize = 16;
+
+/// The largest set of triangles sharing one bounding-box centre, when it
+/// has more than [`MAX_COINCIDENT_TRIANGLES`] members.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CoincidentTriangles {
+    /// How many triangles share the centre.
+    pub count: usize,
+    /// The first two of them (indices in the iteration order).
+    pub first: [usize; 2],
+    pub centre: Vec3,
+}
+
+/// Finds piles of triangles with one bounding-box centre (see
+/// [`MAX_COINCIDENT_TRIANGLES`]) in linear time. The centre is
+/// `(min + max) / 2` of the vertices, which does not depend on their order.
+pub fn coincident_triangles(
+    triangles: impl Iterator<Item = [Vec3; 3]>,
+) -> Option<CoincidentTriangles> {
+    let mut seen: HashMap<[u32; 3], (usize, usize, usize), BuildHasherDefault<SplitMix>> =
+        HashMap::default();
+    let mut worst: Option<CoincidentTriangles> = None;
+    for (t, [a, b, c]) in triangles.enumerate() {
+        let centre = (a.min(b).min(c) + a.max(b).max(c)) * 0.5;
+        // +0.0 and −0.0 are one point.
+        let key = (centre + Vec3::ZERO).to_array().map(f32::to_bits);
+        let entry = seen.entry(key).or_insert((0, t, t));
+        entry.0 += 1;
+        if entry.0 == 2 {
+            entry.2 = t;
+        }
+        if entry.0 > MAX_COINCIDENT_TRIANGLES && worst.is_none_or(|w| entry.0 > w.count) {
+            worst = Some(CoincidentTriangles {
+                count: entry.0,
+                first: [entry.1, entry.2],
+                centre,
+            });
+        }
+    }
+    worst
+}
+
+impl std::fmt::Display for CoincidentTriangles {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} triangles share the centre ({}, {}, {}) (the first two are triangles {} and {}, counting from 0); \
+             a BVH cannot separate more than {} coincident triangles — remove the duplicate faces",
+            self.count,
+            self.centre.x,
+            self.centre.y,
+            self.centre.z,
+            self.first[0],
+            self.first[1],
+            MAX_COINCIDENT_TRIANGLES
+        )
+    }
+}
+
 /// Two triangles (c0, c1, c2), (c0, c2, c3); normal (c1 − c0) × (c2 − c0).
 pub fn quad(corners: [Vec3; 4]) -> TriMesh {
     TriMesh {
@@ -638,6 +704,38 @@ mod tests {
         let mean = values.iter().sum::<f32>() / values.len() as f32;
         let var = values.iter().map(|v| (v - mean).powi(2)).sum::<f32>() / values.len() as f32;
         assert!(mean.abs() < 0.1 && var > 1e-3, "mean {mean} var {var}");
+    }
+
+    /// The pile detector keys on the bounding-box centre, so vertex order
+    /// and the sign of zero do not hide a copy; no generated shape trips it.
+    #[test]
+    fn coincident_triangle_piles_are_found_and_real_shapes_pass() {
+        let (a, b, c) = (Vec3::new(-0.0, 1.0, 0.0), Vec3::X, Vec3::new(0.0, 0.0, 2.0));
+        let orders = [[a, b, c], [b, c, a], [c, a, b], [a, c, b]];
+        let mut pile: Vec<[Vec3; 3]> = vec![[Vec3::ONE, Vec3::Y, Vec3::Z]];
+        pile.extend((0..MAX_COINCIDENT_TRIANGLES).map(|i| orders[i % 4]));
+        assert_eq!(coincident_triangles(pile.iter().copied()), None);
+        pile.push([a.with_x(0.0), b, c]);
+        let found = coincident_triangles(pile.iter().copied()).unwrap();
+        assert_eq!(found.count, MAX_COINCIDENT_TRIANGLES + 1);
+        assert_eq!(found.first, [1, 2]);
+        assert_eq!(found.centre, Vec3::new(0.5, 0.5, 1.0));
+        let noise = BlobNoise {
+            amplitude: 0.2,
+            frequency: 2.0,
+            octaves: 3,
+            seed: 1,
+        };
+        for m in [
+            cuboid(Vec3::ZERO, Vec3::ONE),
+            uv_sphere(Vec3::ZERO, 1.0, 64, 32),
+            icosphere(5),
+            blob(Vec3::ZERO, 1.0, 4, &noise),
+            disk(Vec3::ZERO, Vec3::Y, 1.0, 64),
+        ] {
+            let tris = (0..m.indices.len()).map(|t| m.triangle(t));
+            assert_eq!(coincident_triangles(tris), None);
+        }
     }
 
     #[test]

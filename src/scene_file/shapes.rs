@@ -274,6 +274,11 @@ impl Ctx<'_> {
                 format!("this {kind} is entirely degenerate: every triangle has zero area{why}"),
             ));
         }
+        if let Some(pile) =
+            shapes::coincident_triangles((0..mesh.indices.len()).map(|t| mesh.triangle(t)))
+        {
+            return Err(self.error(geometry_span, format!("this {kind} is degenerate: {pile}")));
+        }
         let motion = match &r.motion {
             Some(m) => self.motion(m)?,
             None => Vec::new(),
