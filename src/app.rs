@@ -190,7 +190,8 @@ pub fn output_files(path: &Path) -> Result<(Option<PathBuf>, PathBuf)> {
     }
 }
 
-/// Writes the files [`output_files`] names (each atomically) and returns
+/// Writes the files [`output_files`] names (as one unit: both or neither,
+/// `crate::atomic`) and returns
 /// their paths, EXR first.
 pub fn write_outputs(path: &Path, render_film: Film, image: &[[f32; 3]]) -> Result<Vec<PathBuf>> {
     write_outputs_with(path, render_film, image, &[])
@@ -206,13 +207,15 @@ pub fn write_outputs_with(
 ) -> Result<Vec<PathBuf>> {
     let (exr, png) = output_files(path)?;
     let (w, h) = (render_film.width, render_film.height);
+    let mut writes = crate::atomic::AtomicWrites::new();
     let mut written = Vec::new();
     if let Some(exr) = exr {
-        image_io::write_exr_with(&exr, w, h, image, attributes)?;
+        image_io::stage_exr(&mut writes, &exr, w, h, image, attributes)?;
         written.push(exr);
     }
-    image_io::write_png(&png, w, h, image)?;
+    image_io::stage_png(&mut writes, &png, w, h, image)?;
     written.push(png);
+    writes.commit()?;
     Ok(written)
 }
 
@@ -295,8 +298,69 @@ fn reference_cache_path_keyed(
     Ok(cache_dir.join(format!("{stem}-{hex}.exr")))
 }
 
+/// A reference image and where it came from.
+#[derive(Clone, Debug)]
+pub struct Reference {
+    pub film: Film,
+    pub image: Vec<[f32; 3]>,
+    /// The cache entry (EXR); its record is [`reference_record_path`].
+    pub path: PathBuf,
+    pub cache: CacheUse,
+}
+
+/// How a reference was obtained.
+#[derive(Clone, Debug, PartialEq)]
+pub enum CacheUse {
+    /// Read from a valid cache entry.
+    Hit,
+    /// Rendered: there was no entry.
+    Rendered,
+    /// Rendered again: the entry was unusable, for this reason.
+    Rebuilt(String),
+}
+
+impl Reference {
+    /// Whether the image came from the cache.
+    pub fn cached(&self) -> bool {
+        self.cache == CacheUse::Hit
+    }
+}
+
+/// SHA-256 of an image's pixels (f32 little-endian bytes, row-major),
+/// stored in a cache entry's record and checked on every hit.
+pub fn pixels_sha256(image: &[[f32; 3]]) -> String {
+    let digest = Sha256::digest(bytemuck::cast_slice::<[f32; 3], u8>(image));
+    digest.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// A cache entry, if it is whole: its EXR reads, has the film's size, is
+/// finite, and its pixels hash to the record's `pixels_sha256` (a
+/// truncated, garbled, zeroed or half-written entry fails one of these).
+fn read_cache_entry(path: &Path, film: Film) -> Result<Vec<[f32; 3]>> {
+    let record: serde_json::Value = {
+        let record_path = reference_record_path(path);
+        let text = std::fs::read_to_string(&record_path)
+            .with_context(|| format!("its record {} is missing", record_path.display()))?;
+        serde_json::from_str(&text).context("its record is not valid JSON")?
+    };
+    let (w, h, image) = image_io::read_exr(path)?;
+    if (w, h) != (film.width, film.height) {
+        bail!("it is {w}×{h}, the film {}×{}", film.width, film.height);
+    }
+    if image.iter().any(|p| !p.iter().all(|c| c.is_finite())) {
+        bail!("it has non-finite pixels");
+    }
+    let stored = record["pixels_sha256"].as_str().unwrap_or("");
+    if stored != pixels_sha256(&image) {
+        bail!("its pixels do not match the checksum in its record");
+    }
+    Ok(image)
+}
+
 /// The reference image (Halton at `spec.spp`), from the cache or rendered
-/// and cached. Returns the image, its path and whether it was cached.
+/// and cached. A cache entry is used only if it is whole
+/// ([`CacheUse::Hit`]); an unusable one is rendered again and replaced
+/// ([`CacheUse::Rebuilt`] says why).
 /// References use the scene file's own `[integrand]` table (`mdas compare`
 /// always does, whatever `--sampler` its compared renders use: every light
 /// sampler estimates the same image).
@@ -306,7 +370,7 @@ pub fn reference(
     spec: ReferenceSpec,
     cache_dir: &Path,
     progress: Option<crate::integrator::halton::Progress>,
-) -> Result<(Film, Vec<[f32; 3]>, PathBuf, bool)> {
+) -> Result<Reference> {
     reference_with(
         gpu,
         scene_path,
@@ -328,19 +392,34 @@ pub fn reference_with(
     overrides: IntegrandOverrides,
     cache_dir: &Path,
     progress: Option<crate::integrator::halton::Progress>,
-) -> Result<(Film, Vec<[f32; 3]>, PathBuf, bool)> {
+) -> Result<Reference> {
     let scene = SceneFile::load(scene_path)?;
     let extra = overrides.cache_key(&scene.integrand)?;
     let path = reference_cache_path_keyed(cache_dir, scene_path, &scene.inputs, spec, &extra)?;
-    let prepared = prepare_loaded(gpu, scene, scene_path, spec.scale, overrides)?;
+    if path.is_dir() {
+        bail!(
+            "the reference cache entry {} is a directory; remove it",
+            path.display()
+        );
+    }
+    let film = scaled_film(scene.scene.film, spec.scale)?;
+    let mut cache = CacheUse::Rendered;
     if path.exists() {
-        let (w, h, image) = image_io::read_exr(&path)?;
-        if (w, h) == (prepared.film.width, prepared.film.height) {
-            return Ok((prepared.film, image, path, true));
+        match read_cache_entry(&path, film) {
+            Ok(image) => {
+                return Ok(Reference {
+                    film,
+                    image,
+                    path,
+                    cache: CacheUse::Hit,
+                })
+            }
+            Err(e) => cache = CacheUse::Rebuilt(format!("{e:#}")),
         }
     }
     std::fs::create_dir_all(cache_dir)
         .with_context(|| format!("cannot create cache directory {}", cache_dir.display()))?;
+    let prepared = prepare_loaded(gpu, scene, scene_path, spec.scale, overrides)?;
     let mut halton = Halton::new(spec.spp, spec.seed);
     if let Some(p) = progress {
         halton = halton.with_progress(p);
@@ -348,9 +427,12 @@ pub fn reference_with(
     let render = halton.render(gpu, prepared.integrand.as_ref())?;
     check_finite(&render)?;
     let attributes = render_attributes("halton", spec.seed, &render, scene_path);
-    write_outputs_with(&path, render.film, &render.image, &attributes)?;
-    // The record of how it was made, beside it.
+    // The record of how it was made, with the pixels' checksum, lands with
+    // the images as one unit: an entry is never seen without its record.
     let record = serde_json::json!({
+        "pixels_sha256": pixels_sha256(&render.image),
+        "width": render.film.width,
+        "height": render.film.height,
         "spp": spec.spp,
         "seed": spec.seed,
         "scale": spec.scale,
@@ -364,10 +446,26 @@ pub fn reference_with(
         )?,
     });
     let text = serde_json::to_string_pretty(&record)?;
-    image_io::write_atomic(&reference_record_path(&path), |t| {
+    let (w, h) = (render.film.width, render.film.height);
+    let mut writes = crate::atomic::AtomicWrites::new();
+    image_io::stage_exr(&mut writes, &path, w, h, &render.image, &attributes)?;
+    image_io::stage_png(
+        &mut writes,
+        &path.with_extension("png"),
+        w,
+        h,
+        &render.image,
+    )?;
+    writes.stage(&reference_record_path(&path), |t| {
         std::fs::write(t, text.as_bytes()).map_err(Into::into)
     })?;
-    Ok((render.film, render.image, path, false))
+    writes.commit()?;
+    Ok(Reference {
+        film: render.film,
+        image: render.image,
+        path,
+        cache,
+    })
 }
 
 /// The JSON record written beside a cached reference EXR (its provenance:

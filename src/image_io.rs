@@ -14,115 +14,18 @@
 //! - **PNG** is for eyes: 8-bit sRGB, each channel clamped to [0, 1] and
 //!   encoded with the piecewise sRGB transfer function (OETF) of IEC 61966-2-1
 //!   (see [`linear_to_srgb`]); NaN becomes 0 in the PNG only.
-//! - Every file is written through [`write_atomic`]: into a temporary file in
-//!   the target's directory, then renamed over the target, so a reader never
-//!   sees a half-written image and a failed write leaves the old file (or no
-//!   file) in place.
+//! - Every file is written through [`crate::atomic`]: into a temporary file
+//!   in the target's directory, then renamed over the target, so a reader
+//!   never sees a half-written image and a failed write leaves the old file
+//!   (or no file) in place. [`stage_exr`] and [`stage_png`] add a file to a
+//!   unit of files that land together (an EXR and its PNG).
 
-use std::fs;
-use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::path::Path;
 
-use anyhow::{anyhow, bail, Context, Result};
+use anyhow::{anyhow, bail, Result};
 
-/// Distinguishes temporary files of concurrent writes in one process (the pid
-/// alone does not: tests and worker threads share it).
-static TEMP_COUNTER: AtomicU64 = AtomicU64::new(0);
-
-/// The temporary path used while writing `path`: a hidden file in the same
-/// directory, `.{file_name}.{pid}-{n}.tmp.{ext}`, so that it ends in the same
-/// extension as the target (format detection by extension keeps working)
-/// and the final rename never crosses file systems.
-fn temp_path_for(path: &Path) -> Result<PathBuf> {
-    let file_name = path
-        .file_name()
-        .ok_or_else(|| anyhow!("cannot write {}: the path has no file name", path.display()))?;
-    let mut temp_name = std::ffi::OsString::from(".");
-    temp_name.push(file_name);
-    temp_name.push(format!(
-        ".{}-{}.tmp",
-        std::process::id(),
-        TEMP_COUNTER.fetch_add(1, Ordering::Relaxed)
-    ));
-    if let Some(extension) = path.extension() {
-        temp_name.push(".");
-        temp_name.push(extension);
-    }
-    Ok(path.with_file_name(temp_name))
-}
-
-/// Removes the temporary file when dropped unless disarmed; covers errors and
-/// panics inside the writer alike.
-struct TempFileGuard {
-    path: PathBuf,
-    armed: bool,
-}
-
-impl Drop for TempFileGuard {
-    fn drop(&mut self) {
-        if self.armed {
-            // Best effort: the file may not exist if the writer failed early.
-            let _ = fs::remove_file(&self.path);
-        }
-    }
-}
-
-/// Writes `path` atomically: calls `write` with a temporary path in the same
-/// directory (see the module docs for the name), flushes it to disk and
-/// renames it over `path`.
-///
-/// On any error (a missing or unwritable directory, an error returned by
-/// `write`, a failed rename) the temporary file is removed, `path` is left as
-/// it was, and the error says `cannot write {path}: ...`.
-pub fn write_atomic(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
-    let directory = match path.parent() {
-        Some(parent) if !parent.as_os_str().is_empty() => parent,
-        _ => Path::new("."),
-    };
-    if !directory.is_dir() {
-        bail!(
-            "cannot write {}: directory {} does not exist",
-            path.display(),
-            directory.display()
-        );
-    }
-    if path.is_dir() {
-        bail!("cannot write {}: it is a directory", path.display());
-    }
-
-    let temp = temp_path_for(path)?;
-    let mut guard = TempFileGuard {
-        path: temp.clone(),
-        armed: true,
-    };
-    write(&temp).with_context(|| format!("cannot write {}", path.display()))?;
-    if !temp.is_file() {
-        bail!(
-            "cannot write {}: the writer did not create the temporary file {}",
-            path.display(),
-            temp.display()
-        );
-    }
-    // Make the data durable before the rename makes it visible.
-    fs::File::open(&temp)
-        .and_then(|file| file.sync_all())
-        .with_context(|| {
-            format!(
-                "cannot write {}: flushing {} failed",
-                path.display(),
-                temp.display()
-            )
-        })?;
-    fs::rename(&temp, path).with_context(|| {
-        format!(
-            "cannot write {}: renaming {} over it failed",
-            path.display(),
-            temp.display()
-        )
-    })?;
-    guard.armed = false;
-    Ok(())
-}
+pub use crate::atomic::write_atomic;
+use crate::atomic::AtomicWrites;
 
 /// Checks `rgb.len() == width * height` and a non-zero size.
 fn check_dimensions(path: &Path, width: u32, height: u32, rgb: &[[f32; 3]]) -> Result<usize> {
@@ -184,6 +87,21 @@ pub fn write_exr_with(
     rgb: &[[f32; 3]],
     attributes: &[(&str, ExrAttribute)],
 ) -> Result<()> {
+    let mut writes = AtomicWrites::new();
+    stage_exr(&mut writes, path, width, height, rgb, attributes)?;
+    writes.commit()
+}
+
+/// [`write_exr_with`] as one file of a unit: written and flushed now, in
+/// place when `writes` is committed.
+pub fn stage_exr(
+    writes: &mut AtomicWrites,
+    path: &Path,
+    width: u32,
+    height: u32,
+    rgb: &[[f32; 3]],
+    attributes: &[(&str, ExrAttribute)],
+) -> Result<()> {
     use exr::meta::attribute::{AttributeValue, Text};
     use exr::prelude::*;
 
@@ -218,7 +136,7 @@ pub fn write_exr_with(
         Encoding::SMALL_LOSSLESS,
         channels,
     ));
-    write_atomic(path, |temp| {
+    writes.stage(path, |temp| {
         image
             .write()
             .to_file(temp)
@@ -353,6 +271,19 @@ pub fn linear_to_srgb8(linear: f32) -> u8 {
 /// Writes an 8-bit sRGB PNG for viewing (row-major, top row first), atomically.
 /// Values are clamped to [0, 1] and NaN is shown as 0 (black) — only in the PNG.
 pub fn write_png(path: &Path, width: u32, height: u32, rgb: &[[f32; 3]]) -> Result<()> {
+    let mut writes = AtomicWrites::new();
+    stage_png(&mut writes, path, width, height, rgb)?;
+    writes.commit()
+}
+
+/// [`write_png`] as one file of a unit (see [`stage_exr`]).
+pub fn stage_png(
+    writes: &mut AtomicWrites,
+    path: &Path,
+    width: u32,
+    height: u32,
+    rgb: &[[f32; 3]],
+) -> Result<()> {
     check_dimensions(path, width, height, rgb)?;
     let bytes: Vec<u8> = rgb
         .iter()
@@ -364,7 +295,7 @@ pub fn write_png(path: &Path, width: u32, height: u32, rgb: &[[f32; 3]]) -> Resu
             path.display()
         )
     })?;
-    write_atomic(path, |temp| {
+    writes.stage(path, |temp| {
         image
             .save_with_format(temp, image::ImageFormat::Png)
             .map_err(|e| anyhow!("PNG encoding failed: {e}"))
@@ -374,6 +305,11 @@ pub fn write_png(path: &Path, width: u32, height: u32, rgb: &[[f32; 3]]) -> Resu
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::fs;
+    use std::path::PathBuf;
+    use std::sync::atomic::{AtomicU64, Ordering};
+
+    static TEMP_COUNTER: AtomicU64 = AtomicU64::new(0);
 
     /// A fresh empty directory under the system temp dir, removed on drop.
     struct TestDir(PathBuf);

@@ -12,6 +12,7 @@
 pub mod accel;
 pub mod analytic;
 pub mod app;
+pub mod atomic;
 pub mod compare;
 pub mod film;
 pub mod gpu;

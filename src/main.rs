@@ -8,6 +8,9 @@ use std::process::ExitCode;
 
 fn main() -> ExitCode {
     quiet_headless_vulkan();
+    if let Err(e) = mdas::atomic::install_interrupt_cleanup() {
+        eprintln!("warning: {e:#}; an interrupt may leave hidden partial outputs");
+    }
     match run(Cli::parse()) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {

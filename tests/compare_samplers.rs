@@ -9,7 +9,7 @@ mod report_checks;
 
 use common::gpu;
 use mdas::compare::{compare_samplers, Budget, SamplersSpec, Setup};
-use mdas::image_io::read_exr;
+use mdas::image_io::{self, read_exr};
 use mdas::integrator::mdas::MdasParams;
 use mdas::lights::sampler::SamplerKind;
 use report_checks::{check_method, close};
@@ -336,6 +336,77 @@ fn cli_render_with_a_sampler_override() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// Issue 18 item 7: a damaged cache entry is never used. Each damage
+/// (truncated, empty, garbage, a right-sized image of zeros, a missing
+/// record) makes the next call render the reference again, say why, and
+/// restore the same image bit for bit (Halton is deterministic); an entry
+/// that is a directory is an error naming it, not a silent failure.
+#[test]
+fn damaged_reference_cache_entries_are_rebuilt() {
+    let cache = temp_dir("ref-cache-damage");
+    let spec = mdas::app::ReferenceSpec {
+        spp: 2,
+        scale: 0.25,
+        seed: 0,
+    };
+    let path = Path::new(SCENE);
+    let get = || mdas::app::reference(gpu(), path, spec, &cache, None);
+    let first = get().unwrap();
+    assert_eq!(first.cache, mdas::app::CacheUse::Rendered);
+    assert!(get().unwrap().cached());
+    let exr = first.path.clone();
+    let record = mdas::app::reference_record_path(&exr);
+    let (w, h) = (first.film.width, first.film.height);
+    let bytes = std::fs::read(&exr).unwrap();
+    type Damage<'a> = Box<dyn Fn() + 'a>;
+    let damages: Vec<(&str, Damage, &str)> = vec![
+        (
+            "truncated",
+            Box::new(|| std::fs::write(&exr, &bytes[..bytes.len() / 2]).unwrap()),
+            "cannot read",
+        ),
+        (
+            "empty",
+            Box::new(|| std::fs::write(&exr, b"").unwrap()),
+            "cannot read",
+        ),
+        (
+            "garbage",
+            Box::new(|| std::fs::write(&exr, vec![0x5a; 4096]).unwrap()),
+            "cannot read",
+        ),
+        (
+            "zeros",
+            Box::new(|| {
+                image_io::write_exr(&exr, w, h, &vec![[0.0; 3]; (w * h) as usize]).unwrap()
+            }),
+            "checksum",
+        ),
+        (
+            "no record",
+            Box::new(|| std::fs::remove_file(&record).unwrap()),
+            "record",
+        ),
+    ];
+    for (name, damage, why) in &damages {
+        damage();
+        let again = get().unwrap();
+        match &again.cache {
+            mdas::app::CacheUse::Rebuilt(reason) => {
+                assert!(reason.contains(why), "{name}: {reason}")
+            }
+            other => panic!("{name}: {other:?}"),
+        }
+        assert_eq!(again.image, first.image, "{name}");
+        assert!(get().unwrap().cached(), "{name}: repaired");
+    }
+    std::fs::remove_file(&exr).unwrap();
+    std::fs::create_dir(&exr).unwrap();
+    let e = format!("{:#}", get().unwrap_err());
+    assert!(e.contains("is a directory"), "{e}");
+    std::fs::remove_dir_all(&cache).ok();
+}
+
 #[test]
 fn reference_sampler_override_is_part_of_the_cache_key() {
     let cache = temp_dir("ref-cache");
@@ -356,19 +427,19 @@ fn reference_sampler_override_is_part_of_the_cache_key() {
         )
         .unwrap()
     };
-    let (_, _, own, _) = with(None);
+    let own = with(None).path;
     assert_eq!(
         own,
         mdas::app::reference_cache_path(&cache, path, spec).unwrap()
     );
     // The scene's own sampler named explicitly: the same cache entry.
-    let (_, _, same, cached) = with(Some(SamplerKind::Tree));
-    assert_eq!(same, own);
-    assert!(cached);
+    let same = with(Some(SamplerKind::Tree));
+    assert_eq!(same.path, own);
+    assert!(same.cached());
     // Another sampler: its own entry.
-    let (_, _, other, cached) = with(Some(SamplerKind::Power));
-    assert_ne!(other, own);
-    assert!(!cached);
+    let other = with(Some(SamplerKind::Power));
+    assert_ne!(other.path, own);
+    assert!(!other.cached());
     // Overrides on a scene whose integrand has no light sampler fail.
     let err = mdas::app::reference_with(
         gpu(),

@@ -17,6 +17,7 @@ pub(crate) use mdas::gpu::Gpu;
 pub(crate) use mdas::integrator::mdas::MdasParams;
 pub(crate) use mdas::integrator::{Halton, Integrator, Mdas, Render};
 pub(crate) use mdas::lights::sampler::SamplerKind;
+pub(crate) use mdas::scene_file::SceneFile;
 pub(crate) use mdas::{image_io, metrics};
 pub(crate) use std::path::{Path, PathBuf};
 
@@ -357,10 +358,64 @@ pub(crate) fn default_output(scene: &Path, integrator: &str) -> PathBuf {
 }
 
 /// An output must be an `.exr` or `.png` path whose directory exists or
-/// can be made.
+/// can be made and is writable, and whose files are not directories.
 pub(crate) fn check_output(path: &Path) -> Result<()> {
-    app::output_files(path)?;
-    ensure_parent(path)
+    let (exr, png) = app::output_files(path)?;
+    ensure_parent(path)?;
+    for file in exr.iter().chain([&png]) {
+        mdas::atomic::check_writable(file)?;
+    }
+    Ok(())
+}
+
+/// Refuses an output that would overwrite one of the run's inputs (`render
+/// scene.exr -o scene.exr`, or `-o` naming the `--reference`).
+pub(crate) fn check_not_input(output: &Path, inputs: &[&Path]) -> Result<()> {
+    let (exr, png) = app::output_files(output)?;
+    for file in exr.iter().chain([&png]) {
+        // The directory exists (check_output); the file may not yet.
+        let canonical = |p: &Path| {
+            let dir = p.parent().filter(|d| !d.as_os_str().is_empty());
+            let dir = dir.unwrap_or(Path::new(".")).canonicalize().ok()?;
+            Some(dir.join(p.file_name()?))
+        };
+        for input in inputs {
+            if canonical(file).is_some() && canonical(file) == canonical(input) {
+                bail!(
+                    "output {} would overwrite the input {}; choose another -o",
+                    file.display(),
+                    input.display()
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
+/// A `--reference` EXR, read and checked against the film before any GPU
+/// work: the right size and finite everywhere (an error against a NaN
+/// pixel is not a measurement).
+pub(crate) fn read_reference(path: &Path, film: mdas::film::Film) -> Result<Vec<[f32; 3]>> {
+    let (w, h, image) = image_io::read_exr(path)?;
+    if (w, h) != (film.width, film.height) {
+        bail!(
+            "reference {} is {w}×{h} but the render is {}×{} (use the same --scale as the reference)",
+            path.display(),
+            film.width,
+            film.height
+        );
+    }
+    let bad = image
+        .iter()
+        .filter(|p| !p.iter().all(|c| c.is_finite()))
+        .count();
+    if bad > 0 {
+        bail!(
+            "reference {} has {bad} non-finite pixel(s); a reference must be finite everywhere",
+            path.display()
+        );
+    }
+    Ok(image)
 }
 
 pub(crate) fn ensure_parent(path: &Path) -> Result<()> {

@@ -73,7 +73,12 @@ pub(crate) fn run(args: ReferenceArgs, ui: Ui) -> Result<()> {
     );
     let b = bar.clone();
     let spec = ReferenceSpec { spp, scale, seed };
-    let (film, image, path, cached) = app::reference_with(
+    let app::Reference {
+        film,
+        image,
+        path,
+        cache: cache_use,
+    } = app::reference_with(
         gpu,
         &scene,
         spec,
@@ -82,6 +87,13 @@ pub(crate) fn run(args: ReferenceArgs, ui: Ui) -> Result<()> {
         Some(Box::new(move |done, _| b.set_position(done as u64))),
     )?;
     bar.finish_and_clear();
+    if let app::CacheUse::Rebuilt(why) = &cache_use {
+        eprintln!(
+            "warning: the cached reference {} was unusable ({why}); rendered it again",
+            path.display()
+        );
+    }
+    let cached = cache_use == app::CacheUse::Hit;
     ui.result(format!(
         "reference {}×{} at {spp} spp: {} ({})\n",
         film.width,

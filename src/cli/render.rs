@@ -98,6 +98,10 @@ pub(crate) fn run(args: RenderArgs, ui: Ui) -> Result<()> {
     let output = output.unwrap_or_else(|| default_output(&scene, integrator.name()));
     // Fail on bad input before any GPU work.
     check_output(&output)?;
+    let inputs: Vec<&Path> = std::iter::once(scene.as_path())
+        .chain(reference.as_deref())
+        .collect();
+    check_not_input(&output, &inputs)?;
     if let Some(s) = spp {
         if !(s.is_finite() && s > 0.0) {
             bail!("--spp must be positive, got {s}");
@@ -111,13 +115,15 @@ pub(crate) fn run(args: RenderArgs, ui: Ui) -> Result<()> {
             bail!("--spp must be at most {MAX_HALTON_SPP} for Halton, got {s}");
         }
     }
-    let reference_image = reference
-        .as_ref()
-        .map(|r| image_io::read_exr(r))
-        .transpose()?;
+    let loaded = SceneFile::load(&scene)?;
+    let film = app::scaled_film(loaded.scene.film, scale)?;
+    let reference_image = match &reference {
+        Some(r) => Some(read_reference(r, film)?),
+        None => None,
+    };
     let gpu = Gpu::shared()?;
-    let prepared = app::prepare_with(gpu, &scene, scale, IntegrandOverrides { sampler })?;
-    let film = prepared.film;
+    let prepared = app::prepare_loaded(gpu, loaded, &scene, scale, IntegrandOverrides { sampler })?;
+    debug_assert_eq!(film, prepared.film);
     // A bar once the render has taken a second (Halton then waits for the
     // GPU every few dispatches to report; MDAS reads its state anyway).
     let bar = ui.delayed_bar(
@@ -173,14 +179,8 @@ pub(crate) fn run(args: RenderArgs, ui: Ui) -> Result<()> {
         );
     }
     let mut error = None;
-    if let Some((w, h, ref_image)) = reference_image {
-        if (w, h) != (film.width, film.height) {
-            bail!(
-                "reference is {w}×{h} but the render is {}×{}",
-                film.width,
-                film.height
-            );
-        }
+    if let Some(ref_image) = reference_image {
+        let (w, h) = (film.width, film.height);
         let e = metrics::compare(&render.image, &ref_image)?;
         let flip = metrics::flip(
             &render.image,

@@ -30,6 +30,7 @@ use super::outputs::{write_outputs, CompareOutputs, Written};
 use super::report::*;
 use super::timing::{halton_search, nearer, time_mdas, MdasTiming};
 use crate::app::{self, IntegrandOverrides, ReferenceSpec};
+use crate::atomic::StagedDir;
 use crate::gpu::Gpu;
 use crate::image_io;
 use crate::integrand::Integrand;
@@ -115,17 +116,6 @@ pub fn check_seeds(halton_seed: u32, ref_seed: u32) -> Result<()> {
     Ok(())
 }
 
-/// Creates `out` if needed and checks that files can be written in it.
-pub fn check_out_dir(out: &Path) -> Result<()> {
-    std::fs::create_dir_all(out)
-        .with_context(|| format!("cannot create output directory {}", out.display()))?;
-    let probe = out.join(format!(".mdas-write-probe-{}", std::process::id()));
-    std::fs::write(&probe, b"")
-        .with_context(|| format!("output directory {} is not writable", out.display()))?;
-    std::fs::remove_file(&probe).ok();
-    Ok(())
-}
-
 pub(crate) fn bar(progress: bool, len: u64, template: &str) -> ProgressBar {
     if !progress {
         return ProgressBar::hidden();
@@ -162,7 +152,7 @@ pub(crate) fn load_reference(
         "reference {bar:40} {pos}/{len} spp [{elapsed_precise} < {eta}]",
     );
     let b2 = b.clone();
-    let (_, image, path, cached) = app::reference(
+    let reference = app::reference(
         gpu,
         scene,
         spec,
@@ -170,7 +160,14 @@ pub(crate) fn load_reference(
         Some(Box::new(move |done, _| b2.set_position(done as u64))),
     )?;
     b.finish_and_clear();
-    Ok((image, path, cached))
+    if let app::CacheUse::Rebuilt(why) = &reference.cache {
+        eprintln!(
+            "warning: the cached reference {} was unusable ({why}); rendered it again",
+            reference.path.display()
+        );
+    }
+    let cached = reference.cached();
+    Ok((reference.image, reference.path, cached))
 }
 
 /// The smallest whole spp MDAS accepts with `params` (its budget must hold
@@ -187,9 +184,9 @@ pub fn mdas_min_spp(params: MdasParams, integrand: &dyn Integrand) -> Result<u32
     Ok(spp as u32)
 }
 
-/// Runs the comparison and writes everything (see the module docs). On
-/// failure an output directory this call created is removed again if it is
-/// still empty.
+/// Runs the comparison and writes everything (see the module docs) as one
+/// unit ([`crate::atomic::StagedDir`]): on failure the output directory
+/// keeps the previous run's files, and one this call created is removed.
 pub fn compare(gpu: &Gpu, spec: &CompareSpec) -> Result<Report> {
     compare_with(gpu, spec, IntegrandOverrides::default())
 }
@@ -202,18 +199,7 @@ pub fn compare_with(
     spec: &CompareSpec,
     overrides: IntegrandOverrides,
 ) -> Result<Report> {
-    cleaning_up(&spec.setup.out, || run_compare(gpu, spec, overrides))
-}
-
-/// Runs `f`; if it fails and `out` did not exist before, removes `out`
-/// when empty (`remove_dir` refuses non-empty directories).
-pub(crate) fn cleaning_up<T>(out: &Path, f: impl FnOnce() -> Result<T>) -> Result<T> {
-    let existed = out.exists();
-    let result = f();
-    if result.is_err() && !existed {
-        std::fs::remove_dir(out).ok();
-    }
-    result
+    run_compare(gpu, spec, overrides)
 }
 
 /// A `--time-ms` budget must be a positive time.
@@ -262,6 +248,7 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
     spec.setup.check()?;
     check_budget(spec.budget)?;
     let scene = SceneFile::load(&spec.setup.scene)?;
+    let staged = StagedDir::new(&spec.setup.out)?;
     let reference_sampler = app::light_sampler(&scene.integrand);
     let prepared = app::prepare_loaded(gpu, scene, &spec.setup.scene, spec.setup.scale, overrides)?;
     let sampler = app::light_sampler(&prepared.scene.integrand);
@@ -276,7 +263,6 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
         spec.setup.halton_seed,
         spec.setup.ref_seed,
     )?;
-    check_out_dir(&spec.setup.out)?;
 
     // 2. Reference.
     let (reference, ref_path, cached) = spec.setup.reference(gpu)?;
@@ -484,6 +470,7 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
         density_range,
     } = write_outputs(&CompareOutputs {
         spec,
+        out: staged.path(),
         film,
         reference: &reference,
         mdas: &mdas_main.measured.render,
@@ -586,6 +573,7 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
             }),
         )?),
     };
-    write_report(&spec.setup.out, &report)?;
+    write_report(staged.path(), &report)?;
+    staged.commit("report.json")?;
     Ok(report)
 }

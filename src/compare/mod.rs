@@ -28,6 +28,6 @@ pub mod tune;
 pub use equal_time::{
     halton_at_equal_time, measure, search_equal_time, EqualTime, HaltonRun, Measured,
 };
-pub use experiment::{check_out_dir, compare, compare_with, Budget, CompareSpec, Setup};
+pub use experiment::{compare, compare_with, Budget, CompareSpec, Setup};
 pub use report::Report;
 pub use samplers::{compare_samplers, SamplersSpec};

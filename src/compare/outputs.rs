@@ -25,6 +25,8 @@ pub const FLIP_RANGE: (f32, f32) = (0.0, 1.0);
 /// What the files are made of.
 pub(crate) struct CompareOutputs<'a> {
     pub spec: &'a CompareSpec<'a>,
+    /// Where the files go (the run's staging directory).
+    pub out: &'a Path,
     pub film: Film,
     pub reference: &'a [[f32; 3]],
     /// MDAS's written run (its first seed), and its statistics.
@@ -56,13 +58,12 @@ pub(crate) struct Written {
     pub density_range: (f32, f32),
 }
 
-/// Writes every file but `report.json` into `o.spec.setup.out`, each
-/// atomically.
+/// Writes every file but `report.json` into `o.out`.
 pub(crate) fn write_outputs(o: &CompareOutputs) -> Result<Written> {
     let (spec, film, reference, density) = (o.spec, o.film, o.reference, o.density);
     let (mdas_render, halton_render) = (o.mdas, o.halton);
     let (w, h) = (film.width, film.height);
-    let mut files = Files::new(&spec.setup.out, film);
+    let mut files = Files::new(o.out, film);
     files.image(
         "reference",
         "reference",
@@ -103,24 +104,12 @@ pub(crate) fn write_outputs(o: &CompareOutputs) -> Result<Written> {
             metrics::DEFAULT_PIXELS_PER_DEGREE,
         )?;
         let name = format!("flip-{key}");
-        heatmap::write_map_linear(
-            &spec.setup.out.join(&name),
-            w,
-            h,
-            &flip.per_pixel,
-            FLIP_RANGE,
-        )?;
+        heatmap::write_map_linear(&o.out.join(&name), w, h, &flip.per_pixel, FLIP_RANGE)?;
         files.insert(&format!("flip_{key}"), &name);
         flips.push(flip.mean);
     }
     let density_range = heatmap::density_range(density);
-    heatmap::write_map(
-        &spec.setup.out.join("density-mdas"),
-        w,
-        h,
-        density,
-        density_range,
-    )?;
+    heatmap::write_map(&o.out.join("density-mdas"), w, h, density, density_range)?;
     files.insert("density_mdas", "density-mdas");
 
     // The figure: images, insets, maps with colour bars.
@@ -159,7 +148,7 @@ pub(crate) fn write_outputs(o: &CompareOutputs) -> Result<Written> {
         o.target_ms, ratio_ci95[0], ratio_ci95[1]
     );
     figure::write_figure(
-        &spec.setup.out.join("figure.png"),
+        &o.out.join("figure.png"),
         &figure::FigureInput {
             width: w,
             height: h,

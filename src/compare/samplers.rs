@@ -27,15 +27,14 @@
 //! and its MSE relative to `uniform`'s (when listed).
 
 use super::equal_time::EqualTime;
-use super::experiment::{
-    check_budget, check_mdas, check_out_dir, cleaning_up, spinner, write_report, Budget, Setup,
-};
+use super::experiment::{check_budget, check_mdas, spinner, write_report, Budget, Setup};
 use super::heatmap;
 use super::outputs::{reference_attributes, Files};
 use super::report::*;
 use super::timing::{halton_search, nearer, time_mdas, MdasTiming};
 use crate::accel::GpuScene;
 use crate::app;
+use crate::atomic::StagedDir;
 use crate::gpu::Gpu;
 use crate::integrand::Integrand;
 use crate::integrand::IntegrandSpec;
@@ -85,11 +84,10 @@ pub fn baseline(samplers: &[SamplerKind]) -> SamplerKind {
     }
 }
 
-/// Runs the comparison and writes everything (see the module docs). On
-/// failure an output directory this call created is removed again if it is
-/// still empty.
+/// Runs the comparison and writes everything (see the module docs) as one
+/// unit ([`crate::atomic::StagedDir`]).
 pub fn compare_samplers(gpu: &Gpu, spec: &SamplersSpec) -> Result<Report> {
-    cleaning_up(&spec.setup.out, || run(gpu, spec))
+    run(gpu, spec)
 }
 
 fn run(gpu: &Gpu, spec: &SamplersSpec) -> Result<Report> {
@@ -108,6 +106,7 @@ fn run(gpu: &Gpu, spec: &SamplersSpec) -> Result<Report> {
         ),
     };
     let film = app::scaled_film(scene.scene.film, setup.scale)?;
+    let staged = StagedDir::new(&setup.out)?;
     let gpu_scene = Arc::new(GpuScene::new(gpu, &scene.scene, film)?);
     // One integrand per sampler (plus MDAS's tree if not listed), sharing
     // the uploaded scene.
@@ -136,7 +135,6 @@ fn run(gpu: &Gpu, spec: &SamplersSpec) -> Result<Report> {
     let mdas_integrand = integrand_of(MDAS_SAMPLER);
     let params = (setup.mdas_params)(scene.mdas);
     let min_spp = check_mdas(params, spec.budget, mdas_integrand, &setup.scene)?;
-    check_out_dir(&setup.out)?;
 
     // 2. Reference (the scene's own sampler).
     let (reference, ref_path, cached) = setup.reference(gpu)?;
@@ -181,7 +179,7 @@ fn run(gpu: &Gpu, spec: &SamplersSpec) -> Result<Report> {
 
     // 5. Files, report last.
     let (w, h) = (film.width, film.height);
-    let mut files = Files::new(&setup.out, film);
+    let mut files = Files::new(staged.path(), film);
     files.image(
         "reference",
         "reference",
@@ -328,7 +326,8 @@ fn run(gpu: &Gpu, spec: &SamplersSpec) -> Result<Report> {
             }),
         )?),
     };
-    write_report(&setup.out, &report)?;
+    write_report(staged.path(), &report)?;
+    staged.commit("report.json")?;
     Ok(report)
 }
 

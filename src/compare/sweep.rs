@@ -10,11 +10,12 @@
 //! below its initial sample count are skipped and listed in the result.
 
 use super::equal_time::measure;
-use super::experiment::{check_out_dir, mdas_min_spp, Setup};
+use super::experiment::{mdas_min_spp, Setup};
 use super::intervals::seed_plan;
 use super::plot::{loglog_svg, svg_to_png, Series};
 use super::seeds::mean_ci95;
 use crate::app;
+use crate::atomic::StagedDir;
 use crate::gpu::Gpu;
 use crate::image_io;
 use crate::integrator::mdas::MdasParams;
@@ -84,7 +85,7 @@ pub fn csv(rows: &[SweepRow]) -> String {
 /// Runs the sweep and writes `sweep.csv`, `sweep.json`, `sweep.svg` and
 /// `sweep.png` in `spec.out`.
 pub fn sweep(gpu: &Gpu, spec: &SweepSpec) -> Result<SweepResult> {
-    super::experiment::cleaning_up(&spec.setup.out, || run_sweep(gpu, spec))
+    run_sweep(gpu, spec)
 }
 
 fn run_sweep(gpu: &Gpu, spec: &SweepSpec) -> Result<SweepResult> {
@@ -92,6 +93,14 @@ fn run_sweep(gpu: &Gpu, spec: &SweepSpec) -> Result<SweepResult> {
     if spec.spps.is_empty() || spec.spps.contains(&0) {
         bail!("--spps must list positive samples per pixel");
     }
+    if let Some(twice) = spec
+        .spps
+        .iter()
+        .find(|&s| spec.spps.iter().filter(|&t| t == s).count() > 1)
+    {
+        bail!("--spps lists {twice} more than once; each budget is measured once");
+    }
+    let staged = StagedDir::new(&spec.setup.out)?;
     let prepared = app::prepare(gpu, &spec.setup.scene, spec.setup.scale)?;
     let integrand = prepared.integrand.as_ref();
     let params = (spec.setup.mdas_params)(prepared.scene.mdas);
@@ -111,7 +120,6 @@ fn run_sweep(gpu: &Gpu, spec: &SweepSpec) -> Result<SweepResult> {
         })?
         .config(integrand)?;
     }
-    check_out_dir(&spec.setup.out)?;
     let (reference, _, _) = spec.setup.reference(gpu)?;
     let bar = super::experiment::bar(
         spec.setup.progress,
@@ -184,14 +192,14 @@ fn run_sweep(gpu: &Gpu, spec: &SweepSpec) -> Result<SweepResult> {
         ],
     );
     let text = csv(&rows);
-    image_io::write_atomic(&spec.setup.out.join("sweep.csv"), |t| {
+    image_io::write_atomic(&staged.path().join("sweep.csv"), |t| {
         std::fs::write(t, text.as_bytes()).map_err(Into::into)
     })?;
     let png = svg_to_png(&svg)?;
-    image_io::write_atomic(&spec.setup.out.join("sweep.svg"), |t| {
+    image_io::write_atomic(&staged.path().join("sweep.svg"), |t| {
         std::fs::write(t, svg.as_bytes()).map_err(Into::into)
     })?;
-    image_io::write_atomic(&spec.setup.out.join("sweep.png"), |t| {
+    image_io::write_atomic(&staged.path().join("sweep.png"), |t| {
         std::fs::write(t, &png).map_err(Into::into)
     })?;
     let result = SweepResult {
@@ -210,9 +218,10 @@ fn run_sweep(gpu: &Gpu, spec: &SweepSpec) -> Result<SweepResult> {
         )?,
     };
     let json = serde_json::to_string_pretty(&result)?;
-    image_io::write_atomic(&spec.setup.out.join("sweep.json"), |t| {
+    image_io::write_atomic(&staged.path().join("sweep.json"), |t| {
         std::fs::write(t, json.as_bytes()).map_err(Into::into)
     })?;
+    staged.commit("sweep.json")?;
     Ok(result)
 }
 

@@ -28,10 +28,11 @@
 //! as an `[mdas]` table ready to paste into the scene file.
 
 use super::equal_time::{interpolate_log_log, TimeFit};
-use super::experiment::{bar, check_out_dir, Setup};
+use super::experiment::{bar, Setup};
 use super::intervals::seed_plan;
 use super::seeds::SeedStats;
 use crate::app;
+use crate::atomic::StagedDir;
 use crate::gpu::Gpu;
 use crate::image_io;
 use crate::integrand::Integrand;
@@ -251,12 +252,13 @@ pub struct TuneReport {
 
 /// Runs the search; writes `tune.json` and `tune.csv` in `setup.out`.
 pub fn tune(gpu: &Gpu, spec: &TuneSpec) -> Result<TuneReport> {
-    super::experiment::cleaning_up(&spec.setup.out, || run_tune(gpu, spec))
+    run_tune(gpu, spec)
 }
 
 fn run_tune(gpu: &Gpu, spec: &TuneSpec) -> Result<TuneReport> {
     let setup = &spec.setup;
     setup.check()?;
+    let staged = StagedDir::new(&setup.out)?;
     let prepared = app::prepare(gpu, &setup.scene, setup.scale)?;
     let integrand = prepared.integrand.as_ref();
     let base = (setup.mdas_params)(prepared.scene.mdas);
@@ -283,7 +285,6 @@ fn run_tune(gpu: &Gpu, spec: &TuneSpec) -> Result<TuneReport> {
                 .join("; ")
         );
     }
-    check_out_dir(&setup.out)?;
     let (reference, ref_path, _) = setup.reference(gpu)?;
 
     let k = spec.seeds as u64;
@@ -397,12 +398,13 @@ fn run_tune(gpu: &Gpu, spec: &TuneSpec) -> Result<TuneReport> {
         provenance: crate::provenance::Provenance::new(gpu, &setup.scene, integrand, Some(base))?,
     };
     let json = serde_json::to_string_pretty(&report)?;
-    image_io::write_atomic(&setup.out.join("tune.csv"), |t| {
+    image_io::write_atomic(&staged.path().join("tune.csv"), |t| {
         std::fs::write(t, csv(&report.rows)).map_err(Into::into)
     })?;
-    image_io::write_atomic(&setup.out.join("tune.json"), |t| {
+    image_io::write_atomic(&staged.path().join("tune.json"), |t| {
         std::fs::write(t, json).map_err(Into::into)
     })?;
+    staged.commit("tune.json")?;
     Ok(report)
 }
 
