@@ -75,6 +75,10 @@ pub struct BuiltScene {
     pub core_build_ms: f64,
 }
 
+/// The largest coordinate an instance's (swept) bounds may reach: box
+/// surface areas, the builder's cost, stay finite in f32 below it.
+pub const MAX_BOUNDS: f32 = 1e18;
+
 /// Triangles of one BLAS before reordering.
 struct Group {
     /// Scene mesh of each triangle and its index there.
@@ -85,8 +89,21 @@ struct Group {
 
 impl BuiltScene {
     /// Builds the BVHs for `scene`. Fails on out-of-range vertex indices,
-    /// non-finite vertices or a hierarchy too deep for the GPU stack.
+    /// non-finite vertices, piles of coincident triangles, instances that
+    /// move beyond ±[`MAX_BOUNDS`] or a hierarchy too deep for the GPU
+    /// stack; a panic inside the builder comes back as an error too.
     pub fn new(scene: &Scene) -> Result<BuiltScene> {
+        std::panic::catch_unwind(|| BuiltScene::build(scene)).unwrap_or_else(|panic| {
+            let what = panic
+                .downcast_ref::<&str>()
+                .map(|s| s.to_string())
+                .or_else(|| panic.downcast_ref::<String>().cloned())
+                .unwrap_or_default();
+            bail!("the BVH builder failed on this geometry: {what}")
+        })
+    }
+
+    fn build(scene: &Scene) -> Result<BuiltScene> {
         let groups = groups(scene)?;
         for g in &groups {
             let tri = |t: &Triangle| [t.v0, t.v1, t.v2].map(Vec3::from);
@@ -107,6 +124,19 @@ impl BuiltScene {
             .zip(&blases)
             .map(|(g, b)| motion::swept_bounds(&g.motion, &b.total_aabb))
             .collect();
+        for (g, b) in groups.iter().zip(&bounds) {
+            let extent = b.min.abs().max(b.max.abs()).max_element();
+            if !(extent <= MAX_BOUNDS) {
+                let mesh = g
+                    .source
+                    .first()
+                    .map_or("?", |s| &scene.meshes[s[0] as usize].name);
+                bail!(
+                    "mesh '{mesh}' reaches a coordinate of {extent:e} over the shutter, beyond \
+                     the ±{MAX_BOUNDS:e} a BVH's box areas stay finite for"
+                );
+            }
+        }
         let tlas = if bounds.is_empty() {
             CwBvh::default()
         } else {

@@ -392,6 +392,13 @@ pub(crate) fn check_not_input(output: &Path, inputs: &[&Path]) -> Result<()> {
     Ok(())
 }
 
+/// Prints the scene's warnings: an integrand that can see no light.
+pub(crate) fn warn_unlit(scene: &SceneFile) {
+    for w in scene.integrand.light_warnings(&scene.scene) {
+        eprintln!("warning: {w}");
+    }
+}
+
 /// A `--reference` EXR, read and checked against the film before any GPU
 /// work: the right size and finite everywhere (an error against a NaN
 /// pixel is not a measurement).

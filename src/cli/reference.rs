@@ -58,7 +58,9 @@ pub(crate) fn run(args: ReferenceArgs, ui: Ui) -> Result<()> {
     } = args;
     if let Some(out) = &output {
         check_output(out)?;
+        check_not_input(out, &[&scene])?;
     }
+    warn_unlit(&SceneFile::load(&scene)?);
     let gpu = Gpu::shared()?;
     let bar = if ui.progress() {
         ProgressBar::new(spp as u64)

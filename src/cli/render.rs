@@ -116,6 +116,7 @@ pub(crate) fn run(args: RenderArgs, ui: Ui) -> Result<()> {
         }
     }
     let loaded = SceneFile::load(&scene)?;
+    warn_unlit(&loaded);
     let film = app::scaled_film(loaded.scene.film, scale)?;
     let reference_image = match &reference {
         Some(r) => Some(read_reference(r, film)?),
@@ -173,6 +174,7 @@ pub(crate) fn run(args: RenderArgs, ui: Ui) -> Result<()> {
     let render = sampler.render(gpu, prepared.integrand.as_ref())?;
     bar.finish();
     ui.result(render_line(&render));
+    warn_image(&render);
     if !warmup && gpu.info.device_type == wgpu::DeviceType::Cpu {
         ui.note(
             "(cold: this CPU driver compiles pipelines at their first dispatch, inside these times; --warmup or `mdas bench` time warm renders)",
@@ -231,6 +233,22 @@ pub(crate) fn run(args: RenderArgs, ui: Ui) -> Result<()> {
             (integrator == IntegratorKind::Mdas).then_some(mdas_params),
         )?,
     })
+}
+
+/// Warnings about the image itself: every pixel 0, and pixels that are
+/// not finite (an accumulation that overflowed shows here even when every
+/// sample was finite).
+fn warn_image(render: &Render) {
+    if render.image.iter().all(|p| *p == [0.0; 3]) {
+        eprintln!("warning: every pixel of the image is 0 (black)");
+    }
+    let bad = render.nonfinite_pixels();
+    if bad > 0 {
+        eprintln!(
+            "warning: {bad} pixel(s) are not finite ({} non-finite samples)",
+            render.nonfinite
+        );
+    }
 }
 
 fn render_line(render: &Render) -> String {

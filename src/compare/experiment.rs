@@ -248,6 +248,9 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
     spec.setup.check()?;
     check_budget(spec.budget)?;
     let scene = SceneFile::load(&spec.setup.scene)?;
+    for w in scene.integrand.light_warnings(&scene.scene) {
+        eprintln!("warning: {w}");
+    }
     let staged = StagedDir::new(&spec.setup.out)?;
     let reference_sampler = app::light_sampler(&scene.integrand);
     let prepared = app::prepare_loaded(gpu, scene, &spec.setup.scene, spec.setup.scale, overrides)?;

@@ -43,6 +43,110 @@ impl IntegrandSpec {
     }
 }
 
+/// What in a scene can give light to an integrand (see
+/// [`IntegrandSpec::light_warnings`]).
+struct Emitters {
+    /// Triangles with non-zero emission.
+    emissive_triangles: usize,
+    /// Point and directional lights with non-zero intensity.
+    analytic: usize,
+    /// Lights of `[[light_set]]`s with non-zero intensity.
+    set_lights: usize,
+    background: bool,
+}
+
+impl Emitters {
+    fn of(scene: &crate::scene::Scene) -> Emitters {
+        use crate::scene::Light;
+        let lit = |v: glam::Vec3| v.cmpgt(glam::Vec3::ZERO).any();
+        Emitters {
+            emissive_triangles: scene
+                .meshes
+                .iter()
+                .filter(|m| {
+                    let material = scene.materials.get(m.material as usize);
+                    material.is_some_and(|mat| lit(mat.emission))
+                })
+                .map(|m| m.indices.len())
+                .sum(),
+            analytic: scene
+                .lights
+                .iter()
+                .filter(|l| match l {
+                    Light::Point { intensity, .. } => lit(*intensity),
+                    Light::Directional { irradiance, .. } => lit(*irradiance),
+                })
+                .count(),
+            set_lights: scene
+                .point_light_sets
+                .iter()
+                .flat_map(|s| &s.lights)
+                .filter(|l| lit(l.intensity))
+                .count(),
+            background: lit(scene.background),
+        }
+    }
+}
+
+impl IntegrandSpec {
+    /// Sentences warning that this integrand can see no light in `scene`
+    /// (the image would be black, or only the background, without a word
+    /// otherwise). Empty when some light reaches it.
+    pub fn light_warnings(&self, scene: &crate::scene::Scene) -> Vec<String> {
+        let e = Emitters::of(scene);
+        let name = self.type_name();
+        let ignored = |what: &[(usize, &str)]| -> String {
+            let parts: Vec<String> = what
+                .iter()
+                .filter(|(n, _)| *n > 0)
+                .map(|(n, w)| format!("{n} {w}"))
+                .collect();
+            if parts.is_empty() {
+                String::new()
+            } else {
+                format!(" (its {} are not used by {name})", parts.join(" and "))
+            }
+        };
+        let warning = match self {
+            IntegrandSpec::AreaLight if e.emissive_triangles == 0 => Some(format!(
+                "the {name} integrand samples emissive surfaces and the scene has none{}: \
+                 surfaces are lit by nothing",
+                ignored(&[
+                    (e.analytic, "point/directional lights"),
+                    (e.set_lights, "light-set lights")
+                ])
+            )),
+            IntegrandSpec::DepthOfField | IntegrandSpec::MotionBlur if e.analytic == 0 => {
+                Some(format!(
+                    "the {name} integrand lights surfaces with point and directional lights \
+                     and the scene has none{}: only emission seen directly and the background \
+                     show",
+                    ignored(&[(e.set_lights, "light-set lights")])
+                ))
+            }
+            IntegrandSpec::PathTracing { .. }
+                if e.emissive_triangles + e.analytic == 0 && !e.background =>
+            {
+                Some(format!(
+                    "nothing the {name} integrand samples emits light (no emissive surface, \
+                     point or directional light, and a black background){}",
+                    ignored(&[(e.set_lights, "light-set lights")])
+                ))
+            }
+            IntegrandSpec::ManyLight(_)
+                if e.emissive_triangles + e.analytic + e.set_lights == 0 =>
+            {
+                Some(format!(
+                    "the {name} integrand has no light to sample: the scene has no emissive \
+                     surface, point light or light set with non-zero intensity"
+                ))
+            }
+            _ => None,
+        };
+        warning.into_iter().collect()
+    }
+}
+
 /// Parameters of the `many_light` integrand (scene file `[integrand]`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct ManyLightSpec {

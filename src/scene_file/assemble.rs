@@ -148,7 +148,8 @@ impl Ctx<'_> {
     }
 
     pub(super) fn camera(&self, c: &RawCamera) -> Result<Camera> {
-        let (position, look_at) = (c.position.get_ref().0, c.look_at.get_ref().0);
+        let position = self.bounded3(&c.position, "camera position", super::MAX_COORDINATE)?;
+        let look_at = self.bounded3(&c.look_at, "camera look_at", super::MAX_COORDINATE)?;
         let Some(forward) = (look_at - position).try_normalize() else {
             return Err(self.error(c.look_at.span(), "camera look_at must differ from position"));
         };
@@ -167,7 +168,10 @@ impl Ctx<'_> {
             ));
         }
         let aperture_radius = match &c.aperture_radius {
-            Some(a) => self.non_negative(a, "aperture_radius")?,
+            Some(a) => {
+                self.non_negative(a, "aperture_radius")?;
+                self.bounded(a, "aperture_radius", super::MAX_COORDINATE)?
+            }
             None => 0.0,
         };
         let focus_distance = match &c.focus_distance {

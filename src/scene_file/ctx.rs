@@ -105,6 +105,35 @@ impl Ctx<'_> {
         }
     }
 
+    /// A number with magnitude at most `max` (see [`super::MAX_COORDINATE`]).
+    pub(super) fn bounded(&self, v: &S<Num>, key: &str, max: f32) -> Result<f32> {
+        let x = v.get_ref().0;
+        if x.abs() <= max {
+            Ok(x)
+        } else {
+            Err(self.error(
+                v.span(),
+                format!("{key} must be within ±{max:e}, found {x:e}"),
+            ))
+        }
+    }
+
+    /// A point or vector with every coordinate within ±`max`.
+    pub(super) fn bounded3(&self, v: &S<V3>, key: &str, max: f32) -> Result<Vec3> {
+        let c = v.get_ref().0;
+        if c.abs().max_element() <= max {
+            Ok(c)
+        } else {
+            Err(self.error(
+                v.span(),
+                format!(
+                    "{key} must be within ±{max:e} in every coordinate, found [{:e}, {:e}, {:e}]",
+                    c.x, c.y, c.z
+                ),
+            ))
+        }
+    }
+
     pub(super) fn non_negative(&self, v: &S<Num>, key: &str) -> Result<f32> {
         let x = v.get_ref().0;
         if x >= 0.0 {

@@ -90,11 +90,13 @@ impl Ctx<'_> {
         let seed = self.u32(&r.seed, "seed", 0, 0)?;
         let intensity_jitter = self.unit_interval(&r.intensity_jitter, "intensity_jitter")?;
         let color_jitter = self.unit_interval(&r.color_jitter, "color_jitter")?;
-        let orbit_radius = r
-            .orbit_radius
-            .as_ref()
-            .map_or(Ok(0.0), |v| self.non_negative(v, "orbit_radius"))?;
-        let orbit_speed = r.orbit_speed.as_ref().map_or(0.0, |v| v.get_ref().0);
+        let orbit_radius = r.orbit_radius.as_ref().map_or(Ok(0.0), |v| {
+            self.non_negative(v, "orbit_radius")?;
+            self.bounded(v, "orbit_radius", super::MAX_COORDINATE)
+        })?;
+        let orbit_speed = r.orbit_speed.as_ref().map_or(Ok(0.0), |v| {
+            self.bounded(v, "orbit_speed", super::MAX_ORBIT_SPEED)
+        })?;
 
         // The count, checked against the scene-wide limit before allocating.
         let max_count = MAX_SET_LIGHTS as i64;

@@ -92,6 +92,17 @@ pub const MAX_SHAPE_TRIANGLES: u64 = 1 << 25;
 pub const MAX_SET_LIGHTS: u64 = 1 << 24;
 /// Largest `cut_size` of the `many_light` integrand.
 pub const MAX_CUT_SIZE: u32 = 64;
+/// Largest magnitude of a world coordinate or length (vertex positions
+/// after transform, keyframe translations, camera position, aperture
+/// radius, orbit radius): 10^9 world units. Far beyond any scene, and far
+/// enough below f32's range that bounding-box areas (a BVH's cost) and
+/// ray arithmetic stay finite: a keyframe at 3·10^38 crashed the BVH
+/// builder, an aperture of 10^30 made every ray miss.
+pub const MAX_COORDINATE: f32 = 1e9;
+/// Largest `orbit_speed` magnitude, radians per scene time unit: the GPU's
+/// sin and cos are accurate only for moderate angles (3·10^38 gave NaN
+/// light positions).
+pub const MAX_ORBIT_SPEED: f32 = 1e4;
 
 /// Why a scene could not be loaded.
 #[derive(Debug, thiserror::Error)]

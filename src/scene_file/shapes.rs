@@ -256,12 +256,20 @@ impl Ctx<'_> {
         if let Some(tr) = &r.transform {
             mesh.transform(&self.transform(tr.get_ref())?);
         }
-        if !mesh.positions.iter().all(|p| p.is_finite()) {
+        let limit = super::MAX_COORDINATE;
+        if let Some(p) = mesh
+            .positions
+            .iter()
+            .find(|p| !(p.abs().max_element() <= limit))
+        {
             let span = r
                 .transform
                 .as_ref()
                 .map_or(geometry_span.clone(), |t| t.span());
-            return Err(self.error(span, "vertex positions overflow to infinity"));
+            return Err(self.error(
+                span,
+                format!("a vertex lies at {p}, beyond ±{limit:e} (the largest coordinate a scene may use)"),
+            ));
         }
         if !mesh.has_area() {
             let why = if r.transform.is_some() {
@@ -354,9 +362,13 @@ impl Ctx<'_> {
                     Quat::from_axis_angle(axis, degrees.to_radians())
                 }
             };
+            let translation = match &k.translate {
+                Some(v) => self.bounded3(v, "translate", super::MAX_COORDINATE)?,
+                None => Vec3::ZERO,
+            };
             out.push(Keyframe {
                 time,
-                translation: k.translate.as_ref().map_or(Vec3::ZERO, |v| v.get_ref().0),
+                translation,
                 rotation,
             });
         }

@@ -145,3 +145,92 @@ fn integrand_type_names_round_trip() {
         assert_eq!(file.integrand.type_name(), name);
     }
 }
+
+/// Issue 18 item 9: absurd magnitudes are refused at their key (a keyframe
+/// at 3e38 crashed the BVH builder, an aperture of 1e30 made every ray
+/// miss, an orbit speed of 3e38 gave NaN light positions on the GPU).
+#[test]
+fn absurd_magnitudes_are_refused_where_they_are_written() {
+    let quad = "[[material]]\nname = \"m\"\nalbedo = [0.5, 0.5, 0.5]\n[[shape]]\ntype = \"quad\"\nmaterial = \"m\"\ncorners = [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]]\n";
+    let keyframes = "motion = [{ time = 0 }, { time = 1, translate = [3e38, 0, 0] }]\n";
+    let e = err(&format!("{MINIMAL}{quad}{keyframes}"));
+    assert!(
+        e.starts_with("t.toml:16:49:") && e.contains("translate must be within ±1e9"),
+        "{e}"
+    );
+    let e = err(&MINIMAL.replace("fov_y = 40", "fov_y = 40\naperture_radius = 1e30"));
+    assert!(
+        e.starts_with("t.toml:9:19:") && e.contains("aperture_radius"),
+        "{e}"
+    );
+    let e = err(&MINIMAL.replace("[0, 0, 5]", "[0, 0, 5e12]"));
+    assert!(e.contains("camera position must be within"), "{e}");
+    let set = "[[light_set]]\ntype = \"box\"\ncount = 4\nmin = [0, 0, 0]\nmax = [1, 1, 1]\nintensity = [1, 1, 1]\norbit_radius = 1\n";
+    let e = err(&format!("{MINIMAL}{set}orbit_speed = 3e38\n"));
+    assert!(
+        e.contains("orbit_speed must be within ±1e4, found 3e38"),
+        "{e}"
+    );
+    assert!(parse(
+        &format!("{MINIMAL}{set}orbit_speed = -1e4\n"),
+        Path::new("t.toml")
+    )
+    .is_ok());
+    let e = err(&format!("{MINIMAL}{quad}transform = {{ scale = 1e30 }}\n"));
+    assert!(e.contains("beyond ±1e9"), "{e}");
+}
+
+/// Issue 18 item 9: an integrand that can see no light says so before
+/// rendering a black image; one that can see a light says nothing.
+#[test]
+fn integrands_that_see_no_light_are_named() {
+    let quad = "[[material]]\nname = \"m\"\nalbedo = [0.5, 0.5, 0.5]\n[[shape]]\ntype = \"quad\"\nmaterial = \"m\"\ncorners = [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]]\n";
+    let point = "[[light]]\ntype = \"point\"\nposition = [0, 2, 0]\nintensity = [1, 1, 1]\n";
+    let dark_point = "[[light]]\ntype = \"point\"\nposition = [0, 2, 0]\nintensity = [0, 0, 0]\n";
+    let area = "[[light]]\ntype = \"quad\"\ncorners = [[0, 2, 0], [1, 2, 0], [1, 2, 1], [0, 2, 1]]\nradiance = [1, 1, 1]\n";
+    let set = "[[light_set]]\ntype = \"box\"\ncount = 4\nmin = [0, 1, 0]\nmax = [1, 2, 1]\nintensity = [1, 1, 1]\n";
+    let warnings = |lights: &str, integrand: &str| {
+        let radius = if integrand == "ambient_occlusion" {
+            "radius = 1\n"
+        } else {
+            ""
+        };
+        let text = format!("{MINIMAL}{quad}{lights}[integrand]\ntype = \"{integrand}\"\n{radius}");
+        let s = parse(&text, Path::new("t.toml")).unwrap();
+        s.integrand.light_warnings(&s.scene)
+    };
+    let one = |lights: &str, integrand: &str, needle: &str| {
+        let w = warnings(lights, integrand);
+        assert!(
+            w.len() == 1 && w[0].contains(needle),
+            "{integrand} with {lights:?}: {w:?}"
+        );
+    };
+    one("", "many_light", "no light to sample");
+    one(dark_point, "many_light", "no light to sample");
+    one(point, "area_light", "1 point/directional lights");
+    one(set, "area_light", "4 light-set lights");
+    one(area, "depth_of_field", "point and directional lights");
+    one(set, "motion_blur", "light-set lights");
+    one(
+        set,
+        "path",
+        "nothing the path integrand samples emits light",
+    );
+    for (lights, integrand) in [
+        (point, "many_light"),
+        (set, "many_light"),
+        (area, "many_light"),
+        (area, "area_light"),
+        (point, "depth_of_field"),
+        (point, "path"),
+        (area, "path"),
+        ("", "ambient_occlusion"),
+    ] {
+        assert_eq!(
+            warnings(lights, integrand),
+            Vec::<String>::new(),
+            "{integrand}"
+        );
+    }
+}
