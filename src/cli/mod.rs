@@ -192,6 +192,30 @@ pub(crate) struct MdasArgs {
 }
 
 impl MdasArgs {
+    /// The flags given, by name (`--alpha`, …).
+    pub(crate) fn given(&self) -> Vec<&'static str> {
+        [
+            (self.bits_per_dim.is_some(), "--bits-per-dim"),
+            (self.extra_image_bits.is_some(), "--extra-image-bits"),
+            (
+                self.initial_samples_per_cell.is_some(),
+                "--initial-samples-per-cell",
+            ),
+            (self.scale_factor.is_some(), "--scale-factor"),
+            (self.alpha.is_some(), "--alpha"),
+            (self.candidates.is_some(), "--candidates"),
+            (
+                self.max_samples_per_leaf.is_some(),
+                "--max-samples-per-leaf",
+            ),
+            (self.epsilon.is_some(), "--epsilon"),
+            (self.split.is_some(), "--split"),
+        ]
+        .into_iter()
+        .filter_map(|(given, name)| given.then_some(name))
+        .collect()
+    }
+
     /// The scene's parameters (adjusted for `scale`) with the flags applied.
     pub(crate) fn params(
         &self,

@@ -97,6 +97,14 @@ pub(crate) fn run(args: RenderArgs, ui: Ui) -> Result<()> {
     } = args;
     let output = output.unwrap_or_else(|| default_output(&scene, integrator.name()));
     // Fail on bad input before any GPU work.
+    let ignored = mdas.given();
+    if integrator == IntegratorKind::Halton && !ignored.is_empty() {
+        bail!(
+            "{} set{} MDAS parameters, but --integrator is halton; add --integrator mdas",
+            ignored.join(", "),
+            if ignored.len() == 1 { "s" } else { "" }
+        );
+    }
     check_output(&output)?;
     let inputs: Vec<&Path> = std::iter::once(scene.as_path())
         .chain(reference.as_deref())

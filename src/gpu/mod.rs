@@ -240,6 +240,20 @@ impl Gpu {
 /// Hardware first (discrete, integrated, virtual), then CPU drivers.
 fn pick_adapter(adapters: Vec<wgpu::Adapter>) -> Result<wgpu::Adapter> {
     if adapters.is_empty() {
+        let known = |name: &str| {
+            let known = [
+                "vulkan", "vk", "metal", "mtl", "dx12", "d3d12", "gl", "gles", "opengl",
+            ];
+            known.contains(&name.trim().to_ascii_lowercase().as_str())
+        };
+        let backend = std::env::var("WGPU_BACKEND").ok();
+        if let Some(backend) = backend.filter(|b| !b.split(',').all(known)) {
+            bail!(
+                "no GPU adapter found with WGPU_BACKEND={backend:?}: wgpu knows the backends \
+                 vulkan, metal, dx12 and gl (a comma-separated list), and this build has \
+                 vulkan, metal and dx12; unset WGPU_BACKEND to use any of them"
+            );
+        }
         bail!(
             "no GPU adapter found. Install a Vulkan driver: on Debian/Ubuntu \
              `apt-get install mesa-vulkan-drivers` gives the lavapipe CPU driver \

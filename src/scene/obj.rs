@@ -22,8 +22,64 @@ pub fn load_obj(path: &Path) -> Result<TriMesh, String> {
     parse_obj(&bytes).map_err(|e| format!("mesh file '{}': {e}", path.display()))
 }
 
+/// Checks the `v` and `f` records line by line, so that the common errors
+/// name their line (tobj's errors do not): a vertex without three finite
+/// coordinates, a face with fewer than three corners, or a corner that is
+/// not an index of a vertex defined before it (1-based, or negative:
+/// relative to the last).
+fn check_lines(text: &str) -> Result<(), String> {
+    let mut vertices: i64 = 0;
+    for (n, line) in text.lines().enumerate() {
+        let at = |what: String| format!("line {}: {what}", n + 1);
+        let mut fields = line.split_whitespace();
+        match fields.next() {
+            Some("v") => {
+                let coords: Vec<&str> = fields.collect();
+                let finite = coords
+                    .iter()
+                    .take(3)
+                    .all(|c| c.parse::<f32>().is_ok_and(f32::is_finite));
+                if coords.len() < 3 || !finite {
+                    return Err(at(format!(
+                        "a vertex needs three finite coordinates: '{}'",
+                        line.trim()
+                    )));
+                }
+                vertices += 1;
+            }
+            Some("f") => {
+                let corners: Vec<&str> = fields.collect();
+                if corners.len() < 3 {
+                    return Err(at(format!(
+                        "a face needs at least three corners: '{}'",
+                        line.trim()
+                    )));
+                }
+                for corner in corners {
+                    let index = corner.split('/').next().unwrap_or("");
+                    let valid = match index.parse::<i64>() {
+                        Ok(i) if i > 0 => i <= vertices,
+                        Ok(i) if i < 0 => -i <= vertices,
+                        _ => false,
+                    };
+                    if !valid {
+                        return Err(at(format!(
+                            "face corner '{corner}' is not one of the {vertices} vertices defined so far"
+                        )));
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
 /// Parse OBJ text (see [`load_obj`]).
 pub fn parse_obj(bytes: &[u8]) -> Result<TriMesh, String> {
+    if let Ok(text) = std::str::from_utf8(bytes) {
+        check_lines(text)?;
+    }
     let options = tobj::LoadOptions {
         triangulate: true,
         ignore_points: true,
@@ -94,6 +150,36 @@ mod tests {
         for t in 0..3 {
             assert!(m.face_normal(t).z > 0.0);
         }
+    }
+
+    /// Issue 18 item 10: the common OBJ errors name their line.
+    #[test]
+    fn bad_records_name_their_line() {
+        for (text, line) in [
+            (
+                "v 0 0 0\nv 1 0 0\nv 1 2\nf 1 2 3\n",
+                "line 3: a vertex needs",
+            ),
+            ("v 0 0 0\nv 1 0 0\nv nan 1 0\n", "line 3: a vertex needs"),
+            (
+                "v 0 0 0\nv 1 0 0\nv 0 1 0\n\nf 1 2 4\n",
+                "line 5: face corner '4'",
+            ),
+            ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2\n", "line 4: a face needs"),
+            (
+                "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/1 x 3\n",
+                "line 4: face corner 'x'",
+            ),
+            (
+                "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -1 -2 -4\n",
+                "line 4: face corner '-4'",
+            ),
+        ] {
+            let e = parse_obj(text.as_bytes()).unwrap_err();
+            assert!(e.starts_with(line), "{text:?}: {e}");
+        }
+        let relative = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -3 -2 -1\n";
+        assert_eq!(parse_obj(relative.as_bytes()).unwrap().indices, [[0, 1, 2]]);
     }
 
     #[test]

@@ -17,8 +17,13 @@ impl Ctx<'_> {
         let n012 = (c[1] - c[0]).cross(c[2] - c[0]);
         let n023 = (c[2] - c[0]).cross(c[3] - c[0]);
         // Newell-style normal of the whole polygon, robust to one
-        // degenerate triangle.
-        if let Some(n) = (n012 + n023).try_normalize() {
+        // degenerate triangle; when the two halves' normals cancel (a
+        // symmetric bow tie) the first half's.
+        let normal = (n012 + n023)
+            .try_normalize()
+            .or_else(|| n012.try_normalize())
+            .or_else(|| n023.try_normalize());
+        if let Some(n) = normal {
             let center = (c[0] + c[1] + c[2] + c[3]) / 4.0;
             let size = c.iter().map(|p| (*p - center).length()).fold(0.0, f32::max);
             let off = c

@@ -234,3 +234,16 @@ fn integrands_that_see_no_light_are_named() {
         );
     }
 }
+
+/// Issue 18 item 10: a bow tie whose two halves' normals cancel exactly
+/// (no Newell normal) is still a bow tie, for shapes and quad lights.
+#[test]
+fn symmetric_bow_tie_quads_are_refused() {
+    let bow = "[[0, 0, 0], [1, 1, 0], [1, 0, 0], [0, 1, 0]]";
+    let shape = format!("[[material]]\nname = \"m\"\nalbedo = [0.5, 0.5, 0.5]\n[[shape]]\ntype = \"quad\"\nmaterial = \"m\"\ncorners = {bow}\n");
+    let e = err(&format!("{MINIMAL}{shape}"));
+    assert!(e.contains("bow tie"), "{e}");
+    let light = format!("[[light]]\ntype = \"quad\"\ncorners = {bow}\nradiance = [1, 1, 1]\n");
+    let e = err(&format!("{MINIMAL}{light}"));
+    assert!(e.contains("bow tie"), "{e}");
+}

@@ -226,8 +226,9 @@ pub fn validate(p: &MdasParams) -> Result<(), ParamError> {
     if !(p.spp.is_finite() && p.spp > 0.0) {
         return fail("spp", &p.spp, "must be a positive number".into());
     }
-    let morton = 2 * (p.bits_per_dim + p.extra_image_bits);
-    if p.bits_per_dim > 16 || p.extra_image_bits > 16 || morton > MORTON_BITS_MAX {
+    // u64: 2·(b + e) of two u32s must not wrap (4294967295 printed 0).
+    let morton = 2 * (u64::from(p.bits_per_dim) + u64::from(p.extra_image_bits));
+    if p.bits_per_dim > 16 || p.extra_image_bits > 16 || morton > u64::from(MORTON_BITS_MAX) {
         let key = if p.bits_per_dim > p.extra_image_bits {
             "bits_per_dim"
         } else {
