@@ -34,7 +34,11 @@ pub(crate) use std::path::{Path, PathBuf};
                   Output: results go to stdout, progress bars and notes to stderr. --json makes \
                   stdout one JSON document (every subcommand); --quiet drops bars and notes.\n\n\
                   Environment: MDAS_ADAPTER=<substring> picks an adapter by name; WGPU_BACKEND \
-                  restricts backends (e.g. vulkan)."
+                  restricts backends (e.g. vulkan).\n\n\
+                  Input limits: a scene file ≤ 16 MiB and an OBJ ≤ 1 GiB (regular files); a film \
+                  side ≤ 16384 and ≤ 2^26 pixels; a shape ≤ 2^25 triangles, at most 16 sharing \
+                  one centre; ≤ 2^24 light-set lights; coordinates within ±1e9; an EXR read ≤ 2^28 \
+                  pixels. Outputs land whole or not at all (an interrupt removes partial ones)."
 )]
 pub(crate) struct Cli {
     /// Print the result as one JSON document on stdout (human-readable

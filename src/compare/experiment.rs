@@ -16,8 +16,10 @@
 //!    target (MDAS's fastest round) and Halton's time fit, and each method
 //!    is rendered with `--seeds` seeds ([`super::intervals`]).
 //! 4. An untimed MDAS render with the sample-density read-back.
-//! 5. Only then files are written, each atomically, `report.json` last: a
-//!    failure anywhere before leaves no report.
+//! 5. Only then files are written, into the run's staging directory
+//!    ([`crate::atomic::StagedDir`], made before any GPU work), and moved
+//!    into `--out` as one unit, `report.json` last: a failure anywhere
+//!    leaves the previous run's files untouched.
 //!
 //! The images written for a searched method are those of the bracketing
 //! run nearer to the target time (`equal_time.*.image_run`), each the
