@@ -1086,3 +1086,56 @@ fn hostile_inputs_fail_cleanly() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Issue 18 items 6 and 10: an interrupt (SIGINT) during `compare` exits
+/// with status 130 and removes the run's staging directory; the previous
+/// run's report in `--out` stays as it was.
+#[test]
+fn an_interrupted_compare_leaves_no_partial_output() {
+    let dir = temp_dir("interrupt");
+    let out = dir.join("cmp");
+    std::fs::create_dir_all(&out).unwrap();
+    std::fs::write(out.join("report.json"), b"old").unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_mdas"))
+        .args(["compare", "scenes/area_light_plane.toml", "--scale", "0.25"])
+        .args([
+            "--ref-spp",
+            "1000000",
+            "--cache",
+            dir.join("cache").to_str().unwrap(),
+        ])
+        .args(["--out", out.to_str().unwrap()])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let staging = || {
+        std::fs::read_dir(&out)
+            .unwrap()
+            .filter_map(|e| e.ok())
+            .any(|e| e.file_name().to_string_lossy().starts_with(".mdas-partial"))
+    };
+    // The staging directory is made before any GPU work; the million-spp
+    // reference then keeps the run busy far longer than this wait.
+    let start = std::time::Instant::now();
+    while !staging() {
+        assert!(child.try_wait().unwrap().is_none(), "compare ended early");
+        assert!(
+            start.elapsed().as_secs() < 60,
+            "no staging directory appeared"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let killed = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    let o = child.wait_with_output().unwrap();
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(130), "{err}");
+    assert!(err.contains("interrupted"), "{err}");
+    assert!(!staging(), "the staging directory was left behind");
+    assert_eq!(std::fs::read(out.join("report.json")).unwrap(), b"old");
+    std::fs::remove_dir_all(&dir).ok();
+}
