@@ -11,7 +11,7 @@
 //! uniform), so E[RelMSE] ≤ B(N) = mean_p (range_p²/4N)/(ref_p² + 0.01).
 //! Halton points are better stratified than independent ones, so the
 //! observed RelMSE is far below B(N); an error in a cosine, a π, the area
-//! pdf or the pixel mapping biases every pixel and overshoots B(256) ≈ 1e-4.
+//! pdf or the pixel mapping biases every pixel and overshoots B(256) ≈ 7e-4.
 //! The range is found on a grid of 5×5 footprint points × 9×9 light points
 //! and widened by 50 % to cover extrema between grid points (f is smooth
 //! on each pixel that sees only the plane).

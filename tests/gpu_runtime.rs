@@ -31,8 +31,51 @@ fn invalid_wgsl_is_an_error_naming_the_pipeline() {
     );
 }
 
+/// A dispatch that wgpu's validation rejects (the pipeline's bind group
+/// was never set) comes back from the error scope around it as an error
+/// naming the work, not as a silently zeroed result.
 #[test]
 fn a_validation_error_during_dispatch_is_returned() {
+    let gpu = gpu();
+    let layout = gpu
+        .device
+        .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("test.unbound.layout"),
+            entries: &[storage_entry(0, false)],
+        });
+    let source = Wgsl::new().part((
+        "unbound.wgsl",
+        "@group(0) @binding(0) var<storage, read_write> data: array<u32>;\n\
+         @compute @workgroup_size(1) fn main() { data[0] = 7u; }",
+    ));
+    let pipeline = gpu
+        .compute_pipeline("test.unbound", &source, "main", &[&layout])
+        .unwrap();
+    // What every integrator does around its passes (`Gpu::scoped`).
+    let err = gpu
+        .scoped("unbound-dispatch", || {
+            let mut profiler = Profiler::new(gpu);
+            profiler.phase("unbound", |encoder, timestamps| {
+                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("test.unbound"),
+                    timestamp_writes: timestamps,
+                });
+                pass.set_pipeline(&pipeline);
+                pass.dispatch_workgroups(1, 1, 1);
+            })?;
+            profiler.finish().map(drop)
+        })
+        .unwrap_err();
+    let err = format!("{err:#}");
+    assert!(err.contains("GPU error during unbound-dispatch"), "{err}");
+    // The error was taken: the next scope is clean.
+    assert!(gpu.scoped("after", || Ok(())).is_ok());
+}
+
+/// A pipeline whose layout contradicts its shader (read-only binding, a
+/// kernel that writes) is refused when it is created, naming it.
+#[test]
+fn a_layout_that_contradicts_the_shader_is_an_error() {
     let gpu = gpu();
     // The kernel expects a read-write buffer at binding 0, the layout says read-only.
     let layout = gpu
@@ -46,9 +89,11 @@ fn a_validation_error_during_dispatch_is_returned() {
         "@group(0) @binding(0) var<storage, read_write> data: array<u32>;\n\
          @compute @workgroup_size(1) fn main() { data[0] = 7u; }",
     ));
-    assert!(gpu
+    let err = gpu
         .compute_pipeline("test.mismatch", &source, "main", &[&layout])
-        .is_err());
+        .unwrap_err();
+    let err = format!("{err:#}");
+    assert!(err.contains("test.mismatch"), "{err}");
 }
 
 #[test]
@@ -91,7 +136,7 @@ fn kernels_run_and_read_back() {
     let times = profiler.finish().unwrap();
     let names: Vec<&str> = times.0.iter().map(|(n, _)| n.as_str()).collect();
     assert_eq!(names, ["first", "second"]);
-    assert!(times.0.iter().all(|(_, t)| t.is_finite() && *t >= 0.0));
+    assert!(times.0.iter().all(|(_, t)| t.is_finite()), "{times:?}");
     let data: Vec<u32> = gpu.read_buffer(&buffer, 1000).unwrap();
     assert!(data.iter().enumerate().all(|(i, &v)| v == (i * i) as u32));
 }

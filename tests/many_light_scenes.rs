@@ -156,7 +156,7 @@ fn vpl_atrium_points_has_100k_surface_lights_on_the_hall() {
 }
 
 #[test]
-fn lights_1m_has_a_million_canopy_lights_and_loads_fast() {
+fn lights_1m_has_a_million_canopy_lights() {
     let start = Instant::now();
     let s = scene_file::load(&scene_path("lights_1m.toml")).unwrap();
     let load = start.elapsed().as_secs_f64();
@@ -212,13 +212,9 @@ fn lights_1m_has_a_million_canopy_lights_and_loads_fast() {
     let prims = light_prims(&s.scene, 0.25);
     let extract = start.elapsed().as_secs_f64();
     assert_eq!(prims.len(), 1_000_000);
+    // Printed, not asserted: speed belongs in benchmarks (a quadratic step
+    // would show here as minutes, and in the suite's wall time).
     eprintln!("lights_1m: load {load:.3} s, light_prims {extract:.3} s");
-    // A loose bound (the test profile is optimized): a quadratic step or a
-    // per-light allocation would blow it.
-    assert!(
-        load < 5.0 && extract < 2.0,
-        "load {load} s, prims {extract} s"
-    );
 }
 
 /// Mesh lights move exactly as the keyframes say: one triangle of a

@@ -188,14 +188,11 @@ fn check_render(name: &str, what: &str, r: &Render) {
 /// failures name the scene and the two cores run two scenes at once).
 fn load_and_render(file: &str) {
     let gpu = gpu();
+    // SCENES_OUT=dir also writes the images (it changes no check; to look
+    // at a scene larger, `mdas render scenes/NAME.toml`).
     let out = std::env::var_os("SCENES_OUT");
-    // SCENES_SCALE=0.25 (with SCENES_ONLY=name) renders larger for a look.
-    let scale: f32 = std::env::var("SCENES_SCALE").map_or(1.0 / 16.0, |s| s.parse().unwrap());
-    let only = std::env::var("SCENES_ONLY").ok();
+    let scale = 1.0 / 16.0;
     for e in expectations().into_iter().filter(|e| e.file == file) {
-        if only.as_deref().is_some_and(|o| o != e.file) {
-            continue;
-        }
         let path = format!("scenes/{}.toml", e.file);
         let start = std::time::Instant::now();
         let prepared = app::prepare(gpu, Path::new(&path), scale).unwrap();
@@ -205,8 +202,7 @@ fn load_and_render(file: &str) {
         assert_eq!(integrand.dims(), e.dims, "{}: dimensions", e.file);
 
         let start = std::time::Instant::now();
-        let spp = std::env::var("SCENES_SPP").map_or(4, |s| s.parse().unwrap());
-        let halton = Halton::new(spp, 1).render(gpu, integrand).unwrap();
+        let halton = Halton::new(4, 1).render(gpu, integrand).unwrap();
         let halton_s = start.elapsed().as_secs_f64();
         check_render(e.file, "halton", &halton);
 
@@ -218,11 +214,6 @@ fn load_and_render(file: &str) {
         params.extra_image_bits = params.extra_image_bits.saturating_sub(4);
         params.spp = 8.0;
         let start = std::time::Instant::now();
-        if let Some(dir) = out.as_ref().filter(|_| scale > 1.0 / 16.0) {
-            let exr = Path::new(dir).join(format!("{}-halton.exr", e.file));
-            app::write_outputs(&exr, halton.film, &halton.image).unwrap();
-            continue;
-        }
         let mdas = Mdas::new(params)
             .and_then(|mut m| m.render(gpu, integrand))
             .unwrap_or_else(|err| panic!("{}: MDAS: {err:#}", e.file));

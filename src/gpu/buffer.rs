@@ -13,16 +13,7 @@ impl Gpu {
     /// Fails with a clear message when `bytes` exceeds what one storage
     /// binding can hold on this adapter.
     pub fn check_binding_size(&self, label: &str, bytes: u64) -> Result<()> {
-        let max = self.max_binding_bytes();
-        if bytes > max {
-            bail!(
-                "'{label}' needs {:.1} MiB but this adapter allows {:.1} MiB per storage buffer; \
-                 reduce the resolution, spp or scene size",
-                bytes as f64 / 1048576.0,
-                max as f64 / 1048576.0
-            );
-        }
-        Ok(())
+        check_binding_size_in(&self.limits, label, bytes)
     }
 
     /// A storage buffer initialised from `data`. An empty slice still
@@ -171,4 +162,21 @@ impl<T: bytemuck::Pod> Readback<T> {
         self.staging.unmap();
         Ok(out)
     }
+}
+
+/// [`Gpu::check_binding_size`] against `limits` (a test can pass tighter
+/// limits than its adapter's).
+pub fn check_binding_size_in(limits: &wgpu::Limits, label: &str, bytes: u64) -> Result<()> {
+    let max = limits
+        .max_storage_buffer_binding_size
+        .min(limits.max_buffer_size);
+    if bytes > max {
+        bail!(
+            "'{label}' needs {:.1} MiB but this adapter allows {:.1} MiB per storage buffer; \
+             reduce the resolution, spp or scene size",
+            bytes as f64 / 1048576.0,
+            max as f64 / 1048576.0
+        );
+    }
+    Ok(())
 }

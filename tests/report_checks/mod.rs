@@ -93,7 +93,9 @@ pub fn check_method(out: &Path, m: &Value, reference: &[[f32; 3]]) -> f64 {
                 m["mse_bias2"].as_f64().unwrap(),
                 m["mse_variance"].as_f64().unwrap(),
             );
-            assert!(b2 >= 0.0 && var >= 0.0);
+            // Between seeds the renders differ, so the variance term is
+            // positive (b2 may be 0 only for an exact estimator).
+            assert!(v.len() < 2 || var > 0.0, "{name}: zero variance over seeds");
             assert!(
                 close(b2 + var, m["mse"].as_f64().unwrap(), 1e-9),
                 "{name} split"

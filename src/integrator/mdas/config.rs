@@ -390,8 +390,13 @@ impl Config {
     /// Fails, before any GPU work, when a buffer exceeds the adapter's
     /// per-binding or per-buffer limit.
     pub fn check_device(&self, gpu: &Gpu) -> Result<()> {
+        self.check_limits(&gpu.limits)
+    }
+
+    /// [`Config::check_device`] against `limits`.
+    pub fn check_limits(&self, limits: &wgpu::Limits) -> Result<()> {
         let limit = |what: &str, bytes: u64| -> Result<()> {
-            gpu.check_binding_size(what, bytes).map_err(|e| {
+            crate::gpu::buffer::check_binding_size_in(limits, what, bytes).map_err(|e| {
                 e.context(format!(
                     "MDAS capacity: {} samples ({} initial) and up to {} leaves of {}D do not fit this adapter",
                     self.budget, self.initial_samples, self.leaf_capacity, self.dims
@@ -405,7 +410,7 @@ impl Config {
         limit("mdas.partials", self.partials_bytes())?;
         limit("mdas.accum", self.accum_bytes())?;
         let groups = (self.leaf_capacity as u64).div_ceil(WG as u64);
-        let max_groups = gpu.limits.max_compute_workgroups_per_dimension as u64;
+        let max_groups = limits.max_compute_workgroups_per_dimension as u64;
         if groups > max_groups * max_groups {
             bail!(
                 "{} leaves need more workgroups than this adapter can dispatch",
