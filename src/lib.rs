@@ -24,3 +24,8 @@ pub mod metrics;
 pub mod provenance;
 pub mod scene;
 pub mod scene_file;
+
+/// The wgpu this crate is built on (version 30), so that a library user
+/// writing an [`integrand::Integrand`] needs no separate, matching
+/// dependency.
+pub use wgpu;

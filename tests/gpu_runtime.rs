@@ -17,10 +17,10 @@ fn invalid_wgsl_is_an_error_naming_the_pipeline() {
             label: Some("test.bad.layout"),
             entries: &[],
         });
-    let source = Wgsl::new().part((
-        "bad.wgsl",
-        "@compute @workgroup_size(1) fn main() { let x: f32 = undefined_name; }",
-    ));
+    // Owned text, as a library user reading a shader at run time has it.
+    let text =
+        String::from("@compute @workgroup_size(1) fn main() { let x: f32 = undefined_name; }");
+    let source = Wgsl::new().part((String::from("bad.wgsl"), text));
     let err = gpu
         .compute_pipeline("test.bad", &source, "main", &[&layout])
         .unwrap_err()

@@ -41,8 +41,14 @@ impl Wgsl {
         self
     }
 
-    /// Appends one file, as given by [`wgsl_file!`].
-    pub fn part(mut self, (name, text): (&'static str, &'static str)) -> Self {
+    /// Appends one file, as given by [`wgsl_file!`], or any (name, text)
+    /// pair: borrowed `&'static str` or owned `String` (shader text read at
+    /// run time needs no leaking).
+    pub fn part<N, T>(mut self, (name, text): (N, T)) -> Self
+    where
+        N: Into<Cow<'static, str>>,
+        T: Into<Cow<'static, str>>,
+    {
         self.parts.push((name.into(), text.into()));
         self
     }
