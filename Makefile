@@ -8,7 +8,7 @@ CARGO ?= cargo
 SCENE ?= scenes/cornell.toml
 SPP ?= 64
 
-.PHONY: run test lint vulkan build bench info clean
+.PHONY: run test lint vulkan build bench info clean mutants-wgsl
 
 vulkan:
 	@./.ci/ensure-vulkan.sh
@@ -43,6 +43,13 @@ bench: vulkan
 lint:
 	$(CARGO) fmt --all -- --check
 	$(CARGO) clippy --all-targets -- -D warnings
+
+# WGSL mutation testing: plants estimator bugs (a dropped cosine, |cos|, a
+# pdf in the wrong measure, a missing division by the pmf, a Morton bit off
+# by one, a biased splat weight) in a copy of the kernels and requires the
+# named tests to fail. Minutes per mutation; not part of `make test`.
+mutants-wgsl: vulkan
+	./.ci/wgsl-mutants.sh
 
 clean:
 	$(CARGO) clean

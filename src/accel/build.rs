@@ -126,7 +126,7 @@ impl BuiltScene {
             .collect();
         for (g, b) in groups.iter().zip(&bounds) {
             let extent = b.min.abs().max(b.max.abs()).max_element();
-            if !(extent <= MAX_BOUNDS) {
+            if !extent.is_finite() || extent > MAX_BOUNDS {
                 let mesh = g
                     .source
                     .first()

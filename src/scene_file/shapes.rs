@@ -265,7 +265,7 @@ impl Ctx<'_> {
         if let Some(p) = mesh
             .positions
             .iter()
-            .find(|p| !(p.abs().max_element() <= limit))
+            .find(|p| !p.is_finite() || p.abs().max_element() > limit)
         {
             let span = r
                 .transform

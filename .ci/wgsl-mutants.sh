@@ -1,0 +1,67 @@
+#!/usr/bin/env bash
+# WGSL mutation testing (issue 20): each mutation below plants a classic
+# estimator bug in a copy of the kernels, and the tests named with it must
+# fail. A mutation the tests survive is a hole in the suite.
+#
+#   make mutants-wgsl            # all mutations (minutes per mutation on 2 cores)
+#   ONLY=cos_dropped make mutants-wgsl
+#
+# It works on a copy of the committed tree (git worktree in $WORK, default
+# /tmp/mdas-wgsl-mutants), so the checkout's files are never modified; the
+# target directory is shared (below). Prints one line per mutation and a
+# summary; exits 1 if any mutation survives. Not part of `make test`.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+ROOT=$(pwd)
+WORK=${WORK:-/tmp/mdas-wgsl-mutants}
+# The checkout's target directory: dependencies are reused, only the crate
+# rebuilds per mutation (the checkout rebuilds it once afterwards).
+export CARGO_TARGET_DIR=${CARGO_TARGET_DIR:-$ROOT/target}
+
+# name | file | exact text | replacement | test binaries that must fail
+MUTATIONS=(
+  "cos_dropped|wgsl/shared/shading.wgsl|(cos_x * cos_y / (dist2 * l.pdf_area))|(cos_x / (dist2 * l.pdf_area))|integrands analytic"
+  "cos_abs|wgsl/shared/shading.wgsl|let cos_y = -dot(l.n, wi);|let cos_y = abs(dot(l.n, wi));|integrands"
+  "pdf_measure|wgsl/shared/shading.wgsl|(cos_x * cos_y / (dist2 * l.pdf_area))|(cos_x * cos_y / l.pdf_area)|analytic"
+  "pmf_division|wgsl/many_light.wgsl|ldexp(c / pick.pmf_m, vec3<i32>(-pick.pmf_e))|ldexp(c, vec3<i32>(-pick.pmf_e))|many_light"
+  "morton_bit|wgsl/lights/morton.wgsl|(spread3(q[0]) << 2u)|(spread3(q[0]) << 3u)|light_tree_gpu"
+  "splat_weight|wgsl/mdas/reconstruct.wgsl|add_fixed(word + 6u, to_fixed(ldexp(w, 60)));|add_fixed(word + 6u, to_fixed(ldexp(ox * oy, 60)));|mdas_invariants mdas_bias"
+)
+
+rm -rf "$WORK"
+git worktree prune
+git worktree add --detach "$WORK" HEAD > /dev/null
+trap 'git -C "$ROOT" worktree remove --force "$WORK" > /dev/null 2>&1 || true' EXIT
+cd "$WORK"
+
+killed=0
+survived=()
+for m in "${MUTATIONS[@]}"; do
+  IFS='|' read -r name file from to tests <<< "$m"
+  if [[ -n "${ONLY:-}" && "$ONLY" != "$name" ]]; then
+    continue
+  fi
+  python3 - "$file" "$from" "$to" <<'PY'
+import sys
+path, old, new = sys.argv[1:4]
+text = open(path).read()
+if text.count(old) != 1:
+    sys.exit(f"mutation text found {text.count(old)} times in {path}: {old}")
+open(path, "w").write(text.replace(old, new))
+PY
+  args=()
+  for t in $tests; do args+=(--test "$t"); done
+  start=$(date +%s)
+  if cargo test --release "${args[@]}" > "$WORK/$name.log" 2>&1; then
+    result=SURVIVED
+    survived+=("$name")
+  else
+    result=killed
+    killed=$((killed + 1))
+  fi
+  printf '%-14s %-8s %4ss  (%s: %s)\n' "$name" "$result" $(( $(date +%s) - start )) "$file" "$tests"
+  git checkout -- "$file"
+done
+
+echo "killed $killed, survived ${#survived[@]}${survived:+: ${survived[*]}}"
+[[ ${#survived[@]} -eq 0 ]]
