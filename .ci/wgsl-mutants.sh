@@ -4,7 +4,7 @@
 # fail. A mutation the tests survive is a hole in the suite.
 #
 #   make mutants-wgsl            # all mutations (minutes per mutation on 2 cores)
-#   ONLY=cos_dropped make mutants-wgsl
+#   ONLY="cos_dropped cos_abs" make mutants-wgsl
 #
 # It works on a copy of the committed tree (git worktree in $WORK, default
 # /tmp/mdas-wgsl-mutants), so the checkout's files are never modified; the
@@ -34,11 +34,15 @@ git worktree add --detach "$WORK" HEAD > /dev/null
 trap 'git -C "$ROOT" worktree remove --force "$WORK" > /dev/null 2>&1 || true' EXIT
 cd "$WORK"
 
+LOGS=${LOGS:-$WORK-logs}
+rm -rf "$LOGS"
+mkdir -p "$LOGS"
 killed=0
 survived=()
+broken=()
 for m in "${MUTATIONS[@]}"; do
   IFS='|' read -r name file from to tests <<< "$m"
-  if [[ -n "${ONLY:-}" && "$ONLY" != "$name" ]]; then
+  if [[ -n "${ONLY:-}" && " $ONLY " != *" $name "* ]]; then
     continue
   fi
   python3 - "$file" "$from" "$to" <<'PY'
@@ -52,16 +56,23 @@ PY
   args=()
   for t in $tests; do args+=(--test "$t"); done
   start=$(date +%s)
-  if cargo test --release "${args[@]}" > "$WORK/$name.log" 2>&1; then
+  log="$LOGS/$name.log"
+  # A kill counts only when a test fails: a mutation that stops the
+  # kernels compiling is a broken mutation, not a caught bug.
+  if cargo test --release "${args[@]}" > "$log" 2>&1; then
     result=SURVIVED
     survived+=("$name")
-  else
+  elif grep -qE '^test .* \.\.\. FAILED$' "$log"; then
     result=killed
     killed=$((killed + 1))
+  else
+    result=BROKEN
+    broken+=("$name")
   fi
-  printf '%-14s %-8s %4ss  (%s: %s)\n' "$name" "$result" $(( $(date +%s) - start )) "$file" "$tests"
+  by=$(grep -E '^test .* \.\.\. FAILED$' "$log" | sed -E 's/^test (.*) \.\.\. FAILED$/\1/' | head -2 | paste -sd, -)
+  printf '%-14s %-8s %4ss  (%s; %s)%s\n' "$name" "$result" $(( $(date +%s) - start )) "$file" "$tests" "${by:+ by $by}"
   git checkout -- "$file"
 done
 
-echo "killed $killed, survived ${#survived[@]}${survived:+: ${survived[*]}}"
-[[ ${#survived[@]} -eq 0 ]]
+echo "killed $killed, survived ${#survived[@]}${survived:+: ${survived[*]}}, broken ${#broken[@]}${broken:+: ${broken[*]}} (logs in $LOGS)"
+[[ ${#survived[@]} -eq 0 && ${#broken[@]} -eq 0 ]]
