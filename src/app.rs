@@ -306,6 +306,9 @@ pub struct Reference {
     /// The cache entry (EXR); its record is [`reference_record_path`].
     pub path: PathBuf,
     pub cache: CacheUse,
+    /// The scene's [`IntegrandSpec::light_warnings`] (an integrand that
+    /// sees no light renders a black reference).
+    pub warnings: Vec<String>,
 }
 
 /// How a reference was obtained.
@@ -394,6 +397,9 @@ pub fn reference_with(
     progress: Option<crate::integrator::halton::Progress>,
 ) -> Result<Reference> {
     let scene = SceneFile::load(scene_path)?;
+    // An override the scene cannot take fails here, cached entry or not.
+    let applied = overrides.apply(&scene.integrand, scene_path)?;
+    let warnings = applied.light_warnings(&scene.scene);
     let extra = overrides.cache_key(&scene.integrand)?;
     let path = reference_cache_path_keyed(cache_dir, scene_path, &scene.inputs, spec, &extra)?;
     if path.is_dir() {
@@ -412,6 +418,7 @@ pub fn reference_with(
                     image,
                     path,
                     cache: CacheUse::Hit,
+                    warnings,
                 })
             }
             Err(e) => cache = CacheUse::Rebuilt(format!("{e:#}")),
@@ -465,6 +472,7 @@ pub fn reference_with(
         image: render.image,
         path,
         cache,
+        warnings,
     })
 }
 

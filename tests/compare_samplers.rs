@@ -440,7 +440,10 @@ fn reference_sampler_override_is_part_of_the_cache_key() {
     let other = with(Some(SamplerKind::Power));
     assert_ne!(other.path, own);
     assert!(!other.cached());
-    // Overrides on a scene whose integrand has no light sampler fail.
+    // Overrides on a scene whose integrand has no light sampler fail, even
+    // when that scene's reference is already in the cache.
+    let plane = Path::new("scenes/area_light_plane.toml");
+    mdas::app::reference(gpu(), plane, spec, &cache, None).unwrap();
     let err = mdas::app::reference_with(
         gpu(),
         Path::new("scenes/area_light_plane.toml"),

@@ -60,7 +60,6 @@ pub(crate) fn run(args: ReferenceArgs, ui: Ui) -> Result<()> {
         check_output(out)?;
         check_not_input(out, &[&scene])?;
     }
-    warn_unlit(&SceneFile::load(&scene)?);
     let gpu = Gpu::shared()?;
     let bar = if ui.progress() {
         ProgressBar::new(spp as u64)
@@ -80,6 +79,7 @@ pub(crate) fn run(args: ReferenceArgs, ui: Ui) -> Result<()> {
         image,
         path,
         cache: cache_use,
+        warnings,
     } = app::reference_with(
         gpu,
         &scene,
@@ -89,6 +89,9 @@ pub(crate) fn run(args: ReferenceArgs, ui: Ui) -> Result<()> {
         Some(Box::new(move |done, _| b.set_position(done as u64))),
     )?;
     bar.finish_and_clear();
+    for w in &warnings {
+        eprintln!("warning: {w}");
+    }
     if let app::CacheUse::Rebuilt(why) = &cache_use {
         eprintln!(
             "warning: the cached reference {} was unusable ({why}); rendered it again",
