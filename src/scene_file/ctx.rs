@@ -146,6 +146,16 @@ impl Ctx<'_> {
     /// An RGB triple with every channel ≥ 0 (radiance, intensity, …).
     pub(super) fn rgb(&self, v: &S<V3>, key: &str) -> Result<Vec3> {
         let c = v.get_ref().0;
+        let max = super::MAX_EMISSION;
+        if c.max_element() > max {
+            return Err(self.error(
+                v.span(),
+                format!(
+                    "{key} must be at most {max:e} in every channel, found {}",
+                    fmt3(c)
+                ),
+            ));
+        }
         if c.min_element() >= 0.0 {
             Ok(c)
         } else {

@@ -15,10 +15,11 @@ impl Ctx<'_> {
         let t = self.check_type("light", &r.kind, &r.type_keys(), &LIGHT_TYPES)?;
         Ok(match LIGHT_TYPES[t].0 {
             "point" => LightOut::Delta(Light::Point {
-                position: self
-                    .need(&r.position, "position", &r.kind, "light")?
-                    .get_ref()
-                    .0,
+                position: self.bounded3(
+                    self.need(&r.position, "position", &r.kind, "light")?,
+                    "position",
+                    super::MAX_COORDINATE,
+                )?,
                 intensity: self.rgb(
                     self.need(&r.intensity, "intensity", &r.kind, "light")?,
                     "intensity",
@@ -210,8 +211,16 @@ impl Ctx<'_> {
             orbit_radius,
             orbit_speed,
         };
-        if set.lights.iter().any(|l| !l.base.is_finite()) {
-            return Err(self.error(r.kind.span(), "light positions overflow to infinity"));
+        let limit = super::MAX_COORDINATE;
+        let far = |l: &SetLight| !l.base.is_finite() || l.base.abs().max_element() > limit;
+        if let Some(l) = set.lights.iter().find(|l| far(l)) {
+            return Err(self.error(
+                r.kind.span(),
+                format!(
+                    "a light of this set lies at {}, beyond ±{limit:e} (the largest coordinate a scene may use)",
+                    l.base
+                ),
+            ));
         }
         Ok(set)
     }

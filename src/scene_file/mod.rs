@@ -99,6 +99,11 @@ pub const MAX_CUT_SIZE: u32 = 64;
 /// ray arithmetic stay finite: a keyframe at 3·10^38 crashed the BVH
 /// builder, an aperture of 10^30 made every ray miss.
 pub const MAX_COORDINATE: f32 = 1e9;
+/// Largest channel of an emitted quantity (intensity, irradiance,
+/// radiance, emission): the light tree sums up to 2^24 of them, jittered
+/// up to 2×, and must stay finite in f32 (an intensity of 3·10^38
+/// overflowed to infinity).
+pub const MAX_EMISSION: f32 = 1e20;
 /// Largest `orbit_speed` magnitude, radians per scene time unit: the GPU's
 /// sin and cos are accurate only for moderate angles (3·10^38 gave NaN
 /// light positions).

@@ -178,6 +178,21 @@ fn absurd_magnitudes_are_refused_where_they_are_written() {
     .is_ok());
     let e = err(&format!("{MINIMAL}{quad}transform = {{ scale = 1e30 }}\n"));
     assert!(e.contains("beyond ±1e9"), "{e}");
+    // Lights: positions and set boxes within ±1e9, emission at most 1e20
+    // (sums over 2^24 jittered lights stay finite).
+    let point = |p: &str, i: &str| {
+        format!("[[light]]\ntype = \"point\"\nposition = {p}\nintensity = {i}\n")
+    };
+    let e = err(&format!("{MINIMAL}{}", point("[0, 1e12, 0]", "[1, 1, 1]")));
+    assert!(e.contains("position must be within ±1e9"), "{e}");
+    let e = err(&format!("{MINIMAL}{}", point("[0, 1, 0]", "[3e38, 1, 1]")));
+    assert!(e.contains("intensity must be at most 1e20"), "{e}");
+    let far_set = set.replace("max = [1, 1, 1]", "max = [1e30, 1, 1]");
+    let e = err(&format!("{MINIMAL}{far_set}"));
+    assert!(
+        e.contains("a light of this set lies at") && e.contains("beyond ±1e9"),
+        "{e}"
+    );
 }
 
 /// Issue 18 item 9: an integrand that can see no light says so before
