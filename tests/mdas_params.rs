@@ -103,11 +103,14 @@ fn invalid_combinations_with_the_integrand_are_rejected_at_render() {
     assert!(e.contains("exceeds"), "{e}");
 }
 
-/// The capacity check, against limits one byte below what the samples
-/// need: it always asserts, whatever the adapter's own limit (the earlier
-/// form checked only adapters below ~0.94 GB). On an adapter too small for
-/// a 4096² film at 7 spp (lavapipe: 128 MiB per binding) a render fails
-/// with the same message, from `Mdas::render`'s own check.
+/// The capacity check. The arrays that grow with the budget are paged, so
+/// a binding limit one byte below what the samples' coordinates need
+/// splits them into more pages instead of refusing the render; what is
+/// refused, before any GPU work, is a layout needing more storage buffers
+/// than the adapter allows per shader stage, or accumulators (32 B per
+/// pixel, never paged) beyond one binding. The render path refuses the
+/// same way: a page cap that splits the arrays into more bindings than the
+/// adapter has fails in `Mdas::render`'s own check.
 #[test]
 fn capacity_is_checked_against_the_adapter_before_any_work() {
     let gpu = gpu();
@@ -123,27 +126,31 @@ fn capacity_is_checked_against_the_adapter_before_any_work() {
         max_storage_buffer_binding_size: cfg.samples_bytes() - 1,
         ..gpu.limits.clone()
     };
-    let e = format!("{:#}", cfg.check_limits(&tight).unwrap_err());
+    let paged = cfg.clone().for_limits(&tight, None).unwrap();
+    assert_eq!(paged.pages.count[1], 2, "{:?}", paged.pages);
+    assert!(paged.pages.extra() >= 1);
+
+    let few = wgpu::Limits {
+        max_storage_buffers_per_shader_stage: 8 + paged.pages.extra() - 1,
+        ..tight.clone()
+    };
+    let e = format!("{:#}", cfg.check_limits(&few).unwrap_err());
     assert!(
-        e.contains("MDAS capacity") && e.contains("'mdas.samples'") && e.contains("MiB"),
+        e.contains("MDAS capacity") && e.contains("storage buffers") && e.contains("MiB"),
         "{e}"
     );
-
-    let big = Film {
-        width: 4096,
-        height: 4096,
+    let small_binding = wgpu::Limits {
+        max_storage_buffer_binding_size: cfg.accum_bytes() - 1,
+        max_storage_buffers_per_shader_stage: 1000,
+        ..gpu.limits.clone()
     };
-    let integrand = TestIntegrand::new(gpu, 0, 3, big);
-    let cfg = mdas.config(&integrand).unwrap();
-    let fits = cfg.check_device(gpu).is_ok();
-    // CI's lavapipe is always too small: there the render path is checked.
-    if gpu.info.device_type == wgpu::DeviceType::Cpu {
-        assert!(!fits, "a 4096² film at 7 spp fits a CPU adapter");
-    }
-    if !fits {
-        let e = format!("{:#}", mdas.render(gpu, &integrand).err().unwrap());
-        assert!(e.contains("MDAS capacity") && e.contains("MiB"), "{e}");
-    }
+    let e = format!("{:#}", cfg.check_limits(&small_binding).unwrap_err());
+    assert!(e.contains("'mdas.accum'"), "{e}");
+
+    // On the adapter: pages of 64 bytes need thousands of bindings.
+    mdas = mdas.with_max_page_bytes(64);
+    let e = format!("{:#}", mdas.render(gpu, &integrand).err().unwrap());
+    assert!(e.contains("MDAS capacity") && e.contains("storage buffers"), "{e}");
 }
 
 /// The film-derived defaults (a scene without `[mdas]` keys) render any

@@ -143,10 +143,18 @@ fn mdas_config(dims: u32) -> Config {
 /// Every module the crate builds, assembled as the runtime does.
 fn kernels() -> Vec<Kernel> {
     let mut all = Vec::new();
-    let own = || vec![gpu_params::layout_entries()];
-    for dims in 3..=mdas::integrand::MAX_DIMS {
-        let base = mdas_config(dims).base_wgsl();
-        let name = |k: &str| format!("mdas.{k}[dims={dims}]");
+    // Each dimension count unpaged and with its arrays split into pages
+    // (values into four or five: the paged accessors and bindings).
+    let configs = (3..=mdas::integrand::MAX_DIMS).flat_map(|dims| {
+        let cfg = mdas_config(dims);
+        let page = cfg.values_bytes() / 4;
+        [cfg.clone(), cfg.paged(page)]
+    });
+    for cfg in configs {
+        let (dims, extra) = (cfg.dims, cfg.pages.extra());
+        let own = || vec![gpu_params::layout_entries(extra)];
+        let base = cfg.base_wgsl();
+        let name = |k: &str| format!("mdas.{k}[dims={dims}, extra pages={extra}]");
         all.push(kernel(name("initial"), &initial::source(&base), &own()));
         all.push(kernel(name("error"), &error::source(&base), &own()));
         all.push(kernel(name("adapt"), &adapt::source(&base), &own()));
@@ -155,12 +163,12 @@ fn kernels() -> Vec<Kernel> {
         let rec = reconstruct::source(&base);
         all.push(kernel(name("reconstruct"), &rec, &own()));
         let args = gpu_params::args_layout_entries();
-        let groups = [gpu_params::layout_entries(), args];
+        let groups = [gpu_params::layout_entries(extra), args];
         all.push(kernel(name("plan"), &plan::source(&base), &groups));
     }
     for i in integrands() {
         let base = mdas_config(i.dims).base_wgsl();
-        let groups = [gpu_params::layout_entries(), i.group1.clone()];
+        let groups = [gpu_params::layout_entries(0), i.group1.clone()];
         let eval = evaluate::source(&base, i.wgsl.clone());
         all.push(kernel(format!("mdas.evaluate[{}]", i.name), &eval, &groups));
         let groups = [halton::layout_entries(), i.group1.clone()];

@@ -75,12 +75,12 @@ fn decide(k: u32, emax_bits: u32) -> Decision {
         return d;
     }
     let base = leaf_base(k);
-    let h = leaves[base + 1u];
+    let h = leaves_get(base + 1u);
     if (header_collapsed(h)) {
         return d;
     }
     let key = leaf_key(k, iteration());
-    let e_bits = leaves[base + 2u];
+    let e_bits = leaves_get(base + 2u);
     var selected = e_bits == emax_bits || params.select_all != 0u;
     if (!selected) {
         let xi = draw_open(key, 0u);  // stream 0
@@ -102,7 +102,7 @@ fn decide(k: u32, emax_bits: u32) -> Decision {
     var s = head;
     for (var i = 0u; i < count; i++) {
         for (var w = 0u; w < COORD_WORDS; w++) {
-            coords[i * COORD_WORDS + w] = samples[s * SAMPLE_STRIDE + w];
+            coords[i * COORD_WORDS + w] = samples_get(s * SAMPLE_STRIDE + w);
         }
         if (SPLIT_CONTRAST == 1u) {
             let bits = sample_value_bits(s);
@@ -119,7 +119,7 @@ fn decide(k: u32, emax_bits: u32) -> Decision {
     var hi: array<u32, DIMS>;
     for (var axis = 0u; axis < DIMS; axis++) {
         quantum[axis] = axis_quantum(axis);
-        let word = boxes[box_base(k) + axis];
+        let word = boxes_get(box_base(k) + axis);
         lo[axis] = box_lo(word);
         hi[axis] = box_hi(word);
     }
@@ -219,11 +219,11 @@ fn count(@builtin(global_invocation_id) gid: vec3<u32>,
     }
     let d = decide(k, workgroupUniformLoad(&wg_emax));
     if (d.collapse) {
-        leaves[leaf_base(k) + 1u] |= COLLAPSED_BIT;
+        leaves_set(leaf_base(k) + 1u, leaves_get(leaf_base(k) + 1u) | COLLAPSED_BIT);
         atomicAdd(&counters[C_COLLAPSED], 1u);
     }
     if (d.selected) {
-        leaves[leaf_base(k) + 2u] = encode_decision(d);
+        leaves_set(leaf_base(k) + 2u, encode_decision(d));
     }
     let v = vec2<u32>(u32(d.selected), u32(d.split));
     let prefix = workgroup_scan(lid, v);
@@ -277,7 +277,7 @@ fn apply(@builtin(global_invocation_id) gid: vec3<u32>,
     let leaf_total = leaf_count();
     var word = 0u;
     if (k < leaf_total) {
-        word = leaves[leaf_base(k) + 2u];
+        word = leaves_get(leaf_base(k) + 2u);
     }
     let selected = (word & DECISION_MASK) == DECISION_MARK;
     let split = selected && (word & DECISION_SPLIT) != 0u;
@@ -286,9 +286,9 @@ fn apply(@builtin(global_invocation_id) gid: vec3<u32>,
         return;
     }
     let base = leaf_base(k);
-    let h = leaves[base + 1u];
+    let h = leaves_get(base + 1u);
     // Recomputed next iteration, whether or not the sample is kept.
-    leaves[base + 2u] = DIRTY;
+    leaves_set(base + 2u, DIRTY);
     var d: Decision;
     d.split = split;
     d.axis = (word >> 16u) & 15u;
@@ -296,7 +296,7 @@ fn apply(@builtin(global_invocation_id) gid: vec3<u32>,
     var lo: array<u32, DIMS>;
     var hi: array<u32, DIMS>;
     for (var axis = 0u; axis < DIMS; axis++) {
-        let box = boxes[box_base(k) + axis];
+        let box = boxes_get(box_base(k) + axis);
         lo[axis] = box_lo(box);
         hi[axis] = box_hi(box);
     }
@@ -326,15 +326,15 @@ fn apply(@builtin(global_invocation_id) gid: vec3<u32>,
         words[axis / 2u] |= d.cand[axis] << (16u * (axis % 2u));
     }
     for (var w = 0u; w < COORD_WORDS; w++) {
-        samples[slot * SAMPLE_STRIDE + w] = words[w];
+        samples_set(slot * SAMPLE_STRIDE + w, words[w]);
     }
-    values[4u * slot] = leaves[base];
+    values_set(4u * slot, leaves_get(base));
     let head = header_head(h);
     let count = header_count(h);
 
     if (!d.split || truncate) {
         set_sample_next(slot, head);
-        leaves[base + 1u] = make_header(slot, count + 1u);
+        leaves_set(base + 1u, make_header(slot, count + 1u));
         return;
     }
 
@@ -362,14 +362,14 @@ fn apply(@builtin(global_invocation_id) gid: vec3<u32>,
     }
     let right = leaf_total + partials[2u * g + 1u] + local.y;
     let rbase = leaf_base(right);
-    let axis_word = boxes[box_base(k) + d.axis];
+    let axis_word = boxes_get(box_base(k) + d.axis);
     for (var axis = 0u; axis < DIMS; axis++) {
-        boxes[box_base(right) + axis] = boxes[box_base(k) + axis];
+        boxes_set(box_base(right) + axis, boxes_get(box_base(k) + axis));
     }
-    boxes[box_base(k) + d.axis] = make_box(box_lo(axis_word), d.plane);
-    boxes[box_base(right) + d.axis] = make_box(d.plane, box_hi(axis_word));
-    leaves[base + 1u] = make_header(left_head, left_count);
-    leaves[rbase] = leaves[base];
-    leaves[rbase + 1u] = make_header(right_head, right_count);
-    leaves[rbase + 2u] = DIRTY;
+    boxes_set(box_base(k) + d.axis, make_box(box_lo(axis_word), d.plane));
+    boxes_set(box_base(right) + d.axis, make_box(d.plane, box_hi(axis_word)));
+    leaves_set(base + 1u, make_header(left_head, left_count));
+    leaves_set(rbase, leaves_get(base));
+    leaves_set(rbase + 1u, make_header(right_head, right_count));
+    leaves_set(rbase + 2u, DIRTY);
 }

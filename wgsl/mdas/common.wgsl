@@ -45,13 +45,15 @@ struct Params {
 }
 
 @group(0) @binding(0) var<uniform> params: Params;
-@group(0) @binding(1) var<storage, read_write> leaves: array<u32>;
-@group(0) @binding(2) var<storage, read_write> samples: array<u32>;
-@group(0) @binding(3) var<storage, read_write> values: array<u32>;
+// Bindings 1 (leaves), 2 (samples), 3 (values) and 7 (boxes) are paged
+// arrays, declared with their accessors leaves_get / leaves_set, … by
+// `Pages::wgsl` (src/integrator/mdas/config.rs): one binding each while
+// the array fits the adapter's largest storage binding, else pages of
+// 2^PAGE_SHIFT words at bindings 9 and up. Kernels index them only
+// through the accessors.
 @group(0) @binding(4) var<storage, read_write> partials: array<u32>;
 @group(0) @binding(5) var<storage, read_write> counters: array<atomic<u32>>;
 @group(0) @binding(6) var<storage, read_write> accum: array<atomic<u32>>;
-@group(0) @binding(7) var<storage, read_write> boxes: array<u32>;
 @group(0) @binding(8) var<storage, read_write> state: array<u32>;
 
 const QUANTUM_BITS: u32 = 16u;
@@ -150,19 +152,19 @@ fn make_box(lo: u32, hi_exclusive: u32) -> u32 {
 // ---- samples ----
 
 fn sample_q(s: u32, axis: u32) -> u32 {
-    return (samples[s * SAMPLE_STRIDE + axis / 2u] >> (16u * (axis % 2u))) & 0xffffu;
+    return (samples_get(s * SAMPLE_STRIDE + axis / 2u) >> (16u * (axis % 2u))) & 0xffffu;
 }
 
 fn sample_next(s: u32) -> u32 {
-    return values[4u * s + 3u];
+    return values_get(4u * s + 3u);
 }
 
 fn set_sample_next(s: u32, next: u32) {
-    values[4u * s + 3u] = next;
+    values_set(4u * s + 3u, next);
 }
 
 fn sample_value_bits(s: u32) -> vec3<u32> {
-    return vec3<u32>(values[4u * s], values[4u * s + 1u], values[4u * s + 2u]);
+    return vec3<u32>(values_get(4u * s), values_get(4u * s + 1u), values_get(4u * s + 2u));
 }
 
 fn finite_bits(v: vec3<u32>) -> bool {
@@ -199,7 +201,7 @@ fn axis_quantum(axis: u32) -> f32 {
 }
 
 fn leaf_cell_coords(k: u32) -> array<u32, MAX_DIMS> {
-    return morton_decode(leaves[leaf_base(k)], DIMS, BITS_PER_DIM, EXTRA_BITS);
+    return morton_decode(leaves_get(leaf_base(k)), DIMS, BITS_PER_DIM, EXTRA_BITS);
 }
 
 // Mean of the finite samples of a leaf's list (w = number of them).

@@ -15,7 +15,7 @@ var<workgroup> wg_max: array<u32, WG>;
 
 fn leaf_error(k: u32) -> f32 {
     let base = leaf_base(k);
-    let h = leaves[base + 1u];
+    let h = leaves_get(base + 1u);
     let head = header_head(h);
     let count = header_count(h);
     let m = leaf_mean(head, count);
@@ -45,7 +45,7 @@ fn leaf_error(k: u32) -> f32 {
     }
     var volume = 1.0;
     for (var axis = 0u; axis < DIMS; axis++) {
-        let word = boxes[box_base(k) + axis];
+        let word = boxes_get(box_base(k) + axis);
         volume *= ldexp(f32(box_hi(word) - box_lo(word)), -i32(QUANTUM_BITS + axis_bits(axis)));
     }
     let e = volume * (params.epsilon + contrast);
@@ -64,11 +64,11 @@ fn error(@builtin(global_invocation_id) gid: vec3<u32>,
     var bits = 0u;
     if (k < leaf_count()) {
         let base = leaf_base(k);
-        if (!header_collapsed(leaves[base + 1u])) {
-            bits = leaves[base + 2u];
+        if (!header_collapsed(leaves_get(base + 1u))) {
+            bits = leaves_get(base + 2u);
             if (bits == DIRTY) {
                 bits = bitcast<u32>(leaf_error(k));
-                leaves[base + 2u] = bits;
+                leaves_set(base + 2u, bits);
             }
         }
     }

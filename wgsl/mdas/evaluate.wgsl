@@ -19,7 +19,7 @@ fn below(x: f32) -> f32 {
 }
 
 fn evaluate_sample(s: u32) {
-    let cell = morton_decode(values[4u * s], DIMS, BITS_PER_DIM, EXTRA_BITS);
+    let cell = morton_decode(values_get(4u * s), DIMS, BITS_PER_DIM, EXTRA_BITS);
     var point: IntegrandPoint;
     for (var axis = 0u; axis < DIMS; axis++) {
         let x = min(axis_coord(axis, cell[axis], f32(sample_q(s, axis)) + 0.5), ONE_MINUS_EPSILON);
@@ -32,9 +32,9 @@ fn evaluate_sample(s: u32) {
         }
     }
     let bits = bitcast<vec3<u32>>(integrand(&point));
-    values[4u * s] = bits.x;
-    values[4u * s + 1u] = bits.y;
-    values[4u * s + 2u] = bits.z;
+    values_set(4u * s, bits.x);
+    values_set(4u * s + 1u, bits.y);
+    values_set(4u * s + 2u, bits.z);
 }
 
 @compute @workgroup_size(WG)

@@ -34,16 +34,16 @@ fn initial(@builtin(global_invocation_id) gid: vec3<u32>,
             words[axis / 2u] |= q << (16u * (axis % 2u));
         }
         for (var w = 0u; w < COORD_WORDS; w++) {
-            samples[s * SAMPLE_STRIDE + w] = words[w];
+            samples_set(s * SAMPLE_STRIDE + w, words[w]);
         }
         set_sample_next(s, select(s - 1u, NIL, j == 0u));
-        values[4u * s] = cell;
+        values_set(4u * s, cell);
     }
     let base = leaf_base(cell);
-    leaves[base] = cell;
-    leaves[base + 1u] = make_header(first + SAMPLES_PER_CELL - 1u, SAMPLES_PER_CELL);
-    leaves[base + 2u] = DIRTY;
+    leaves_set(base, cell);
+    leaves_set(base + 1u, make_header(first + SAMPLES_PER_CELL - 1u, SAMPLES_PER_CELL));
+    leaves_set(base + 2u, DIRTY);
     for (var axis = 0u; axis < DIMS; axis++) {
-        boxes[box_base(cell) + axis] = make_box(0u, 65536u);
+        boxes_set(box_base(cell) + axis, make_box(0u, 65536u));
     }
 }

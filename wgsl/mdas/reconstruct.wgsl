@@ -52,7 +52,7 @@ fn reconstruct(@builtin(global_invocation_id) gid: vec3<u32>,
     }
     let fixed_exp = bitcast<i32>(state[S_FIXED_EXP]);
     let base = leaf_base(k);
-    let h = leaves[base + 1u];
+    let h = leaves_get(base + 1u);
     let m = leaf_mean(header_head(h), header_count(h));
     if (m.finite == 0u) {
         return;
@@ -60,13 +60,13 @@ fn reconstruct(@builtin(global_invocation_id) gid: vec3<u32>,
     let cell = leaf_cell_coords(k);
     var nonfilm = 1.0;
     for (var axis = 2u; axis < DIMS; axis++) {
-        let word = boxes[box_base(k) + axis];
+        let word = boxes_get(box_base(k) + axis);
         nonfilm *= ldexp(f32(box_hi(word) - box_lo(word)), -i32(QUANTUM_BITS + axis_bits(axis)));
     }
     let wx = f32(params.width);
     let hy = f32(params.height);
-    let bx = boxes[box_base(k)];
-    let by = boxes[box_base(k) + 1u];
+    let bx = boxes_get(box_base(k));
+    let by = boxes_get(box_base(k) + 1u);
     let x0 = axis_coord(0u, cell[0], f32(box_lo(bx))) * wx;
     let x1 = axis_coord(0u, cell[0], f32(box_hi(bx))) * wx;
     let y0 = axis_coord(1u, cell[1], f32(box_lo(by))) * hy;

@@ -266,6 +266,86 @@ pub struct Config {
     pub max_iterations: u32,
     /// Reconstruction dispatches needed to cover the widest leaf.
     pub reconstruct_passes: u32,
+    /// How the per-sample and per-leaf arrays are split across bindings
+    /// ([`Config::paged`]; one binding each as made by [`Config::new`]).
+    pub pages: Pages,
+}
+
+/// The arrays that grow with the budget, in the order of their extra
+/// pages' bindings: name in WGSL and the binding of page 0.
+pub const PAGED_ARRAYS: [(&str, u32); 4] =
+    [("leaves", 1), ("samples", 2), ("values", 3), ("boxes", 7)];
+/// Binding of the first extra page (bindings 0–8 are the base layout).
+pub const FIRST_EXTRA_BINDING: u32 = 9;
+/// Storage buffers of the base layout (bindings 1–8).
+pub const BASE_STORAGE_BINDINGS: u32 = 8;
+
+/// Pages of the arrays in [`PAGED_ARRAYS`]: each array's words are split
+/// into pages of 2^shift words, one storage binding each, so that the
+/// capacity is the device's memory rather than its largest storage
+/// binding (lavapipe: 128 MiB, which held `cornell_pt` at 1024² to 8 spp).
+/// Kernels reach them through `leaves_get(i)` / `leaves_set(i, v)` and the
+/// like ([`Pages::wgsl`]); an array on one page compiles to plain indexing.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Pages {
+    /// log2 of the words per page.
+    pub shift: u32,
+    /// Pages of leaves, samples, values and boxes.
+    pub count: [u32; 4],
+}
+
+impl Pages {
+    /// Pages beyond the first of each array (bindings from
+    /// [`FIRST_EXTRA_BINDING`] on).
+    pub fn extra(&self) -> u32 {
+        self.count.iter().map(|c| c - 1).sum()
+    }
+
+    /// Words per page.
+    pub fn words(&self) -> u64 {
+        1u64 << self.shift
+    }
+
+    /// The declarations of the paged arrays and their accessors
+    /// (`wgsl/mdas/common.wgsl` explains the layout). An array on one page
+    /// is indexed directly; on several, `i >> shift` picks the binding and
+    /// `i & (2^shift − 1)` the word in it. Words are addressed one by one,
+    /// so a record may straddle two pages.
+    pub fn wgsl(&self) -> String {
+        use std::fmt::Write;
+        let mut out = String::new();
+        let mut binding = FIRST_EXTRA_BINDING;
+        for (&(name, first), &count) in PAGED_ARRAYS.iter().zip(&self.count) {
+            let decl = |out: &mut String, b: u32, n: &str| {
+                writeln!(out, "@group(0) @binding({b}) var<storage, read_write> {n}: array<u32>;").unwrap();
+            };
+            decl(&mut out, first, name);
+            if count == 1 {
+                writeln!(out, "fn {name}_get(i: u32) -> u32 {{ return {name}[i]; }}").unwrap();
+                writeln!(out, "fn {name}_set(i: u32, v: u32) {{ {name}[i] = v; }}").unwrap();
+                continue;
+            }
+            for page in 1..count {
+                decl(&mut out, binding, &format!("{name}_{page}"));
+                binding += 1;
+            }
+            let mask = (1u64 << self.shift) - 1;
+            let shift = self.shift;
+            for (sig, op) in [
+                (format!("fn {name}_get(i: u32) -> u32"), "return {a}[o];"),
+                (format!("fn {name}_set(i: u32, v: u32)"), "{a}[o] = v;"),
+            ] {
+                writeln!(out, "{sig} {{\n    let o = i & {mask}u;\n    switch (i >> {shift}u) {{").unwrap();
+                for page in 1..count {
+                    let body = op.replace("{a}", &format!("{name}_{page}"));
+                    writeln!(out, "        case {page}u: {{ {body} }}").unwrap();
+                }
+                let body = op.replace("{a}", name);
+                writeln!(out, "        default: {{ {body} }}\n    }}\n}}").unwrap();
+            }
+        }
+        out
+    }
 }
 
 impl Config {
@@ -322,7 +402,55 @@ impl Config {
                 max_iterations
             },
             reconstruct_passes: widest.div_ceil(PIXELS_PER_PASS as u64) as u32,
+            pages: Pages {
+                shift: 31,
+                count: [1; 4],
+            },
         })
+    }
+
+    /// Words of each array in [`PAGED_ARRAYS`].
+    pub fn paged_words(&self) -> [u64; 4] {
+        [
+            self.leaves_bytes(),
+            self.samples_bytes(),
+            self.values_bytes(),
+            self.boxes_bytes(),
+        ]
+        .map(|bytes| bytes / 4)
+    }
+
+    /// The same render with its arrays split into pages of at most
+    /// `page_bytes` (rounded down to a power of two, at least 16 bytes).
+    pub fn paged(mut self, page_bytes: u64) -> Config {
+        let words = (page_bytes / 4).max(4);
+        let shift = (63 - words.leading_zeros()).min(31);
+        let count = self
+            .paged_words()
+            .map(|w| w.div_ceil(1u64 << shift).max(1) as u32);
+        self.pages = Pages { shift, count };
+        self
+    }
+
+    /// Bytes of page `page` of array `array` (an index into
+    /// [`PAGED_ARRAYS`]): full pages, then the rest.
+    pub fn page_bytes(&self, array: usize, page: u32) -> u64 {
+        let words = self.paged_words()[array];
+        let start = u64::from(page) * self.pages.words();
+        words.saturating_sub(start).min(self.pages.words()) * 4
+    }
+
+    /// Paged for `limits` (pages of the largest storage binding, or of
+    /// `max_page_bytes` if smaller) and checked against them: the
+    /// configuration a render on that adapter uses.
+    pub fn for_limits(self, limits: &wgpu::Limits, max_page_bytes: Option<u64>) -> Result<Config> {
+        let binding = limits
+            .max_storage_buffer_binding_size
+            .min(limits.max_buffer_size)
+            .min(max_page_bytes.unwrap_or(u64::MAX));
+        let cfg = self.paged(binding);
+        cfg.check_paged(limits)?;
+        Ok(cfg)
     }
 
     pub fn pixels(&self) -> u64 {
@@ -357,10 +485,11 @@ impl Config {
         self.pixels() * 32
     }
 
-    /// Whether the accumulators fit in the coordinate buffer, which no
-    /// kernel reads after the last placement (spp·⌈d/2⌉ ≥ 8).
+    /// Whether the accumulators fit in the coordinate buffer's first
+    /// page, which no kernel reads after the last placement
+    /// (spp·⌈d/2⌉ ≥ 8 on one page).
     pub fn accum_in_samples(&self) -> bool {
-        self.samples_bytes() >= self.accum_bytes()
+        self.page_bytes(1, 0) >= self.accum_bytes()
     }
 
     pub const COUNTERS_BYTES: u64 = 4 * super::counter::LEN as u64;
@@ -387,26 +516,49 @@ impl Config {
             + std::mem::size_of::<super::gpu_params::GpuParams>() as u64
     }
 
-    /// Fails, before any GPU work, when a buffer exceeds the adapter's
-    /// per-binding or per-buffer limit.
+    /// Fails, before any GPU work, when the render cannot be laid out on
+    /// the adapter ([`Config::check_limits`]).
     pub fn check_device(&self, gpu: &Gpu) -> Result<()> {
         self.check_limits(&gpu.limits)
     }
 
-    /// [`Config::check_device`] against `limits`.
+    /// Whether the render fits `limits` once paged for them
+    /// ([`Config::for_limits`]): the arrays that grow with the budget take
+    /// as many storage bindings as they need, up to the adapter's storage
+    /// buffers per shader stage; the accumulators (32 B per pixel) and
+    /// the scan totals must fit one binding each.
     pub fn check_limits(&self, limits: &wgpu::Limits) -> Result<()> {
+        self.clone().for_limits(limits, None).map(|_| ())
+    }
+
+    fn check_paged(&self, limits: &wgpu::Limits) -> Result<()> {
+        let capacity = || {
+            format!(
+                "MDAS capacity: {} samples ({} initial) and up to {} leaves of {}D do not fit this adapter",
+                self.budget, self.initial_samples, self.leaf_capacity, self.dims
+            )
+        };
+        let bindings = BASE_STORAGE_BINDINGS + self.pages.extra();
+        let allowed = limits.max_storage_buffers_per_shader_stage;
+        if bindings > allowed {
+            let mib = |b: u64| b as f64 / 1048576.0;
+            let [l, s, v, b] = self.paged_words().map(|w| mib(4 * w));
+            bail!(
+                "{}: leaves {l:.1} MiB, boxes {b:.1} MiB, sample coordinates {s:.1} MiB and values {v:.1} MiB \
+                 in pages of {:.1} MiB need {bindings} storage buffers, and this adapter allows {allowed} per shader stage \
+                 (the integrand's own buffers come on top); reduce the resolution or spp",
+                capacity(),
+                mib(4 * self.pages.words())
+            );
+        }
         let limit = |what: &str, bytes: u64| -> Result<()> {
             crate::gpu::buffer::check_binding_size_in(limits, what, bytes).map_err(|e| {
-                e.context(format!(
-                    "MDAS capacity: {} samples ({} initial) and up to {} leaves of {}D do not fit this adapter",
-                    self.budget, self.initial_samples, self.leaf_capacity, self.dims
-                ))
+                e.context(capacity())
             })
         };
-        limit("mdas.leaves", self.leaves_bytes())?;
-        limit("mdas.boxes", self.boxes_bytes())?;
-        limit("mdas.samples", self.samples_bytes())?;
-        limit("mdas.values", self.values_bytes())?;
+        for (i, (name, _)) in PAGED_ARRAYS.iter().enumerate() {
+            limit(&format!("mdas.{name}"), self.page_bytes(i, 0))?;
+        }
         limit("mdas.partials", self.partials_bytes())?;
         limit("mdas.accum", self.accum_bytes())?;
         let groups = (self.leaf_capacity as u64).div_ceil(WG as u64);
@@ -429,6 +581,7 @@ impl Config {
             .part(wgsl_file!("shared/rng.wgsl"))
             .part(wgsl_file!("shared/sampling.wgsl"))
             .part(wgsl_file!("shared/morton.wgsl"))
+            .part(("mdas/pages.wgsl (generated)", self.pages.wgsl()))
             .part(wgsl_file!("mdas/common.wgsl"))
     }
 

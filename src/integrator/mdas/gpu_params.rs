@@ -34,11 +34,13 @@ pub struct GpuParams {
 }
 
 /// Group 0 of every MDAS kernel (`wgsl/mdas/common.wgsl`): `params` at 0,
-/// eight read-write storage buffers at 1–8. Device-free, so that
-/// `tests/shader_interfaces.rs` checks the same entries the runtime uses.
-pub fn layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
+/// eight read-write storage buffers at 1–8, and `extra_pages` more from 9
+/// on for the paged arrays' further pages ([`super::config::Pages`]).
+/// Device-free, so that `tests/shader_interfaces.rs` checks the same
+/// entries the runtime uses.
+pub fn layout_entries(extra_pages: u32) -> Vec<wgpu::BindGroupLayoutEntry> {
     let mut entries = vec![uniform_entry(0)];
-    entries.extend((1..=8).map(|b| storage_entry(b, false)));
+    entries.extend((1..=8 + extra_pages).map(|b| storage_entry(b, false)));
     entries
 }
 

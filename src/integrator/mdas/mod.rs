@@ -127,7 +127,11 @@ const MAX_BATCH: u32 = 32;
 pub struct Mdas {
     params: MdasParams,
     max_iterations: u32,
-    layout: Option<wgpu::BindGroupLayout>,
+    /// Group 0's layout for each number of extra pages.
+    layouts: HashMap<u32, wgpu::BindGroupLayout>,
+    /// Cap on a page of the paged arrays (default: the adapter's largest
+    /// storage binding).
+    max_page_bytes: Option<u64>,
     args_layout: Option<wgpu::BindGroupLayout>,
     pipelines: HashMap<(String, wgpu::BindGroupLayout), Pipelines>,
     /// Statistics of the last render.
@@ -180,10 +184,11 @@ pub struct Kernels {
 /// The buffers of one render.
 struct Buffers {
     params: wgpu::Buffer,
-    leaves: wgpu::Buffer,
-    boxes: wgpu::Buffer,
-    samples: wgpu::Buffer,
-    values: wgpu::Buffer,
+    /// The pages of each paged array (`config::Pages`).
+    leaves: Vec<wgpu::Buffer>,
+    boxes: Vec<wgpu::Buffer>,
+    samples: Vec<wgpu::Buffer>,
+    values: Vec<wgpu::Buffer>,
     counters: wgpu::Buffer,
     state: wgpu::Buffer,
     accum: wgpu::Buffer,
@@ -196,7 +201,8 @@ impl Mdas {
         Ok(Mdas {
             params,
             max_iterations: MAX_ITERATIONS_DEFAULT,
-            layout: None,
+            layouts: HashMap::new(),
+            max_page_bytes: None,
             args_layout: None,
             pipelines: HashMap::new(),
             last: None,
@@ -230,6 +236,15 @@ impl Mdas {
     /// budget and reports the samples it took.
     pub fn with_max_iterations(mut self, n: u32) -> Self {
         self.max_iterations = n.max(1);
+        self
+    }
+
+    /// Splits the arrays that grow with the budget into pages of at most
+    /// `bytes` (rounded down to a power of two) even where the adapter
+    /// would bind them whole: the paged kernels then run on small renders
+    /// (tests compare them with unpaged renders bit for bit).
+    pub fn with_max_page_bytes(mut self, bytes: u64) -> Self {
+        self.max_page_bytes = Some(bytes);
         self
     }
 
@@ -267,13 +282,22 @@ impl Mdas {
         )
     }
 
-    fn layout(&mut self, gpu: &Gpu) -> wgpu::BindGroupLayout {
-        self.layout
-            .get_or_insert_with(|| {
+    /// The configuration a render of `integrand` on `gpu` uses: paged
+    /// for the adapter's limits and checked against them.
+    pub fn config_for(&self, gpu: &Gpu, integrand: &dyn Integrand) -> Result<Config> {
+        self.config(integrand)?
+            .for_limits(&gpu.limits, self.max_page_bytes)
+    }
+
+    fn layout(&mut self, gpu: &Gpu, cfg: &Config) -> wgpu::BindGroupLayout {
+        let extra = cfg.pages.extra();
+        self.layouts
+            .entry(extra)
+            .or_insert_with(|| {
                 gpu.device
                     .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                         label: Some("mdas.mdas.layout"),
-                        entries: &gpu_params::layout_entries(),
+                        entries: &gpu_params::layout_entries(extra),
                     })
             })
             .clone()
@@ -297,7 +321,7 @@ impl Mdas {
         cfg: &Config,
         integrand: &dyn Integrand,
     ) -> Result<Pipelines> {
-        let layout = self.layout(gpu);
+        let layout = self.layout(gpu, cfg);
         let args_layout = self.args_layout(gpu);
         let base = cfg.base_wgsl();
         let eval_source = evaluate::source(&base, integrand.wgsl());

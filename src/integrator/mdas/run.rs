@@ -11,10 +11,9 @@ impl Mdas {
         mut observe: Option<&mut dyn FnMut(&Snapshot)>,
         final_only: bool,
     ) -> Result<Render> {
-        let cfg = self.config(integrand)?;
-        cfg.check_device(gpu)?;
+        let cfg = self.config_for(gpu, integrand)?;
         let pipes = self.pipelines(gpu, &cfg, integrand)?;
-        let layout = self.layout(gpu);
+        let layout = self.layout(gpu, &cfg);
         let args_layout = self.args_layout(gpu);
         let p = self.params;
 
@@ -33,12 +32,21 @@ impl Mdas {
                 epsilon: p.epsilon,
                 ..Default::default()
             };
+            let paged = |array: usize| -> Result<Vec<wgpu::Buffer>> {
+                let name = config::PAGED_ARRAYS[array].0;
+                (0..cfg.pages.count[array])
+                    .map(|page| {
+                        let label = format!("mdas.{name}[{page}]");
+                        gpu.buffer_zeroed(&label, cfg.page_bytes(array, page), STORAGE)
+                    })
+                    .collect()
+            };
             let bufs = Buffers {
                 params: gpu.uniform("mdas.params", &gp),
-                leaves: gpu.buffer_zeroed("mdas.leaves", cfg.leaves_bytes(), STORAGE)?,
-                boxes: gpu.buffer_zeroed("mdas.boxes", cfg.boxes_bytes(), STORAGE)?,
-                samples: gpu.buffer_zeroed("mdas.samples", cfg.samples_bytes(), STORAGE)?,
-                values: gpu.buffer_zeroed("mdas.values", cfg.values_bytes(), STORAGE)?,
+                leaves: paged(0)?,
+                samples: paged(1)?,
+                values: paged(2)?,
+                boxes: paged(3)?,
                 counters: gpu.buffer_zeroed("mdas.counters", Config::COUNTERS_BYTES, STORAGE)?,
                 state: gpu.buffer_zeroed("mdas.state", Config::STATE_BYTES, STORAGE)?,
                 accum: if cfg.accum_in_samples() {
@@ -53,51 +61,42 @@ impl Mdas {
                 Config::ARGS_BYTES,
                 STORAGE | wgpu::BufferUsages::INDIRECT,
             )?;
-            let group0 = crate::gpu::shader::bind_buffers(
-                gpu,
-                "mdas.group0",
-                &layout,
-                &[
+            // Bindings 0–8, then the extra pages in `PAGED_ARRAYS` order.
+            let extra_pages: Vec<&wgpu::Buffer> = [&bufs.leaves, &bufs.samples, &bufs.values, &bufs.boxes]
+                .into_iter()
+                .flat_map(|pages| &pages[1..])
+                .collect();
+            let bind = |label: &str, samples: &wgpu::Buffer, accum: &wgpu::Buffer| {
+                let base = [
                     &bufs.params,
-                    &bufs.leaves,
-                    &bufs.samples,
-                    &bufs.values,
+                    &bufs.leaves[0],
+                    samples,
+                    &bufs.values[0],
                     &partials,
                     &bufs.counters,
-                    &bufs.accum,
-                    &bufs.boxes,
+                    accum,
+                    &bufs.boxes[0],
                     &bufs.state,
-                ],
-            );
+                ];
+                let all: Vec<&wgpu::Buffer> = base.into_iter().chain(extra_pages.iter().copied()).collect();
+                crate::gpu::shader::bind_buffers(gpu, label, &layout, &all)
+            };
+            let group0 = bind("mdas.group0", &bufs.samples[0], &bufs.accum);
             // Reconstruction binds the accumulators in place of the samples'
             // coordinates when they fit there (binding a buffer twice as
             // writable storage is not allowed, so samples get a placeholder).
+            // (With paged coordinates, their first page: `accum_in_samples`.)
             let accum = if cfg.accum_in_samples() {
-                &bufs.samples
+                &bufs.samples[0]
             } else {
                 &bufs.accum
             };
             let samples_in_rec = if cfg.accum_in_samples() {
                 &bufs.accum
             } else {
-                &bufs.samples
+                &bufs.samples[0]
             };
-            let group_reconstruct = crate::gpu::shader::bind_buffers(
-                gpu,
-                "mdas.group0.reconstruct",
-                &layout,
-                &[
-                    &bufs.params,
-                    &bufs.leaves,
-                    samples_in_rec,
-                    &bufs.values,
-                    &partials,
-                    &bufs.counters,
-                    accum,
-                    &bufs.boxes,
-                    &bufs.state,
-                ],
-            );
+            let group_reconstruct = bind("mdas.group0.reconstruct", samples_in_rec, accum);
             let args_group =
                 crate::gpu::shader::bind_buffers(gpu, "mdas.args", &args_layout, &[&args]);
             let mut k = Kernels {
@@ -110,6 +109,19 @@ impl Mdas {
             let clock = profiler.clock();
             let read_state =
                 || -> Result<State> { Ok(State(gpu.read_buffer(&bufs.state, state::LEN)?)) };
+            // The first `words` words of a paged array.
+            let read_paged = |pages: &[wgpu::Buffer], words: usize| -> Result<Vec<u32>> {
+                let per = cfg.pages.words() as usize;
+                let mut out = Vec::with_capacity(words);
+                for (page, buffer) in pages.iter().enumerate() {
+                    let start = page * per;
+                    if start >= words {
+                        break;
+                    }
+                    out.extend(gpu.read_buffer::<u32>(buffer, (words - start).min(per))?);
+                }
+                Ok(out)
+            };
             let read_counters =
                 || -> Result<Vec<u32>> { gpu.read_buffer(&bufs.counters, counter::LEN) };
 
@@ -156,17 +168,15 @@ impl Mdas {
                     epsilon: gp.epsilon,
                     // The snapshot keeps one record per leaf: meta, then box.
                     leaves: {
-                        let meta: Vec<u32> =
-                            gpu.read_buffer(&bufs.leaves, (leaves * cfg.leaf_stride) as usize)?;
-                        let boxes: Vec<u32> =
-                            gpu.read_buffer(&bufs.boxes, (leaves * cfg.dims) as usize)?;
+                        let meta = read_paged(&bufs.leaves, (leaves * cfg.leaf_stride) as usize)?;
+                        let boxes = read_paged(&bufs.boxes, (leaves * cfg.dims) as usize)?;
                         meta.chunks(cfg.leaf_stride as usize)
                             .zip(boxes.chunks(cfg.dims as usize))
                             .flat_map(|(m, b)| m.iter().chain(b).copied())
                             .collect()
                     },
-                    samples: gpu.read_buffer(&bufs.samples, (n * cfg.sample_stride) as usize)?,
-                    values: gpu.read_buffer(&bufs.values, 4 * n as usize)?,
+                    samples: read_paged(&bufs.samples, (n * cfg.sample_stride) as usize)?,
+                    values: read_paged(&bufs.values, 4 * n as usize)?,
                 })
             };
 
