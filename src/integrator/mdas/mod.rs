@@ -348,12 +348,30 @@ impl Mdas {
             plan: with_args("mdas.mdas.plan", "plan")?,
             stats: own("mdas.mdas.stats", &stats_source, "stats")?,
             fixed_scale: own("mdas.mdas.stats.fixed_scale", &stats_source, "fixed_scale")?,
-            evaluate: gpu.compute_pipeline(
-                &format!("mdas.mdas.evaluate[{}]", integrand.name()),
-                &eval_source,
-                "evaluate",
-                &[&layout, integrand.layout()],
-            )?,
+            // The one kernel with the integrand's buffers on top of the
+            // pages: the first to exceed the adapter's storage buffers.
+            evaluate: gpu
+                .compute_pipeline(
+                    &format!("mdas.mdas.evaluate[{}]", integrand.name()),
+                    &eval_source,
+                    "evaluate",
+                    &[&layout, integrand.layout()],
+                )
+                .map_err(|e| {
+                    if cfg.pages.extra() == 0 {
+                        return e;
+                    }
+                    let own = config::BASE_STORAGE_BINDINGS + cfg.pages.extra();
+                    e.context(format!(
+                        "MDAS capacity: {} samples need {own} storage buffers ({} pages beyond one per array) \
+                         and the integrand '{}' binds its own on top; this adapter allows {} per shader stage: \
+                         reduce the resolution or spp",
+                        cfg.budget,
+                        cfg.pages.extra(),
+                        integrand.name(),
+                        gpu.limits.max_storage_buffers_per_shader_stage
+                    ))
+                })?,
             reconstruct: own(
                 "mdas.mdas.reconstruct",
                 &reconstruct::source(&base),
