@@ -73,7 +73,7 @@ fn count_rays(gpu: &Gpu, integrand: &dyn Integrand) -> anyhow::Result<(u64, u32)
         "bench.count_rays",
         &source,
         "main",
-        &[&layout, integrand.layout()],
+        &mdas::integrand::kernel_layouts(&layout, integrand),
     )?;
     let params = gpu.uniform(
         "bench.count_rays.params",
@@ -101,7 +101,7 @@ fn count_rays(gpu: &Gpu, integrand: &dyn Integrand) -> anyhow::Result<(u64, u32)
             });
             pass.set_pipeline(&pipeline);
             pass.set_bind_group(0, &group, &[]);
-            pass.set_bind_group(1, integrand.bind_group(), &[]);
+            mdas::integrand::bind_integrand(&mut pass, integrand);
             pass.dispatch_workgroups(pixels.div_ceil(64), 1, 1);
         }
         gpu.queue.submit([encoder.finish()]);

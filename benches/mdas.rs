@@ -61,11 +61,11 @@ impl Integrand for Linear {
             include_str!("../tests/kernels/test_integrands.wgsl"),
         ))
     }
-    fn layout(&self) -> &wgpu::BindGroupLayout {
-        &self.layout
+    fn layout(&self) -> Option<&wgpu::BindGroupLayout> {
+        Some(&self.layout)
     }
-    fn bind_group(&self) -> &wgpu::BindGroup {
-        &self.group
+    fn bind_group(&self) -> Option<&wgpu::BindGroup> {
+        Some(&self.group)
     }
 }
 

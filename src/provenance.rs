@@ -18,8 +18,10 @@ use std::path::Path;
 pub struct Provenance {
     /// The process's arguments, program first.
     pub command_line: Vec<String>,
-    /// SHA-256 of the scene file's bytes, hex.
-    pub scene_sha256: String,
+    /// SHA-256 of the scene file's bytes, hex; absent for an integrand
+    /// built in code ([`Provenance::of_integrand`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub scene_sha256: Option<String>,
     /// The integrand's name and dimension count.
     pub integrand: String,
     pub dims: u32,
@@ -48,9 +50,21 @@ impl Provenance {
         let bytes =
             std::fs::read(scene).with_context(|| format!("cannot read {}", scene.display()))?;
         let digest = Sha256::digest(&bytes);
-        Ok(Provenance {
+        let mut p = Provenance::of_integrand(gpu, integrand, mdas);
+        p.scene_sha256 = Some(digest.iter().map(|b| format!("{b:02x}")).collect());
+        Ok(p)
+    }
+
+    /// The provenance of a run on an integrand built in code (no scene
+    /// file to digest).
+    pub fn of_integrand(
+        gpu: &Gpu,
+        integrand: &dyn Integrand,
+        mdas: Option<MdasParams>,
+    ) -> Provenance {
+        Provenance {
             command_line: std::env::args().collect(),
-            scene_sha256: digest.iter().map(|b| format!("{b:02x}")).collect(),
+            scene_sha256: None,
             integrand: integrand.name().to_string(),
             dims: integrand.dims(),
             mdas,
@@ -60,7 +74,7 @@ impl Provenance {
             driver: gpu.info.driver.clone(),
             driver_info: gpu.info.driver_info.clone(),
             timestamp_utc: utc_timestamp(std::time::SystemTime::now()),
-        })
+        }
     }
 }
 

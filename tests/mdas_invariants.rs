@@ -397,11 +397,19 @@ fn paged_arrays_agree_with_whole_arrays_bit_for_bit() {
         let integrand = common::TestIntegrand::new(gpu, case, dims, film);
         let (whole, whole_snaps) = render_observed(case, dims, film, p);
         let whole_cfg = Mdas::new(p).unwrap().config_for(gpu, &integrand).unwrap();
-        assert_eq!(whole_cfg.pages.extra(), 0, "{name}: a small render was paged");
+        assert_eq!(
+            whole_cfg.pages.extra(),
+            0,
+            "{name}: a small render was paged"
+        );
         let page = whole_cfg.values_bytes() / 4;
         let mut mdas = Mdas::new(p).unwrap().with_max_page_bytes(page);
         let cfg = mdas.config_for(gpu, &integrand).unwrap();
-        assert!(cfg.pages.count.iter().all(|&c| c >= 2), "{name}: {:?}", cfg.pages);
+        assert!(
+            cfg.pages.count.iter().all(|&c| c >= 2),
+            "{name}: {:?}",
+            cfg.pages
+        );
         most_pages = most_pages.max(cfg.pages.count[2]);
         let mut snaps = Vec::new();
         let paged = mdas

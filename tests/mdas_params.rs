@@ -150,7 +150,10 @@ fn capacity_is_checked_against_the_adapter_before_any_work() {
     // On the adapter: pages of 64 bytes need thousands of bindings.
     mdas = mdas.with_max_page_bytes(64);
     let e = format!("{:#}", mdas.render(gpu, &integrand).err().unwrap());
-    assert!(e.contains("MDAS capacity") && e.contains("storage buffers"), "{e}");
+    assert!(
+        e.contains("MDAS capacity") && e.contains("storage buffers"),
+        "{e}"
+    );
 }
 
 /// The film-derived defaults (a scene without `[mdas]` keys) render any

@@ -92,6 +92,31 @@ impl Setup<'_> {
     }
 }
 
+impl<'a> Setup<'a> {
+    /// A setup for [`compare_integrand`]: `name` in place of a scene file,
+    /// Halton seed 0 (the reference seed, 1, is kept apart from it), 3
+    /// timed repeats, no progress bars, and `mdas_params` (usually the
+    /// identity). The fields are public: change what you need.
+    pub fn new(
+        name: &str,
+        out: PathBuf,
+        mdas_params: &'a dyn Fn(MdasParams) -> MdasParams,
+    ) -> Setup<'a> {
+        Setup {
+            scene: PathBuf::from(name),
+            scale: 1.0,
+            ref_spp: 0,
+            ref_seed: 1,
+            cache_dir: PathBuf::new(),
+            halton_seed: 0,
+            repeats: 3,
+            out,
+            progress: false,
+            mdas_params,
+        }
+    }
+}
+
 /// Inputs of [`compare`].
 pub struct CompareSpec<'a> {
     pub setup: Setup<'a>,
@@ -106,6 +131,115 @@ pub struct CompareSpec<'a> {
     /// Also MDAS-uniform (α = 0, one candidate) at MDAS's spp and seeds
     /// (`--uniform`, [`intervals::uniform_over_seeds`]).
     pub uniform: bool,
+}
+
+impl<'a> CompareSpec<'a> {
+    /// `mdas compare`'s defaults: spp searches up to 4096, 3 seeds per
+    /// method, automatic insets, no MDAS-uniform.
+    pub fn new(setup: Setup<'a>, budget: Budget) -> CompareSpec<'a> {
+        CompareSpec {
+            setup,
+            budget,
+            max_spp: 4096,
+            seeds: 3,
+            crops: Vec::new(),
+            uniform: false,
+        }
+    }
+}
+
+/// What a comparison runs on: an integrand and the image it converges to.
+/// `mdas compare` builds one from a scene file; [`compare_integrand`]
+/// takes one built in code.
+pub struct Subject<'a> {
+    /// Names it in the report (`scene`) and the EXR headers.
+    pub name: String,
+    /// The scene file it was built from, whose digest the provenance
+    /// records; `None` for an integrand built in code.
+    pub scene_file: Option<&'a Path>,
+    pub integrand: &'a dyn Integrand,
+    /// MDAS's parameters. Under [`Budget::MdasSpp`] their spp sets the
+    /// time both methods get; their seed is MDAS's first seed.
+    pub mdas: MdasParams,
+    /// The image both methods are measured against, row-major RGB of the
+    /// integrand's film.
+    pub reference: &'a [[f32; 3]],
+    pub reference_source: ReferenceSource,
+    /// The light sampler of the compared renders and of the reference
+    /// (`many_light` scenes), for the report.
+    pub sampler: Option<String>,
+    pub reference_sampler: Option<String>,
+}
+
+/// Where a comparison's reference came from.
+#[derive(Clone, Debug)]
+pub enum ReferenceSource {
+    /// Halton at `spp` samples per pixel with the setup's `ref_seed`, read
+    /// from `path` (`cached`) or rendered there. The report estimates its
+    /// own error and flags it when it is not far below the methods'.
+    Halton {
+        spp: u32,
+        path: PathBuf,
+        cached: bool,
+    },
+    /// Computed without sampling (a closed form, a quadrature), described
+    /// in words; taken as exact.
+    Exact(String),
+}
+
+/// [`compare`] on an integrand built in code against a reference image
+/// given with it (a closed form, or a render made elsewhere): the same
+/// budget search, interleaved timing, seeds and intervals, report, images,
+/// heat maps and figure, written as one unit into `spec.setup.out`.
+/// `spec.setup`'s scene, scale, reference spp, cache directory and
+/// parameter mapping are not used (the subject carries them);
+/// [`Setup::new`] fills them. `examples/custom_integrand.rs` runs it.
+///
+/// ```no_run
+/// # fn run(gpu: &mdas::gpu::Gpu, integrand: &dyn mdas::integrand::Integrand, exact: &[[f32; 3]]) -> anyhow::Result<()> {
+/// use mdas::compare::{compare_integrand, Budget, CompareSpec, ReferenceSource, Setup, Subject};
+/// use mdas::integrator::mdas::MdasParams;
+/// let identity = |p| p;
+/// let setup = Setup::new("my integrand", "out/mine".into(), &identity);
+/// let spec = CompareSpec::new(setup, Budget::MdasSpp);
+/// let subject = Subject {
+///     name: "my integrand".into(),
+///     scene_file: None,
+///     integrand,
+///     mdas: MdasParams { spp: 8.0, ..MdasParams::for_film(integrand.film()) },
+///     reference: exact,
+///     reference_source: ReferenceSource::Exact("closed form".into()),
+///     sampler: None,
+///     reference_sampler: None,
+/// };
+/// let report = compare_integrand(gpu, &spec, &subject)?;
+/// println!("MDAS/Halton RelMSE at equal time: {:.3}", report.equal_time.relmse_ratio);
+/// # Ok(()) }
+/// ```
+pub fn compare_integrand(gpu: &Gpu, spec: &CompareSpec, subject: &Subject) -> Result<Report> {
+    spec.setup.check()?;
+    check_budget(spec.budget)?;
+    let film = subject.integrand.film();
+    let pixels = film.width as usize * film.height as usize;
+    if subject.reference.len() != pixels {
+        bail!(
+            "the reference has {} pixels; the integrand's film is {}×{} = {pixels}",
+            subject.reference.len(),
+            film.width,
+            film.height
+        );
+    }
+    if let Some(i) = subject
+        .reference
+        .iter()
+        .position(|p| p.iter().any(|c| !c.is_finite()))
+    {
+        bail!("the reference's pixel {i} is not finite");
+    }
+    check_mdas(subject.mdas, spec.budget, subject.integrand, &subject.name)?;
+    super::figure::check_crops(&spec.crops, film.width, film.height)?;
+    let staged = StagedDir::new(&spec.setup.out)?;
+    compare_subject(gpu, spec, subject, staged)
 }
 
 /// The compared Halton render must not reuse the reference's random
@@ -221,7 +355,7 @@ pub(crate) fn check_mdas(
     params: MdasParams,
     budget: Budget,
     integrand: &dyn Integrand,
-    scene: &Path,
+    name: &str,
 ) -> Result<u32> {
     let min_spp = mdas_min_spp(params, integrand)?;
     let check_spp = match budget {
@@ -233,7 +367,7 @@ pub(crate) fn check_mdas(
         ..params
     })?
     .config(integrand)
-    .with_context(|| format!("MDAS cannot render {} at spp {check_spp}", scene.display()))?;
+    .with_context(|| format!("MDAS cannot render {name} at spp {check_spp}"))?;
     Ok(min_spp)
 }
 
@@ -260,9 +394,10 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
     let integrand = prepared.integrand.as_ref();
     let film = prepared.film;
     let params = (spec.setup.mdas_params)(prepared.scene.mdas);
-    let min_spp = check_mdas(params, spec.budget, integrand, &spec.setup.scene)?;
+    let name = spec.setup.scene.display().to_string();
+    check_mdas(params, spec.budget, integrand, &name)?;
     super::figure::check_crops(&spec.crops, film.width, film.height)?;
-    let (mdas_seeds, halton_seeds) = intervals::seed_plan(
+    intervals::seed_plan(
         spec.seeds,
         params.seed,
         spec.setup.halton_seed,
@@ -270,7 +405,41 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
     )?;
 
     // 2. Reference.
-    let (reference, ref_path, cached) = spec.setup.reference(gpu)?;
+    let (reference, path, cached) = spec.setup.reference(gpu)?;
+    let subject = Subject {
+        name,
+        scene_file: Some(&spec.setup.scene),
+        integrand,
+        mdas: params,
+        reference: &reference,
+        reference_source: ReferenceSource::Halton {
+            spp: spec.setup.ref_spp,
+            path,
+            cached,
+        },
+        sampler: sampler.map(|k| k.to_string()),
+        reference_sampler: reference_sampler.map(|k| k.to_string()),
+    };
+    compare_subject(gpu, spec, &subject, staged)
+}
+
+/// Steps 3–5 of the module docs on a validated subject, writing into
+/// `staged`.
+fn compare_subject(
+    gpu: &Gpu,
+    spec: &CompareSpec,
+    subject: &Subject,
+    staged: StagedDir,
+) -> Result<Report> {
+    let (integrand, reference, params) = (subject.integrand, subject.reference, subject.mdas);
+    let film = integrand.film();
+    let min_spp = check_mdas(params, spec.budget, integrand, &subject.name)?;
+    let (mdas_seeds, halton_seeds) = intervals::seed_plan(
+        spec.seeds,
+        params.seed,
+        spec.setup.halton_seed,
+        spec.setup.ref_seed,
+    )?;
 
     // 3. Timing and the equal-time searches.
     let status = spinner(spec.setup.progress);
@@ -284,7 +453,7 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
         params,
         min_spp,
         integrand,
-        &reference,
+        reference,
         &spec.setup,
         spec.budget,
         spec.max_spp,
@@ -294,7 +463,7 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
     let halton_eq = halton_search(
         gpu,
         integrand,
-        &reference,
+        reference,
         target_ms,
         &spec.setup,
         spec.max_spp,
@@ -367,7 +536,7 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
         &mdas_main.measured.render.image,
         &mdas_seeds,
         integrand,
-        &reference,
+        reference,
         &status,
     )?;
     let mut cache: BTreeMap<u32, super::seeds::SeedStats> = BTreeMap::new();
@@ -383,7 +552,7 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
                 first,
                 &halton_seeds,
                 integrand,
-                &reference,
+                reference,
                 &status,
             )?;
             cache.insert(spp, s.clone());
@@ -409,7 +578,7 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
             &mdas_seeds,
             spec.setup.repeats,
             integrand,
-            &reference,
+            reference,
             &status,
         )?)
     } else {
@@ -434,12 +603,18 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
             |r| super::seeds::mean(&r[0]) / super::seeds::mean(&r[1]),
         ),
     };
-    let (ref_estimate, ref_flag) = intervals::reference_check(
-        &n0_stats,
-        n0,
-        spec.setup.ref_spp,
-        mdas_stats.relmse.min(halton_relmse),
-    );
+    let (ref_estimate, ref_flag) = match &subject.reference_source {
+        ReferenceSource::Halton { spp, .. } => {
+            let (estimate, flag) = intervals::reference_check(
+                &n0_stats,
+                n0,
+                *spp,
+                mdas_stats.relmse.min(halton_relmse),
+            );
+            (Some(estimate), flag)
+        }
+        ReferenceSource::Exact(_) => (None, None),
+    };
     let target_spread = match spec.budget {
         Budget::MdasSpp => {
             let s = timing.mdas_spread();
@@ -477,7 +652,7 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
         spec,
         out: staged.path(),
         film,
-        reference: &reference,
+        subject,
         mdas: &mdas_main.measured.render,
         mdas_seed: params.seed,
         mdas_spp,
@@ -500,9 +675,9 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
     // "mdas"; the nearer bracketing run's under a time budget).
     let mdas_relmse = mdas_stats.relmse;
     let report = Report {
-        scene: spec.setup.scene.display().to_string(),
+        scene: subject.name.clone(),
         scale: spec.setup.scale,
-        sampler: sampler.map(|k| k.to_string()),
+        sampler: subject.sampler.clone(),
         film: FilmReport {
             width: w,
             height: h,
@@ -517,13 +692,25 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
         clock: mdas_main.measured.render.clock.name().into(),
         version: env!("CARGO_PKG_VERSION").into(),
         repeats: spec.setup.repeats,
-        reference: ReferenceReport {
-            spp: spec.setup.ref_spp,
-            relmse_estimate: Some(ref_estimate),
-            flag: ref_flag,
-            path: ref_path.display().to_string(),
-            cached,
-            sampler: reference_sampler.map(|k| k.to_string()),
+        reference: match &subject.reference_source {
+            ReferenceSource::Halton { spp, path, cached } => ReferenceReport {
+                spp: *spp,
+                relmse_estimate: ref_estimate,
+                flag: ref_flag,
+                path: path.display().to_string(),
+                cached: *cached,
+                sampler: subject.reference_sampler.clone(),
+                exact: None,
+            },
+            ReferenceSource::Exact(how) => ReferenceReport {
+                spp: 0,
+                relmse_estimate: None,
+                flag: None,
+                path: String::new(),
+                cached: false,
+                sampler: subject.reference_sampler.clone(),
+                exact: Some(how.clone()),
+            },
         },
         methods: vec![
             MethodReport::new("mdas", mdas_spp, &mdas_main, "mdas.exr")
@@ -568,15 +755,16 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
             flip_range: Some(super::outputs::FLIP_RANGE),
         },
         files,
-        provenance: Some(crate::provenance::Provenance::new(
-            gpu,
-            &spec.setup.scene,
-            integrand,
-            Some(MdasParams {
+        provenance: Some({
+            let mdas = Some(MdasParams {
                 spp: mdas_spp as f32,
                 ..params
-            }),
-        )?),
+            });
+            match subject.scene_file {
+                Some(file) => crate::provenance::Provenance::new(gpu, file, integrand, mdas)?,
+                None => crate::provenance::Provenance::of_integrand(gpu, integrand, mdas),
+            }
+        }),
     };
     write_report(staged.path(), &report)?;
     staged.commit("report.json")?;

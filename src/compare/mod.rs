@@ -28,6 +28,8 @@ pub mod tune;
 pub use equal_time::{
     halton_at_equal_time, measure, search_equal_time, EqualTime, HaltonRun, Measured,
 };
-pub use experiment::{compare, compare_with, Budget, CompareSpec, Setup};
+pub use experiment::{
+    compare, compare_integrand, compare_with, Budget, CompareSpec, ReferenceSource, Setup, Subject,
+};
 pub use report::Report;
 pub use samplers::{compare_samplers, SamplersSpec};

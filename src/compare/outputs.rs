@@ -6,10 +6,11 @@
 //! `--crop`s), captions with each method's RelMSE interval and FLIP, and
 //! the maps with colour bars. `report.json` is written last, by the caller.
 
+use super::experiment::{ReferenceSource, Subject};
 use super::figure;
 use super::heatmap;
 use super::seeds::SeedStats;
-use super::{CompareSpec, Setup};
+use super::CompareSpec;
 use crate::app;
 use crate::film::Film;
 use crate::image_io;
@@ -28,7 +29,8 @@ pub(crate) struct CompareOutputs<'a> {
     /// Where the files go (the run's staging directory).
     pub out: &'a Path,
     pub film: Film,
-    pub reference: &'a [[f32; 3]],
+    /// The integrand's name, its reference and where that came from.
+    pub subject: &'a Subject<'a>,
     /// MDAS's written run (its first seed), and its statistics.
     pub mdas: &'a Render,
     pub mdas_seed: u32,
@@ -60,7 +62,7 @@ pub(crate) struct Written {
 
 /// Writes every file but `report.json` into `o.out`.
 pub(crate) fn write_outputs(o: &CompareOutputs) -> Result<Written> {
-    let (spec, film, reference, density) = (o.spec, o.film, o.reference, o.density);
+    let (spec, film, reference, density) = (o.spec, o.film, o.subject.reference, o.density);
     let (mdas_render, halton_render) = (o.mdas, o.halton);
     let (w, h) = (film.width, film.height);
     let mut files = Files::new(o.out, film);
@@ -68,9 +70,15 @@ pub(crate) fn write_outputs(o: &CompareOutputs) -> Result<Written> {
         "reference",
         "reference",
         reference,
-        &reference_attributes(&spec.setup),
+        &match &o.subject.reference_source {
+            ReferenceSource::Halton { spp, .. } => reference_attributes(*spp, spec.setup.ref_seed),
+            ReferenceSource::Exact(how) => vec![(
+                "method",
+                image_io::ExrAttribute::Text(format!("exact: {how}")),
+            )],
+        },
     )?;
-    let scene_path = &spec.setup.scene;
+    let scene_path = Path::new(&o.subject.name);
     files.image(
         "mdas",
         "mdas",
@@ -157,7 +165,10 @@ pub(crate) fn write_outputs(o: &CompareOutputs) -> Result<Written> {
                 figure::ImagePanel {
                     label: "Reference",
                     pixels: reference,
-                    caption: format!("Halton {} spp", spec.setup.ref_spp),
+                    caption: match &o.subject.reference_source {
+                        ReferenceSource::Halton { spp, .. } => format!("Halton {spp} spp"),
+                        ReferenceSource::Exact(how) => how.clone(),
+                    },
                 },
                 figure::ImagePanel {
                     label: "MDAS",
@@ -267,13 +278,15 @@ impl<'a> Files<'a> {
     }
 }
 
-/// The EXR header attributes of the reference: Halton at the setup's
-/// reference spp and seed.
-pub(crate) fn reference_attributes(setup: &Setup) -> Vec<(&'static str, image_io::ExrAttribute)> {
+/// The EXR header attributes of a Halton reference at `spp` and `seed`.
+pub(crate) fn reference_attributes(
+    spp: u32,
+    seed: u32,
+) -> Vec<(&'static str, image_io::ExrAttribute)> {
     use image_io::ExrAttribute::{Text, F64, I32};
     vec![
         ("method", Text("halton".into())),
-        ("spp", F64(f64::from(setup.ref_spp))),
-        ("seed", I32(setup.ref_seed as i32)),
+        ("spp", F64(f64::from(spp))),
+        ("seed", I32(seed as i32)),
     ]
 }

@@ -86,9 +86,15 @@ pub struct ReferenceReport {
     /// Set when that estimate is not far below the compared methods'.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub flag: Option<String>,
-    /// The cached reference EXR this comparison used.
+    /// The cached reference EXR this comparison used (empty for an exact
+    /// reference).
     pub path: String,
     pub cached: bool,
+    /// Set for a reference that was not rendered by sampling (a library
+    /// comparison against a closed form, `compare_integrand`): how it was
+    /// made. `spp` is then 0 and no estimate of its error is made.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub exact: Option<String>,
     /// Its light sampler (`many_light` scenes): always the scene file's
     /// own, whatever `--sampler`/`--samplers` the compared renders use.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -359,13 +365,16 @@ pub fn table(report: &Report) -> String {
             }
         }
     }
+    let reference = match &report.reference.exact {
+        Some(how) => format!("exact reference ({how})"),
+        None => format!("reference {} spp", report.reference.spp),
+    };
     let mut out = format!(
-        "{} at {}×{} (scale {}), reference {} spp, {} on {} ({})\n",
+        "{} at {}×{} (scale {}), {reference}, {} on {} ({})\n",
         report.scene,
         report.film.width,
         report.film.height,
         report.scale,
-        report.reference.spp,
         report.clock,
         report.adapter,
         report.backend

@@ -134,7 +134,12 @@ fn run(gpu: &Gpu, spec: &SamplersSpec) -> Result<Report> {
     };
     let mdas_integrand = integrand_of(MDAS_SAMPLER);
     let params = (setup.mdas_params)(scene.mdas);
-    let min_spp = check_mdas(params, spec.budget, mdas_integrand, &setup.scene)?;
+    let min_spp = check_mdas(
+        params,
+        spec.budget,
+        mdas_integrand,
+        &setup.scene.display().to_string(),
+    )?;
 
     // 2. Reference (the scene's own sampler).
     let (reference, ref_path, cached) = setup.reference(gpu)?;
@@ -184,7 +189,7 @@ fn run(gpu: &Gpu, spec: &SamplersSpec) -> Result<Report> {
         "reference",
         "reference",
         &reference,
-        &reference_attributes(setup),
+        &reference_attributes(setup.ref_spp, setup.ref_seed),
     )?;
     let mdas_image = &mdas_main.measured.render.image;
     files.image(
@@ -285,6 +290,7 @@ fn run(gpu: &Gpu, spec: &SamplersSpec) -> Result<Report> {
             sampler: Some(own.to_string()),
             relmse_estimate: None,
             flag: None,
+            exact: None,
         },
         methods,
         equal_time: EqualTimeReport {

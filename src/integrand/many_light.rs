@@ -308,11 +308,11 @@ impl Integrand for ManyLight {
         source(self.triangles)
     }
 
-    fn layout(&self) -> &wgpu::BindGroupLayout {
-        &self.layout
+    fn layout(&self) -> Option<&wgpu::BindGroupLayout> {
+        Some(&self.layout)
     }
 
-    fn bind_group(&self) -> &wgpu::BindGroup {
-        &self.bind_group
+    fn bind_group(&self) -> Option<&wgpu::BindGroup> {
+        Some(&self.bind_group)
     }
 }

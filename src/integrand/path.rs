@@ -139,11 +139,11 @@ impl Integrand for PathTracing {
         source(self.max_bounces, self.area_nee)
     }
 
-    fn layout(&self) -> &wgpu::BindGroupLayout {
-        &self.scene.layout
+    fn layout(&self) -> Option<&wgpu::BindGroupLayout> {
+        Some(&self.scene.layout)
     }
 
-    fn bind_group(&self) -> &wgpu::BindGroup {
-        &self.scene.bind_group
+    fn bind_group(&self) -> Option<&wgpu::BindGroup> {
+        Some(&self.scene.bind_group)
     }
 }

@@ -67,8 +67,10 @@ pub struct Halton {
     pub seed: u32,
     progress: Option<Progress>,
     layout: Option<wgpu::BindGroupLayout>,
-    pipelines:
-        HashMap<(String, wgpu::BindGroupLayout), (wgpu::ComputePipeline, wgpu::ComputePipeline)>,
+    pipelines: HashMap<
+        (String, Option<wgpu::BindGroupLayout>),
+        (wgpu::ComputePipeline, wgpu::ComputePipeline),
+    >,
 }
 
 impl Halton {
@@ -107,11 +109,11 @@ impl Halton {
     ) -> Result<(wgpu::ComputePipeline, wgpu::ComputePipeline)> {
         let layout = self.layout(gpu);
         let source = source(integrand.wgsl());
-        let key = (source.source(), integrand.layout().clone());
+        let key = (source.source(), integrand.layout().cloned());
         if let Some(p) = self.pipelines.get(&key) {
             return Ok(p.clone());
         }
-        let layouts = [&layout, integrand.layout()];
+        let layouts = crate::integrand::kernel_layouts(&layout, integrand);
         let label = format!("mdas.halton.evaluate[{}]", integrand.name());
         let evaluate = gpu.compute_pipeline(&label, &source, "evaluate", &layouts)?;
         let accumulate =
@@ -275,7 +277,7 @@ impl Integrator for Halton {
                     });
                     pass.set_pipeline(&evaluate);
                     pass.set_bind_group(0, &group0, &offset);
-                    pass.set_bind_group(1, integrand.bind_group(), &[]);
+                    crate::integrand::bind_integrand(&mut pass, integrand);
                     pass.dispatch_workgroups(gx, gy, 1);
                 })?;
                 profiler.phase("accumulate", |encoder, timestamps| {
@@ -285,7 +287,7 @@ impl Integrator for Halton {
                     });
                     pass.set_pipeline(&accumulate);
                     pass.set_bind_group(0, &group0, &offset);
-                    pass.set_bind_group(1, integrand.bind_group(), &[]);
+                    crate::integrand::bind_integrand(&mut pass, integrand);
                     pass.dispatch_workgroups(acc_gx, acc_gy, 1);
                 })?;
                 let done = chunk + 1;

@@ -65,11 +65,11 @@ impl Integrand for TestIntegrand {
     fn wgsl(&self) -> Wgsl {
         test_integrand_source(self.case)
     }
-    fn layout(&self) -> &wgpu::BindGroupLayout {
-        &self.layout
+    fn layout(&self) -> Option<&wgpu::BindGroupLayout> {
+        Some(&self.layout)
     }
-    fn bind_group(&self) -> &wgpu::BindGroup {
-        &self.bind_group
+    fn bind_group(&self) -> Option<&wgpu::BindGroup> {
+        Some(&self.bind_group)
     }
 }
 

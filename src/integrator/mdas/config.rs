@@ -317,7 +317,11 @@ impl Pages {
         let mut binding = FIRST_EXTRA_BINDING;
         for (&(name, first), &count) in PAGED_ARRAYS.iter().zip(&self.count) {
             let decl = |out: &mut String, b: u32, n: &str| {
-                writeln!(out, "@group(0) @binding({b}) var<storage, read_write> {n}: array<u32>;").unwrap();
+                writeln!(
+                    out,
+                    "@group(0) @binding({b}) var<storage, read_write> {n}: array<u32>;"
+                )
+                .unwrap();
             };
             decl(&mut out, first, name);
             if count == 1 {
@@ -335,7 +339,11 @@ impl Pages {
                 (format!("fn {name}_get(i: u32) -> u32"), "return {a}[o];"),
                 (format!("fn {name}_set(i: u32, v: u32)"), "{a}[o] = v;"),
             ] {
-                writeln!(out, "{sig} {{\n    let o = i & {mask}u;\n    switch (i >> {shift}u) {{").unwrap();
+                writeln!(
+                    out,
+                    "{sig} {{\n    let o = i & {mask}u;\n    switch (i >> {shift}u) {{"
+                )
+                .unwrap();
                 for page in 1..count {
                     let body = op.replace("{a}", &format!("{name}_{page}"));
                     writeln!(out, "        case {page}u: {{ {body} }}").unwrap();
@@ -552,9 +560,8 @@ impl Config {
             );
         }
         let limit = |what: &str, bytes: u64| -> Result<()> {
-            crate::gpu::buffer::check_binding_size_in(limits, what, bytes).map_err(|e| {
-                e.context(capacity())
-            })
+            crate::gpu::buffer::check_binding_size_in(limits, what, bytes)
+                .map_err(|e| e.context(capacity()))
         };
         for (i, (name, _)) in PAGED_ARRAYS.iter().enumerate() {
             limit(&format!("mdas.{name}"), self.page_bytes(i, 0))?;

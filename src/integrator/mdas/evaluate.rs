@@ -22,6 +22,6 @@ pub fn source(base: &Wgsl, integrand: Wgsl) -> Wgsl {
 pub fn record(pass: &mut wgpu::ComputePass<'_>, k: &Kernels, integrand: &dyn Integrand) {
     pass.set_pipeline(&k.pipes.evaluate);
     pass.set_bind_group(0, &k.group0, &[]);
-    pass.set_bind_group(1, integrand.bind_group(), &[]);
+    crate::integrand::bind_integrand(pass, integrand);
     pass.dispatch_workgroups_indirect(&k.args, plan::ARGS_EVALUATE);
 }

@@ -72,6 +72,15 @@
 //!
 //! `Render::gpu_bytes` reports the total actually allocated.
 //!
+//! The four arrays that grow with the budget (leaves, boxes, sample
+//! coordinates, values) are paged ([`config::Pages`]): while one fits the
+//! adapter's largest storage binding it is one binding, indexed directly;
+//! beyond that it is split into power-of-two pages, one binding each,
+//! reached through generated accessors. So the capacity is the device's
+//! memory and its storage buffers per shader stage (lavapipe: 32, the
+//! integrand's included), not its largest binding (lavapipe: 128 MiB,
+//! which held `cornell_pt` at 1024² to 8 spp; it now takes 48).
+//!
 //! ## Departures from the reference CUDA code (issue #3)
 //!
 //! Errors are recomputed after every insertion (a changed leaf is marked
@@ -133,7 +142,7 @@ pub struct Mdas {
     /// storage binding).
     max_page_bytes: Option<u64>,
     args_layout: Option<wgpu::BindGroupLayout>,
-    pipelines: HashMap<(String, wgpu::BindGroupLayout), Pipelines>,
+    pipelines: HashMap<(String, Option<wgpu::BindGroupLayout>), Pipelines>,
     /// Statistics of the last render.
     last: Option<RunStats>,
     /// Its GPU times with the parts of phases apart ("adaptive/count").
@@ -325,7 +334,7 @@ impl Mdas {
         let args_layout = self.args_layout(gpu);
         let base = cfg.base_wgsl();
         let eval_source = evaluate::source(&base, integrand.wgsl());
-        let key = (eval_source.source(), integrand.layout().clone());
+        let key = (eval_source.source(), integrand.layout().cloned());
         if let Some(p) = self.pipelines.get(&key) {
             return Ok(p.clone());
         }
@@ -355,7 +364,7 @@ impl Mdas {
                     &format!("mdas.mdas.evaluate[{}]", integrand.name()),
                     &eval_source,
                     "evaluate",
-                    &[&layout, integrand.layout()],
+                    &crate::integrand::kernel_layouts(&layout, integrand),
                 )
                 .map_err(|e| {
                     if cfg.pages.extra() == 0 {

@@ -62,10 +62,11 @@ impl Mdas {
                 STORAGE | wgpu::BufferUsages::INDIRECT,
             )?;
             // Bindings 0–8, then the extra pages in `PAGED_ARRAYS` order.
-            let extra_pages: Vec<&wgpu::Buffer> = [&bufs.leaves, &bufs.samples, &bufs.values, &bufs.boxes]
-                .into_iter()
-                .flat_map(|pages| &pages[1..])
-                .collect();
+            let extra_pages: Vec<&wgpu::Buffer> =
+                [&bufs.leaves, &bufs.samples, &bufs.values, &bufs.boxes]
+                    .into_iter()
+                    .flat_map(|pages| &pages[1..])
+                    .collect();
             let bind = |label: &str, samples: &wgpu::Buffer, accum: &wgpu::Buffer| {
                 let base = [
                     &bufs.params,
@@ -78,7 +79,10 @@ impl Mdas {
                     &bufs.boxes[0],
                     &bufs.state,
                 ];
-                let all: Vec<&wgpu::Buffer> = base.into_iter().chain(extra_pages.iter().copied()).collect();
+                let all: Vec<&wgpu::Buffer> = base
+                    .into_iter()
+                    .chain(extra_pages.iter().copied())
+                    .collect();
                 crate::gpu::shader::bind_buffers(gpu, label, &layout, &all)
             };
             let group0 = bind("mdas.group0", &bufs.samples[0], &bufs.accum);
