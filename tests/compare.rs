@@ -1,6 +1,7 @@
 //! Equal-time machinery: timing medians and Halton budget matching.
 
 mod common;
+mod mdas_support;
 
 use common::gpu;
 use mdas::app;
@@ -96,4 +97,86 @@ fn seed_intervals_cover_the_exact_answer() {
         covered >= 18,
         "the interval covered the true bias {covered} times of 20"
     );
+}
+
+/// `compare_integrand`: the equal-time experiment on an integrand built in
+/// code, against an exact image given with it (the test integrand's edge,
+/// whose pixel means are exact polygon areas). A reference of the wrong
+/// size or with a non-finite pixel is refused before the output directory
+/// exists; a valid one gives a report that records the reference as exact
+/// (no spp, no error estimate), a provenance without a scene digest, and
+/// the files of `mdas compare`.
+#[test]
+fn compare_integrand_runs_on_an_integrand_built_in_code() {
+    use mdas::compare::{compare_integrand, Budget, CompareSpec, ReferenceSource, Setup, Subject};
+    use mdas::film::Film;
+    use mdas::integrator::mdas::MdasParams;
+    let gpu = gpu();
+    let film = Film {
+        width: 16,
+        height: 12,
+    };
+    let edge = common::TestIntegrand::new(gpu, 3, 3, film);
+    let exact = mdas_support::edge_image(film);
+    let dir = std::env::temp_dir().join(format!("mdas-compare-integrand-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let out = dir.join("out");
+    let identity = |p| p;
+    let spec = CompareSpec {
+        seeds: 2,
+        ..CompareSpec::new(Setup::new("edge", out.clone(), &identity), Budget::MdasSpp)
+    };
+    let subject = |reference: &'static [[f32; 3]]| Subject {
+        name: "edge".into(),
+        scene_file: None,
+        integrand: &edge,
+        mdas: MdasParams {
+            spp: 8.0,
+            ..MdasParams::for_film(film)
+        },
+        reference,
+        reference_source: ReferenceSource::Exact("polygon areas".into()),
+        sampler: None,
+        reference_sampler: None,
+    };
+    let short: &'static [[f32; 3]] = exact[1..].to_vec().leak();
+    let e = format!(
+        "{:#}",
+        compare_integrand(gpu, &spec, &subject(short)).unwrap_err()
+    );
+    assert!(e.contains("191 pixels") && e.contains("16×12 = 192"), "{e}");
+    let mut bad = exact.clone();
+    bad[5][1] = f32::NAN;
+    let e = format!(
+        "{:#}",
+        compare_integrand(gpu, &spec, &subject(bad.leak())).unwrap_err()
+    );
+    assert!(e.contains("pixel 5 is not finite"), "{e}");
+    assert!(
+        !out.exists(),
+        "a refused comparison created {}",
+        out.display()
+    );
+
+    let report = compare_integrand(gpu, &spec, &subject(exact.clone().leak())).unwrap();
+    assert_eq!(report.scene, "edge");
+    assert_eq!(report.reference.exact.as_deref(), Some("polygon areas"));
+    assert_eq!(report.reference.spp, 0);
+    assert!(report.reference.relmse_estimate.is_none());
+    let provenance = report.provenance.as_ref().unwrap();
+    assert!(provenance.scene_sha256.is_none());
+    assert_eq!(provenance.integrand, "test");
+    let eq = &report.equal_time;
+    assert!(eq.mdas_relmse > 0.0 && eq.halton_relmse > 0.0);
+    assert_eq!(eq.relmse_ratio, eq.mdas_relmse / eq.halton_relmse);
+    for file in [
+        "report.json",
+        "figure.png",
+        "reference.exr",
+        "mdas.exr",
+        "halton.exr",
+    ] {
+        assert!(out.join(file).is_file(), "{file} missing");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
 }
