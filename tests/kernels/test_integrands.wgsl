@@ -10,6 +10,10 @@
 //      domain → pixel mean 1
 //   5: f = 1e6 where film.x < 4, else 1e-6 → pixel means 1e6 and 1e-6
 //      exactly (columns 0–3 and the rest)
+//   6: f = 1 inside a disk of radius 2.5 whose centre moves from (5, 5)
+//      to (11, 7) over u[0] (motion blur), else 0. Pixel means have no
+//      closed form; on a film of at least 14×10 the disk never leaves it,
+//      so the film total is π·2.5² at every time, and so overall.
 
 @group(1) @binding(0) var<storage, read> unused: array<u32>;
 
@@ -33,6 +37,10 @@ fn integrand(p: ptr<function, IntegrandPoint>) -> vec3<f32> {
     }
     if (TEST_CASE == 4u) {
         return vec3<f32>(select(0.0, 25.0, abs(u0 - 0.5) < 0.02));
+    }
+    if (TEST_CASE == 6u) {
+        let d = (*p).film - (vec2<f32>(5.0, 5.0) + vec2<f32>(6.0, 2.0) * u0);
+        return vec3<f32>(select(0.0, 1.0, dot(d, d) < 6.25));
     }
     if (TEST_CASE == 5u) {
         return vec3<f32>(select(1e-6, 1e6, (*p).film.x < 4.0));
