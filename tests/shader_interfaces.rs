@@ -115,7 +115,7 @@ fn integrands() -> Vec<Integrand> {
         let wgsl = many_light::source(triangles);
         all.push(one(&name, dims, wgsl, many_light::layout_entries()));
     }
-    for case in 0..=5 {
+    for case in 0..=6 {
         let wgsl = common::test_integrand_source(case);
         let group1 = common::test_integrand_layout_entries();
         all.push(one(&format!("test[case={case}]"), 3, wgsl, group1));
