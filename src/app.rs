@@ -139,6 +139,28 @@ pub struct Prepared {
     pub integrand: Box<dyn Integrand>,
 }
 
+/// Loads the scene file at `scene_path` (errors at `file:line:col`),
+/// builds its acceleration structure and lights on `gpu` and returns its
+/// integrand at `scale` × the scene's film (the camera unchanged). The
+/// scene's `[mdas]` table is in `Prepared::scene.mdas`, written for the
+/// full film: [`mdas_params_at_scale`] adapts it.
+///
+/// ```
+/// use mdas::{app, gpu::Gpu, integrator::{Halton, Integrator, Mdas}};
+/// # fn main() -> anyhow::Result<()> {
+/// let gpu = Gpu::shared()?;
+/// let scale = 0.125; // 32×32 of the Cornell box's 256×256
+/// let prepared = app::prepare(gpu, "scenes/cornell.toml".as_ref(), scale)?;
+/// let integrand = prepared.integrand.as_ref();
+/// let halton = Halton::new(4, 0).render(gpu, integrand)?;
+/// let params = app::mdas_params_at_scale(prepared.scene.mdas, scale);
+/// let mdas = Mdas::new(mdas::integrator::mdas::MdasParams { spp: 4.0, ..params })?
+///     .render(gpu, integrand)?;
+/// assert_eq!(halton.samples, 32 * 32 * 4);
+/// assert_eq!(mdas.samples, 32 * 32 * 4); // MDAS's budget is met exactly
+/// # Ok(())
+/// # }
+/// ```
 pub fn prepare(gpu: &Gpu, scene_path: &Path, scale: f32) -> Result<Prepared> {
     prepare_with(gpu, scene_path, scale, IntegrandOverrides::default())
 }

@@ -4,7 +4,8 @@
 //! integrand there with GPU kernels and reconstructs pixel values — the
 //! mean of the integrand over each pixel's footprint (DESIGN.md). It knows
 //! nothing of scenes. Implementations: [`Halton`] (quasi-Monte Carlo
-//! baseline). The MDAS integrator follows.
+//! baseline, randomly shifted) and [`Mdas`] (multidimensional adaptive
+//! sampling, `mdas/`).
 
 pub mod halton;
 pub mod mdas;
@@ -48,6 +49,10 @@ impl Render {
     }
 }
 
+/// Renders any [`Integrand`]: chooses its points, evaluates it in GPU
+/// kernels and reconstructs the pixel means. Every integrator drives every
+/// integrand; [`crate::app::prepare`] shows both shipped ones on a scene
+/// and the [`Integrand`] trait a custom integrand.
 pub trait Integrator {
     /// Short name for reports, e.g. `"halton"`.
     fn name(&self) -> &'static str;
