@@ -31,13 +31,14 @@ run: build
 # Formatting is checked first (seconds); clippy runs in CI after the tests
 # (`.ci/run`: make test, then make lint), since a clean clippy build costs
 # another ~4–6 minutes on 2 cores and `make test` must stay under 20.
-# The examples are built by `cargo test` and run after it, on small films
-# (README, "Library").
+# The examples are built by `cargo test` (test profile, so `run --profile
+# test` reuses them instead of compiling the crate again) and run after it,
+# on small films (README, "Library").
 test: vulkan
 	$(CARGO) fmt --all -- --check
 	$(CARGO) test --no-fail-fast
-	$(CARGO) run --example custom_integrand -- target/examples-out/custom_integrand
-	$(CARGO) run --example compare_scene -- scenes/cornell.toml target/examples-out/compare_scene 0.125 256
+	$(CARGO) run --profile test --example custom_integrand -- target/examples-out/custom_integrand
+	$(CARGO) run --profile test --example compare_scene -- scenes/cornell.toml target/examples-out/compare_scene 0.125 256
 
 bench: vulkan
 	$(CARGO) bench

@@ -193,9 +193,11 @@ pub enum ReferenceSource {
 /// heat maps and figure, written as one unit into `spec.setup.out`.
 /// `spec.setup`'s scene, scale, reference spp, cache directory and
 /// parameter mapping are not used (the subject carries them);
-/// [`Setup::new`] fills them. `examples/custom_integrand.rs` runs it.
+/// [`Setup::new`] fills them. `examples/custom_integrand.rs` runs it
+/// (`make test` runs that example, so this sketch is not compiled again
+/// as a doc test):
 ///
-/// ```no_run
+/// ```ignore
 /// # fn run(gpu: &mdas::gpu::Gpu, integrand: &dyn mdas::integrand::Integrand, exact: &[[f32; 3]]) -> anyhow::Result<()> {
 /// use mdas::compare::{compare_integrand, Budget, CompareSpec, ReferenceSource, Setup, Subject};
 /// use mdas::integrator::mdas::MdasParams;

@@ -281,7 +281,9 @@ impl Mdas {
     }
 
     /// The derived sizes a render of `integrand` would use, or the error
-    /// that makes it impossible (no GPU work).
+    /// that makes it impossible (no GPU work), with every array on one
+    /// binding: [`Mdas::config_for`] pages them for an adapter and checks
+    /// its limits, as a render does.
     pub fn config(&self, integrand: &dyn Integrand) -> Result<Config> {
         Config::new(
             self.params,
