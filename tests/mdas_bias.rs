@@ -54,6 +54,35 @@ fn uniform(p: MdasParams) -> MdasParams {
     }
 }
 
+/// The two checks of every case: MDAS-uniform (decides nothing from
+/// sample values) has a 99% bias interval that covers 0 and a standard
+/// error below `max_uniform_se` (the test has power); the adaptive
+/// configuration's |bias| less its 99% half-width stays within `bound`.
+fn check_bias(
+    adaptive: MdasParams,
+    integrand: &dyn Integrand,
+    exact: &[[f32; 3]],
+    max_uniform_se: f64,
+    bound: f64,
+) {
+    let (b, se) = bias_over_seeds(uniform(adaptive), integrand, exact);
+    assert!(
+        se < max_uniform_se,
+        "too few samples to see a bias: se {se}"
+    );
+    assert!(
+        b.abs() <= T_995_7 * se,
+        "MDAS-uniform is biased: {b:+.3e} ± {:.1e}",
+        T_995_7 * se
+    );
+    let (b, se) = bias_over_seeds(adaptive, integrand, exact);
+    assert!(
+        b.abs() - T_995_7 * se <= bound,
+        "MDAS's bias grew: {b:+.3e} ± {:.1e} (bound {bound})",
+        T_995_7 * se
+    );
+}
+
 /// `area_light_plane` at ¼ scale against its closed form, at 64 spp.
 /// Measured (lavapipe, seeds 100–107): uniform b̄ = +0.038% (se 0.036%,
 /// no detectable bias); adaptive (α = ¼, 4 candidates, b = 1, e = 3,
@@ -72,20 +101,7 @@ fn bias_on_the_area_light_plane() {
     let integrand = prepared.integrand.as_ref();
     let adaptive = params(1, 3, 1, 64.0, 0);
 
-    let (b, se) = bias_over_seeds(uniform(adaptive), integrand, &exact);
-    assert!(se < 1e-3, "too few samples to see a bias: se {se}");
-    assert!(
-        b.abs() <= T_995_7 * se,
-        "MDAS-uniform is biased: {b:+.3e} ± {:.1e}",
-        T_995_7 * se
-    );
-
-    let (b, se) = bias_over_seeds(adaptive, integrand, &exact);
-    assert!(
-        b.abs() - T_995_7 * se <= ADAPTIVE_PLANE_BOUND,
-        "MDAS's bias grew: {b:+.3e} ± {:.1e} (bound {ADAPTIVE_PLANE_BOUND})",
-        T_995_7 * se
-    );
+    check_bias(adaptive, integrand, &exact, 1e-3, ADAPTIVE_PLANE_BOUND);
 }
 
 /// Bound on the adaptive configuration's |bias| on the plane (measured
@@ -108,20 +124,7 @@ fn bias_on_a_thin_slab() {
     let exact = vec![[1.0f32; 3]; (film.width * film.height) as usize];
     let adaptive = params(1, 2, 1, 64.0, 0);
 
-    let (b, se) = bias_over_seeds(uniform(adaptive), &integrand, &exact);
-    assert!(se < 3e-2, "too few samples to see a bias: se {se}");
-    assert!(
-        b.abs() <= T_995_7 * se,
-        "MDAS-uniform is biased: {b:+.3e} ± {:.1e}",
-        T_995_7 * se
-    );
-
-    let (b, se) = bias_over_seeds(adaptive, &integrand, &exact);
-    assert!(
-        b.abs() - T_995_7 * se <= ADAPTIVE_SLAB_BOUND,
-        "MDAS's bias grew: {b:+.3e} ± {:.1e} (bound {ADAPTIVE_SLAB_BOUND})",
-        T_995_7 * se
-    );
+    check_bias(adaptive, &integrand, &exact, 3e-2, ADAPTIVE_SLAB_BOUND);
 }
 
 /// Bound on the adaptive configuration's |bias| on the slab (measured
@@ -150,20 +153,7 @@ fn bias_on_a_moving_disk() {
     let exact = vec![[(area / pixels as f64) as f32; 3]; pixels];
     let adaptive = params(1, 2, 1, 128.0, 0);
 
-    let (b, se) = bias_over_seeds(uniform(adaptive), &integrand, &exact);
-    assert!(se < 1e-2, "too few samples to see a bias: se {se}");
-    assert!(
-        b.abs() <= T_995_7 * se,
-        "MDAS-uniform is biased: {b:+.3e} ± {:.1e}",
-        T_995_7 * se
-    );
-
-    let (b, se) = bias_over_seeds(adaptive, &integrand, &exact);
-    assert!(
-        b.abs() - T_995_7 * se <= ADAPTIVE_DISK_BOUND,
-        "MDAS's bias grew: {b:+.3e} ± {:.1e} (bound {ADAPTIVE_DISK_BOUND})",
-        T_995_7 * se
-    );
+    check_bias(adaptive, &integrand, &exact, 1e-2, ADAPTIVE_DISK_BOUND);
 }
 
 /// Bound on the adaptive configuration's |bias| on the moving disk

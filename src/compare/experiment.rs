@@ -238,10 +238,40 @@ pub fn compare_integrand(gpu: &Gpu, spec: &CompareSpec, subject: &Subject) -> Re
     {
         bail!("the reference's pixel {i} is not finite");
     }
-    check_mdas(subject.mdas, spec.budget, subject.integrand, &subject.name)?;
-    super::figure::check_crops(&spec.crops, film.width, film.height)?;
+    let checked = check_inputs(spec, subject.mdas, subject.integrand, &subject.name)?;
     let staged = StagedDir::new(&spec.setup.out)?;
-    compare_subject(gpu, spec, subject, staged)
+    compare_subject(gpu, spec, subject, checked, staged)
+}
+
+/// What the checks before any render find out: MDAS's least spp and each
+/// method's seeds.
+struct Checked {
+    min_spp: u32,
+    mdas_seeds: Vec<u32>,
+    halton_seeds: Vec<u32>,
+}
+
+/// The checks of step 1 that concern MDAS, the crops and the seeds.
+fn check_inputs(
+    spec: &CompareSpec,
+    params: MdasParams,
+    integrand: &dyn Integrand,
+    name: &str,
+) -> Result<Checked> {
+    let min_spp = check_mdas(params, spec.budget, integrand, name)?;
+    let film = integrand.film();
+    super::figure::check_crops(&spec.crops, film.width, film.height)?;
+    let (mdas_seeds, halton_seeds) = intervals::seed_plan(
+        spec.seeds,
+        params.seed,
+        spec.setup.halton_seed,
+        spec.setup.ref_seed,
+    )?;
+    Ok(Checked {
+        min_spp,
+        mdas_seeds,
+        halton_seeds,
+    })
 }
 
 /// The compared Halton render must not reuse the reference's random
@@ -394,17 +424,9 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
     let prepared = app::prepare_loaded(gpu, scene, &spec.setup.scene, spec.setup.scale, overrides)?;
     let sampler = app::light_sampler(&prepared.scene.integrand);
     let integrand = prepared.integrand.as_ref();
-    let film = prepared.film;
     let params = (spec.setup.mdas_params)(prepared.scene.mdas);
     let name = spec.setup.scene.display().to_string();
-    check_mdas(params, spec.budget, integrand, &name)?;
-    super::figure::check_crops(&spec.crops, film.width, film.height)?;
-    intervals::seed_plan(
-        spec.seeds,
-        params.seed,
-        spec.setup.halton_seed,
-        spec.setup.ref_seed,
-    )?;
+    let checked = check_inputs(spec, params, integrand, &name)?;
 
     // 2. Reference.
     let (reference, path, cached) = spec.setup.reference(gpu)?;
@@ -422,26 +444,25 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
         sampler: sampler.map(|k| k.to_string()),
         reference_sampler: reference_sampler.map(|k| k.to_string()),
     };
-    compare_subject(gpu, spec, &subject, staged)
+    compare_subject(gpu, spec, &subject, checked, staged)
 }
 
-/// Steps 3–5 of the module docs on a validated subject, writing into
-/// `staged`.
+/// Steps 3–5 of the module docs on a subject that passed
+/// [`check_inputs`], writing into `staged`.
 fn compare_subject(
     gpu: &Gpu,
     spec: &CompareSpec,
     subject: &Subject,
+    checked: Checked,
     staged: StagedDir,
 ) -> Result<Report> {
     let (integrand, reference, params) = (subject.integrand, subject.reference, subject.mdas);
     let film = integrand.film();
-    let min_spp = check_mdas(params, spec.budget, integrand, &subject.name)?;
-    let (mdas_seeds, halton_seeds) = intervals::seed_plan(
-        spec.seeds,
-        params.seed,
-        spec.setup.halton_seed,
-        spec.setup.ref_seed,
-    )?;
+    let Checked {
+        min_spp,
+        mdas_seeds,
+        halton_seeds,
+    } = checked;
 
     // 3. Timing and the equal-time searches.
     let status = spinner(spec.setup.progress);
