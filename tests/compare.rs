@@ -99,7 +99,8 @@ fn seed_intervals_cover_the_exact_answer() {
     );
 }
 
-/// `compare_integrand`: the equal-time experiment on an integrand built in
+/// `compare_integrand` and `sweep_integrand`: the equal-time experiment and
+/// the budget sweep on an integrand built in
 /// code, against an exact image given with it (the test integrand's edge,
 /// whose pixel means are exact polygon areas). A reference of the wrong
 /// size or with a non-finite pixel is refused before the output directory
@@ -177,6 +178,37 @@ fn compare_integrand_runs_on_an_integrand_built_in_code() {
         "halton.exr",
     ] {
         assert!(out.join(file).is_file(), "{file} missing");
+    }
+
+    // The sweep on the same subject: a point per method and budget, MDAS's
+    // budgets below its initial grid skipped, the reference recorded as
+    // exact, the files written.
+    let sweep_out = dir.join("sweep");
+    let sweep_spec = mdas::compare::SweepSpec {
+        setup: Setup::new("edge", sweep_out.clone(), &identity),
+        spps: vec![4, 8],
+        seeds: 2,
+    };
+    let sweep = mdas::compare::sweep_integrand(gpu, &sweep_spec, &subject(exact.leak())).unwrap();
+    let points = |m: &str| sweep.rows.iter().filter(|r| r.method == m).count();
+    let initial = mdas::integrator::Mdas::new(subject(short).mdas)
+        .unwrap()
+        .config(&edge)
+        .unwrap()
+        .initial_samples;
+    let mdas_points = [4u32, 8].iter().filter(|&&s| s * 192 >= initial).count();
+    assert!(mdas_points > 0, "no MDAS point: {initial} initial samples");
+    assert_eq!(points("mdas"), mdas_points);
+    assert_eq!(sweep.mdas_skipped.len(), 2 - mdas_points);
+    assert_eq!(points("halton"), 2);
+    assert_eq!(sweep.reference_exact.as_deref(), Some("polygon areas"));
+    assert!(sweep.provenance.scene_sha256.is_none());
+    assert!(sweep
+        .rows
+        .iter()
+        .all(|r| r.relmse > 0.0 && r.relmse.is_finite()));
+    for file in ["sweep.csv", "sweep.json", "sweep.png"] {
+        assert!(sweep_out.join(file).is_file(), "{file} missing");
     }
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -221,6 +221,14 @@ pub enum ReferenceSource {
 pub fn compare_integrand(gpu: &Gpu, spec: &CompareSpec, subject: &Subject) -> Result<Report> {
     spec.setup.check()?;
     check_budget(spec.budget)?;
+    check_reference(subject)?;
+    let checked = check_inputs(spec, subject.mdas, subject.integrand, &subject.name)?;
+    let staged = StagedDir::new(&spec.setup.out)?;
+    compare_subject(gpu, spec, subject, checked, staged)
+}
+
+/// A given reference must cover the integrand's film with finite pixels.
+pub(crate) fn check_reference(subject: &Subject) -> Result<()> {
     let film = subject.integrand.film();
     let pixels = film.width as usize * film.height as usize;
     if subject.reference.len() != pixels {
@@ -238,9 +246,7 @@ pub fn compare_integrand(gpu: &Gpu, spec: &CompareSpec, subject: &Subject) -> Re
     {
         bail!("the reference's pixel {i} is not finite");
     }
-    let checked = check_inputs(spec, subject.mdas, subject.integrand, &subject.name)?;
-    let staged = StagedDir::new(&spec.setup.out)?;
-    compare_subject(gpu, spec, subject, checked, staged)
+    Ok(())
 }
 
 /// What the checks before any render find out: MDAS's least spp and each

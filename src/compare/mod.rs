@@ -33,3 +33,4 @@ pub use experiment::{
 };
 pub use report::Report;
 pub use samplers::{compare_samplers, SamplersSpec};
+pub use sweep::{sweep_integrand, SweepSpec};

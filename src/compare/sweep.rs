@@ -10,7 +10,7 @@
 //! below its initial sample count are skipped and listed in the result.
 
 use super::equal_time::measure;
-use super::experiment::{mdas_min_spp, Setup};
+use super::experiment::{check_reference, mdas_min_spp, ReferenceSource, Setup, Subject};
 use super::intervals::seed_plan;
 use super::plot::{loglog_svg, svg_to_png, Series};
 use super::seeds::mean_ci95;
@@ -53,8 +53,12 @@ pub struct SweepRow {
 pub struct SweepResult {
     pub scene: String,
     pub scale: f32,
+    /// The Halton reference's spp (0 for an exact reference).
     pub reference_spp: u32,
     pub reference_seed: u32,
+    /// How an exact reference was made ([`sweep_integrand`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reference_exact: Option<String>,
     pub repeats: u32,
     pub rows: Vec<SweepRow>,
     pub mdas_skipped: Vec<u32>,
@@ -82,13 +86,47 @@ pub fn csv(rows: &[SweepRow]) -> String {
     s
 }
 
-/// Runs the sweep and writes `sweep.csv`, `sweep.json`, `sweep.svg` and
-/// `sweep.png` in `spec.out`.
+/// Runs the sweep on a scene file and writes `sweep.csv`, `sweep.json`,
+/// `sweep.svg` and `sweep.png` in `spec.out`, as one unit.
 pub fn sweep(gpu: &Gpu, spec: &SweepSpec) -> Result<SweepResult> {
-    run_sweep(gpu, spec)
+    check_spps(spec)?;
+    let staged = StagedDir::new(&spec.setup.out)?;
+    let prepared = app::prepare(gpu, &spec.setup.scene, spec.setup.scale)?;
+    let integrand = prepared.integrand.as_ref();
+    let params = (spec.setup.mdas_params)(prepared.scene.mdas);
+    let plan = plan(spec, params, integrand)?;
+    let (reference, path, cached) = spec.setup.reference(gpu)?;
+    let subject = Subject {
+        name: spec.setup.scene.display().to_string(),
+        scene_file: Some(&spec.setup.scene),
+        integrand,
+        mdas: params,
+        reference: &reference,
+        reference_source: ReferenceSource::Halton {
+            spp: spec.setup.ref_spp,
+            path,
+            cached,
+        },
+        sampler: None,
+        reference_sampler: None,
+    };
+    sweep_subject(gpu, spec, &subject, plan, staged)
 }
 
-fn run_sweep(gpu: &Gpu, spec: &SweepSpec) -> Result<SweepResult> {
+/// [`sweep`] on an integrand built in code against a reference given with
+/// it (`compare::compare_integrand` explains the [`Subject`]); the
+/// setup's scene, scale, reference spp, cache and parameter mapping are
+/// not used.
+pub fn sweep_integrand(gpu: &Gpu, spec: &SweepSpec, subject: &Subject) -> Result<SweepResult> {
+    check_spps(spec)?;
+    check_reference(subject)?;
+    let plan = plan(spec, subject.mdas, subject.integrand)?;
+    let staged = StagedDir::new(&spec.setup.out)?;
+    sweep_subject(gpu, spec, subject, plan, staged)
+}
+
+/// The checks of the budgets list that need no scene.
+fn check_spps(spec: &SweepSpec) -> Result<()> {
     spec.setup.check()?;
     if spec.spps.is_empty() || spec.spps.contains(&0) {
         bail!("--spps must list positive samples per pixel");
@@ -100,10 +138,23 @@ fn run_sweep(gpu: &Gpu, spec: &SweepSpec) -> Result<SweepResult> {
     {
         bail!("--spps lists {twice} more than once; each budget is measured once");
     }
-    let staged = StagedDir::new(&spec.setup.out)?;
-    let prepared = app::prepare(gpu, &spec.setup.scene, spec.setup.scale)?;
-    let integrand = prepared.integrand.as_ref();
-    let params = (spec.setup.mdas_params)(prepared.scene.mdas);
+    Ok(())
+}
+
+/// The budgets MDAS can take and those below its initial samples, and each
+/// method's seeds, checked before any render.
+struct Plan {
+    mdas_spps: Vec<u32>,
+    mdas_skipped: Vec<u32>,
+    mdas_seeds: Vec<u32>,
+    halton_seeds: Vec<u32>,
+}
+
+fn plan(
+    spec: &SweepSpec,
+    params: MdasParams,
+    integrand: &dyn crate::integrand::Integrand,
+) -> Result<Plan> {
     let min_spp = mdas_min_spp(params, integrand)?;
     let (mdas_seeds, halton_seeds) = seed_plan(
         spec.seeds,
@@ -120,7 +171,29 @@ fn run_sweep(gpu: &Gpu, spec: &SweepSpec) -> Result<SweepResult> {
         })?
         .config(integrand)?;
     }
-    let (reference, _, _) = spec.setup.reference(gpu)?;
+    Ok(Plan {
+        mdas_spps,
+        mdas_skipped,
+        mdas_seeds,
+        halton_seeds,
+    })
+}
+
+/// The sweep of a checked subject, written into `staged`.
+fn sweep_subject(
+    gpu: &Gpu,
+    spec: &SweepSpec,
+    subject: &Subject,
+    plan: Plan,
+    staged: StagedDir,
+) -> Result<SweepResult> {
+    let Plan {
+        mdas_spps,
+        mdas_skipped,
+        mdas_seeds,
+        halton_seeds,
+    } = plan;
+    let (integrand, reference, params) = (subject.integrand, subject.reference, subject.mdas);
     let bar = super::experiment::bar(
         spec.setup.progress,
         (spec.spps.len() + mdas_spps.len()) as u64,
@@ -141,7 +214,7 @@ fn run_sweep(gpu: &Gpu, spec: &SweepSpec) -> Result<SweepResult> {
             gpu,
             spec,
             integrand,
-            &reference,
+            reference,
             "mdas",
             spp,
             &mdas_seeds,
@@ -157,7 +230,7 @@ fn run_sweep(gpu: &Gpu, spec: &SweepSpec) -> Result<SweepResult> {
             gpu,
             spec,
             integrand,
-            &reference,
+            reference,
             "halton",
             spp,
             &halton_seeds,
@@ -177,11 +250,10 @@ fn run_sweep(gpu: &Gpu, spec: &SweepSpec) -> Result<SweepResult> {
             labels: rows.iter().map(|r| format!("{} spp", r.spp)).collect(),
         }
     };
-    let title = format!(
-        "{} at scale {}",
-        spec.setup.scene.display(),
-        spec.setup.scale
-    );
+    let title = match subject.scene_file {
+        Some(_) => format!("{} at scale {}", subject.name, spec.setup.scale),
+        None => subject.name.clone(),
+    };
     let svg = loglog_svg(
         &title,
         "time (ms, median)",
@@ -202,20 +274,23 @@ fn run_sweep(gpu: &Gpu, spec: &SweepSpec) -> Result<SweepResult> {
     image_io::write_atomic(&staged.path().join("sweep.png"), |t| {
         std::fs::write(t, &png).map_err(Into::into)
     })?;
+    let (reference_spp, reference_exact) = match &subject.reference_source {
+        ReferenceSource::Halton { spp, .. } => (*spp, None),
+        ReferenceSource::Exact(how) => (0, Some(how.clone())),
+    };
     let result = SweepResult {
-        scene: spec.setup.scene.display().to_string(),
+        scene: subject.name.clone(),
         scale: spec.setup.scale,
-        reference_spp: spec.setup.ref_spp,
+        reference_spp,
         reference_seed: spec.setup.ref_seed,
+        reference_exact,
         repeats: spec.setup.repeats,
         rows,
         mdas_skipped,
-        provenance: crate::provenance::Provenance::new(
-            gpu,
-            &spec.setup.scene,
-            integrand,
-            Some(params),
-        )?,
+        provenance: match subject.scene_file {
+            Some(file) => crate::provenance::Provenance::new(gpu, file, integrand, Some(params))?,
+            None => crate::provenance::Provenance::of_integrand(gpu, integrand, Some(params)),
+        },
     };
     let json = serde_json::to_string_pretty(&result)?;
     image_io::write_atomic(&staged.path().join("sweep.json"), |t| {
