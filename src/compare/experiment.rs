@@ -81,6 +81,33 @@ impl Setup<'_> {
         check_seeds(self.halton_seed, self.ref_seed)
     }
 
+    /// The subject of a run on the setup's scene file: its integrand, the
+    /// MDAS parameters and the Halton reference [`Setup::reference`]
+    /// returned (image, path, whether cached); no light sampler named.
+    pub(crate) fn scene_subject<'s>(
+        &'s self,
+        integrand: &'s dyn Integrand,
+        mdas: MdasParams,
+        reference: &'s [[f32; 3]],
+        path: PathBuf,
+        cached: bool,
+    ) -> Subject<'s> {
+        Subject {
+            name: self.scene.display().to_string(),
+            scene_file: Some(&self.scene),
+            integrand,
+            mdas,
+            reference,
+            reference_source: ReferenceSource::Halton {
+                spp: self.ref_spp,
+                path,
+                cached,
+            },
+            sampler: None,
+            reference_sampler: None,
+        }
+    }
+
     /// The reference image (cached), its path and whether it was cached.
     pub fn reference(&self, gpu: &Gpu) -> Result<(Vec<[f32; 3]>, PathBuf, bool)> {
         let spec = ReferenceSpec {
@@ -437,18 +464,11 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
     // 2. Reference.
     let (reference, path, cached) = spec.setup.reference(gpu)?;
     let subject = Subject {
-        name,
-        scene_file: Some(&spec.setup.scene),
-        integrand,
-        mdas: params,
-        reference: &reference,
-        reference_source: ReferenceSource::Halton {
-            spp: spec.setup.ref_spp,
-            path,
-            cached,
-        },
         sampler: sampler.map(|k| k.to_string()),
         reference_sampler: reference_sampler.map(|k| k.to_string()),
+        ..spec
+            .setup
+            .scene_subject(integrand, params, &reference, path, cached)
     };
     compare_subject(gpu, spec, &subject, checked, staged)
 }

@@ -96,20 +96,9 @@ pub fn sweep(gpu: &Gpu, spec: &SweepSpec) -> Result<SweepResult> {
     let params = (spec.setup.mdas_params)(prepared.scene.mdas);
     let plan = plan(spec, params, integrand)?;
     let (reference, path, cached) = spec.setup.reference(gpu)?;
-    let subject = Subject {
-        name: spec.setup.scene.display().to_string(),
-        scene_file: Some(&spec.setup.scene),
-        integrand,
-        mdas: params,
-        reference: &reference,
-        reference_source: ReferenceSource::Halton {
-            spp: spec.setup.ref_spp,
-            path,
-            cached,
-        },
-        sampler: None,
-        reference_sampler: None,
-    };
+    let subject = spec
+        .setup
+        .scene_subject(integrand, params, &reference, path, cached);
     sweep_subject(gpu, spec, &subject, plan, staged)
 }
 
