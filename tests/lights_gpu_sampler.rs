@@ -23,10 +23,13 @@ use mdas::lights::cut::{Importance, LightTree, MAX_CUT};
 use mdas::lights::gpu_build::GpuLightTree;
 use mdas::lights::gpu_sampler::{CutLayout, GpuSamplerData, TreeSource};
 use mdas::lights::perfect;
+use mdas::lights::substitute::{
+    self, SstSampler, Substitute, SubstituteParams, SubstituteTree, SUBSTITUTE_BIT,
+};
 use mdas::lights::{
     select_cut, LightSampler, PowerSampler, SamplerKind, Shading, TreeSampler, UniformSampler,
 };
-use mdas::lights::{LightCone, LightPrim, NO_LIGHT};
+use mdas::lights::{LightCone, LightPrim, LightSample, TreeNode, NO_LIGHT};
 use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
 
@@ -132,6 +135,41 @@ struct Setup {
 fn setup(seed: u64, n: usize) -> Setup {
     let mut rng = StdRng::seed_from_u64(seed);
     let prims = scene(&mut rng, n);
+    setup_prims(rng, prims)
+}
+
+/// VPLs on three walls of a box (x = −5 facing +x, y = −5 facing +y, z = 5
+/// facing −z), every fifth lifted off its wall by up to 0.3 and tilted: the
+/// substitute tree has suitable nodes on the walls and unsuitable ones
+/// across them.
+fn vpl_walls(rng: &mut StdRng, n: usize) -> Vec<LightPrim> {
+    (0..n)
+        .map(|i| {
+            let (a, b) = (
+                rng.random_range(-5.0..5.0f32),
+                rng.random_range(-5.0..5.0f32),
+            );
+            let lift = if i % 5 == 4 {
+                rng.random_range(0.0..0.3)
+            } else {
+                0.0
+            };
+            let (p, mut nrm) = match i % 3 {
+                0 => (Vec3::new(-5.0 + lift, a, b), Vec3::X),
+                1 => (Vec3::new(a, -5.0 + lift, b), Vec3::Y),
+                _ => (Vec3::new(a, b, 5.0 - lift), Vec3::NEG_Z),
+            };
+            if lift > 0.0 {
+                nrm = (nrm + unit(rng) * 0.5).normalize();
+            }
+            let e = Vec3::new(rng.random(), rng.random(), rng.random()) * 2.0;
+            LightPrim::vpl(p, nrm, e)
+        })
+        .collect()
+}
+
+fn setup_prims(mut rng: StdRng, prims: Vec<LightPrim>) -> Setup {
+    let n = prims.len();
     let reps: Vec<_> = (0..BLOCKS)
         .map(|b| Shading {
             p: Vec3::new(
@@ -455,7 +493,12 @@ fn gpu_samplers_match_the_cpu() {
         let tree = perfect::build(&s.prims).unwrap();
         for kind in SamplerKind::ALL {
             let name = format!("{kind} ({n} lights)");
-            if kind.uses_bvh() {
+            if kind.uses_substitute_tree() {
+                let t = substitute::build(&s.prims).unwrap();
+                let source = Some(TreeSource::Substitute(&t));
+                let data = GpuSamplerData::new(gpu, kind, &s.prims, source, cut_layout()).unwrap();
+                check_substitutes(gpu, &h, &name, &data, &t, &s, 0);
+            } else if kind.uses_bvh() {
                 let bvh = bvh::build(&s.prims, kind.bvh_cost()).unwrap();
                 let source = Some(TreeSource::Bvh(&bvh));
                 let data = GpuSamplerData::new(gpu, kind, &s.prims, source, cut_layout()).unwrap();
@@ -508,6 +551,7 @@ fn gpu_built_tree_samples_like_the_cpu_tree() {
             nodes: &built.nodes,
             leaf_of_light: &built.leaf_of_light,
             cones: built.cones.as_ref(),
+            substitutes: None,
         };
         let data = GpuSamplerData::new(gpu, kind, &s.prims, Some(source), cut_layout()).unwrap();
         let name = format!("{kind} on the GPU-built tree");
@@ -534,5 +578,139 @@ fn zero_lights_sample_nothing_on_the_gpu() {
             "{kind}"
         );
         assert!(cuts.iter().all(|c| c.is_empty()), "{kind}");
+    }
+}
+
+/// `sst` and `sst_nosub` as the GPU answers: a stop at a leaf is its light,
+/// a stop at a substitute `SUBSTITUTE_BIT | node`.
+struct StopCodes(SstSampler);
+
+impl LightSampler for StopCodes {
+    fn sample(&self, s: &Shading, u: f32) -> Option<LightSample> {
+        let stop = self.0.sample(s, u)?;
+        let t = &self.0.tree;
+        let light = if t.tree.is_leaf(stop.node) {
+            t.leaf_light(stop.node)
+        } else {
+            SUBSTITUTE_BIT | stop.node as u32
+        };
+        Some(LightSample {
+            light,
+            pmf: stop.pmf,
+        })
+    }
+    fn pmf(&self, s: &Shading, light: u32) -> f64 {
+        LightSampler::pmf(&self.0, s, light)
+    }
+}
+
+/// The GPU's `sst`/`sst_nosub` picks against the CPU's; at least
+/// `min_substitutes` of them must be substitutes (so the test exercises
+/// them).
+fn check_substitutes(
+    gpu: &Gpu,
+    h: &Harness,
+    name: &str,
+    data: &GpuSamplerData,
+    tree: &SubstituteTree,
+    s: &Setup,
+    min_substitutes: usize,
+) {
+    let cpu = StopCodes(SstSampler {
+        tree: tree.clone(),
+        params: (data.kind == SamplerKind::Sst).then(SubstituteParams::default),
+    });
+    let (answers, gpu_cuts) = h.run(gpu, data, s);
+    compare(name, &answers, s, &|_| &cpu as &dyn LightSampler);
+    assert!(gpu_cuts.iter().all(|c| c == &[0]), "{name}: {gpu_cuts:?}");
+    let subs = answers
+        .iter()
+        .filter(|a| a.light != NO_LIGHT && a.light & SUBSTITUTE_BIT != 0)
+        .count();
+    eprintln!("{name}: {subs} substitute picks");
+    assert!(subs >= min_substitutes, "{name}: {subs} substitute picks");
+    if data.kind == SamplerKind::SstNoSub {
+        assert_eq!(subs, 0, "{name}");
+    }
+}
+
+/// The substitute tree built on the GPU: nodes and leaf order bit for bit
+/// the CPU's (sorted by Morton code, then normal code, then id); the
+/// substitutes within a relative 1e-5 of the oracle's (their merges divide
+/// and take square roots, which WGSL does not round exactly); and `sst`
+/// on it samples like the CPU over the GPU's own substitutes.
+#[test]
+fn gpu_substitute_trees_match_the_cpu() {
+    let gpu = common::gpu();
+    let h = Harness::new(gpu);
+    let mut rng = StdRng::seed_from_u64(9);
+    let prims = vpl_walls(&mut rng, 3000);
+    let s = setup_prims(rng, prims);
+    let n = s.prims.len() as u32;
+    let mut built = GpuLightTree::with_substitutes(gpu, n).unwrap();
+    let prims = gpu
+        .buffer_from("test.lights.prims", &s.prims, STORAGE)
+        .unwrap();
+    built
+        .build(gpu, &prims, n, &mut Profiler::new(gpu))
+        .unwrap();
+    let mut oracle = substitute::build(&s.prims).unwrap();
+    let count = oracle.tree.nodes.len();
+    let nodes = gpu.read_buffer::<TreeNode>(&built.nodes, count).unwrap();
+    let ids = gpu
+        .read_buffer::<u32>(&built.sorted_ids, n as usize)
+        .unwrap();
+    assert_eq!(ids, oracle.tree.sorted, "leaf order");
+    if let Some(i) = (0..count).find(|&i| nodes[i] != oracle.tree.nodes[i]) {
+        panic!(
+            "GPU node {i} differs from the oracle's: {:?} vs {:?}",
+            nodes[i], oracle.tree.nodes[i]
+        );
+    }
+    let leaf_of_light = gpu
+        .read_buffer::<u32>(&built.leaf_of_light, n as usize)
+        .unwrap();
+    assert_eq!(leaf_of_light, oracle.tree.leaf_of_light);
+    let subs = gpu
+        .read_buffer::<Substitute>(built.substitutes.as_ref().unwrap(), count)
+        .unwrap();
+    let mut worst = 0.0f32;
+    for (i, (g, c)) in subs.iter().zip(&oracle.substitutes).enumerate() {
+        let ga: [f32; 16] = bytemuck::cast(*g);
+        let ca: [f32; 16] = bytemuck::cast(*c);
+        // Words: mean 0–2, ν 3, normal 4–6, covariances 7–11 and 15,
+        // emission 12–14.
+        let scale = |k: usize, c: f32| match k {
+            0..=2 => 10.0,
+            3..=6 => 1.0,
+            12..=14 => c.abs().max(1.0),
+            _ => 100.0,
+        };
+        for k in 0..16 {
+            let d = (ga[k] - ca[k]).abs() / scale(k, ca[k]);
+            worst = worst.max(d);
+            assert!(d < 1e-5, "node {i} word {k}: GPU {} CPU {}", ga[k], ca[k]);
+        }
+    }
+    eprintln!("largest scaled substitute difference GPU/CPU: {worst:e}");
+    oracle.tree.cones = gpu
+        .read_buffer::<LightCone>(built.cones.as_ref().unwrap(), count)
+        .unwrap();
+    oracle.substitutes = subs;
+    for kind in [SamplerKind::Sst, SamplerKind::SstNoSub] {
+        let source = TreeSource::PerfectGpu {
+            nodes: &built.nodes,
+            leaf_of_light: &built.leaf_of_light,
+            cones: built.cones.as_ref(),
+            substitutes: built.substitutes.as_ref(),
+        };
+        let data = GpuSamplerData::new(gpu, kind, &s.prims, Some(source), cut_layout()).unwrap();
+        let name = format!("{kind} on the GPU-built substitute tree");
+        let min = if kind == SamplerKind::Sst {
+            QUERIES / 10
+        } else {
+            0
+        };
+        check_substitutes(gpu, &h, &name, &data, &oracle, &s, min);
     }
 }

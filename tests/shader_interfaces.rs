@@ -112,9 +112,17 @@ fn integrands() -> Vec<Integrand> {
     for triangles in [false, true] {
         let name = format!("many_light[triangles={triangles}]");
         let dims = if triangles { 5 } else { 3 };
-        let wgsl = many_light::source(triangles);
+        let wgsl = many_light::source(triangles, false);
         all.push(one(&name, dims, wgsl, many_light::layout_entries()));
     }
+    // sst: dimensions 3–5 hold a substitute's Gaussian position.
+    let wgsl = many_light::source(true, true);
+    all.push(one(
+        "many_light[sst]",
+        6,
+        wgsl,
+        many_light::layout_entries(),
+    ));
     for case in 0..=6 {
         let wgsl = common::test_integrand_source(case);
         let group1 = common::test_integrand_layout_entries();

@@ -1,11 +1,14 @@
 // Many-light direct lighting (src/integrand/many_light.rs): dims 0–1 film
 // point, u[0] light selection through the sampler (lights/sample.wgsl),
 // u[1..3] a uniform point on a selected emissive triangle (only when
-// ML_TRIANGLES = 1). One shadow ray; the estimate is
+// ML_TRIANGLES = 1), u[1..4] the Gaussian position of a selected substitute
+// (sst only, ML_SUBSTITUTES = 1). One shadow ray; the estimate is
 //   L_e(x) + ρ(x)/π · C(y) · cosθ_x · V(x, y) / pmf(light),
 // C = I/d² (point), L_e·cosθ_y·area/d² (one-sided triangle) or
-// I·cosθ_v/max(d², clamp²) (VPL, a cosine lobe about its normal).
-// Constant from Rust: ML_TRIANGLES. The frame time and number are
+// I·cosθ_v/max(d², clamp²) (VPL, a cosine lobe about its normal; a
+// substitute is a VPL at a drawn position with its node's summed intensity
+// and merged normal, and pmf the probability of stopping at its node).
+// Constants from Rust: ML_TRIANGLES, ML_SUBSTITUTES. The frame time and number are
 // uniforms (light_params.time, light_params.frame): a new frame compiles
 // no new shader.
 
@@ -21,7 +24,7 @@ fn ml_pixel(film: vec2<f32>) -> vec2<u32> {
 }
 
 // Radiance reflected at s from the light picked with u (one shadow ray).
-fn ml_direct(s: Surface, px: vec2<u32>, u: vec3<f32>, time: f32) -> vec3<f32> {
+fn ml_direct(s: Surface, px: vec2<u32>, u: vec4<f32>, time: f32) -> vec3<f32> {
     if (all(s.rho == vec3<f32>(0.0))) {
         return vec3<f32>(0.0);
     }
@@ -29,7 +32,17 @@ fn ml_direct(s: Surface, px: vec2<u32>, u: vec3<f32>, time: f32) -> vec3<f32> {
     if (pick.light == NO_LIGHT || !(pick.pmf_m > 0.0)) {
         return vec3<f32>(0.0);
     }
-    let l = light_prims[pick.light];
+    var l: LightPrim;
+    if ((pick.light & LIGHT_SUBSTITUTE_BIT) != 0u) {
+        // A substitute VPL drawn from its node's distribution, inside the box.
+        let node = pick.light & ~LIGHT_SUBSTITUTE_BIT;
+        let sub = light_substitutes[node];
+        let b = light_nodes[node];
+        let y = substitute_position(sub, u.yzw, b.bmin, b.bmax);
+        l = LightPrim(y, KIND_VPL, sub.normal, 0u, y, 0u, sub.emission, 0u);
+    } else {
+        l = light_prims[pick.light];
+    }
     let origin = offset_origin(s.x, s.n);
     var y = l.p0;
     var area = 0.0;
@@ -83,9 +96,11 @@ fn integrand(p: ptr<function, IntegrandPoint>) -> vec3<f32> {
         return scene.background;
     }
     let s = surface_at(hit, ray.dir, time);
-    var u = vec3<f32>((*p).u[0], 0.5, 0.5);
-    if (ML_TRIANGLES == 1u) {
-        u = vec3<f32>((*p).u[0], (*p).u[1], (*p).u[2]);
+    var u = vec4<f32>((*p).u[0], 0.5, 0.5, 0.5);
+    if (ML_SUBSTITUTES == 1u) {
+        u = vec4<f32>((*p).u[0], (*p).u[1], (*p).u[2], (*p).u[3]);
+    } else if (ML_TRIANGLES == 1u) {
+        u = vec4<f32>((*p).u[0], (*p).u[1], (*p).u[2], 0.5);
     }
     return s.emitted + ml_direct(s, ml_pixel((*p).film), u, time);
 }

@@ -5,7 +5,9 @@
 //! Dimensions: 0–1 film point (raster units); 2 selects the light through
 //! the sampler (`light_sample`, so MDAS adapts over the selection too);
 //! 3–4, present only when the scene has emissive triangles, are a uniform
-//! point on the selected triangle. The estimator is
+//! point on the selected triangle; with the `sst` sampler, 3–5 are the
+//! Gaussian position of a selected substitute ([`crate::lights::substitute`]),
+//! so MDAS adapts over them too. The estimator is
 //! L_e(x) + ρ(x)/π · C(y) · cosθ_x · V(x, y) / pmf(light), with
 //! C = I/d² for a point light, C = L_e·cosθ_y·area/d² for a triangle
 //! (one-sided: 0 behind it) and C = I_0·cosθ_v/max(d², clamp²) for a VPL
@@ -78,13 +80,14 @@ pub struct ManyLight {
 }
 
 /// The integrand's WGSL, with or without emissive triangles (dimensions
-/// 3–4). The sampler kind, the frame time and the frame number are
+/// 3–4) and substitutes (`sst`: dimensions 3–5). The sampler kind, the frame time and the frame number are
 /// uniforms (`LightParams`), so one source serves every kind and frame.
 /// Device-free, see [`super::path::source`].
-pub fn source(triangles: bool) -> Wgsl {
+pub fn source(triangles: bool, substitutes: bool) -> Wgsl {
     scene_wgsl()
         .include(&GpuSamplerData::wgsl())
         .constant("ML_TRIANGLES", triangles as u32)
+        .constant("ML_SUBSTITUTES", substitutes as u32)
         .part(wgsl_file!("many_light.wgsl"))
 }
 
@@ -151,7 +154,11 @@ impl ManyLight {
             let sampler = if kind.uses_perfect_tree() && n > 0 {
                 // The tree is built from the sampler's own copy of the
                 // lights (one upload), into the buffers the sampler binds.
-                let mut t = GpuLightTree::new(gpu, n, kind.uses_cones())?;
+                let mut t = if kind.uses_substitute_tree() {
+                    GpuLightTree::with_substitutes(gpu, n)?
+                } else {
+                    GpuLightTree::new(gpu, n, kind.uses_cones())?
+                };
                 let s = GpuSamplerData::new(
                     gpu,
                     kind,
@@ -160,6 +167,7 @@ impl ManyLight {
                         nodes: &t.nodes,
                         leaf_of_light: &t.leaf_of_light,
                         cones: t.cones.as_ref(),
+                        substitutes: t.substitutes.as_ref(),
                     }),
                     cuts,
                 )?;
@@ -178,6 +186,7 @@ impl ManyLight {
         })?;
         // set_time uploads the whole parameter block, the clamp with it.
         sampler.params.vpl_clamp2 = spec.vpl.clamp * spec.vpl.clamp;
+        sampler.set_substitute_params(&spec.sst);
         sampler.set_time(gpu, spec.time);
 
         let layout = gpu
@@ -293,7 +302,9 @@ impl Integrand for ManyLight {
     }
 
     fn dims(&self) -> u32 {
-        if self.triangles {
+        if self.kind == SamplerKind::Sst {
+            6
+        } else if self.triangles {
             5
         } else {
             3
@@ -305,7 +316,7 @@ impl Integrand for ManyLight {
     }
 
     fn wgsl(&self) -> Wgsl {
-        source(self.triangles)
+        source(self.triangles, self.kind == SamplerKind::Sst)
     }
 
     fn layout(&self) -> Option<&wgpu::BindGroupLayout> {

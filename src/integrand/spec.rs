@@ -4,6 +4,7 @@
 //! come from the integrand modules (e.g. [`super::path::max_bounces_limit`]).
 
 use crate::lights::sampler::SamplerKind;
+use crate::lights::substitute::SubstituteParams;
 use crate::lights::vpl::VplSpec;
 
 /// Which integrand renders the scene, with its parameters (scene file
@@ -169,6 +170,8 @@ pub struct ManyLightSpec {
     /// Virtual point lights generated per frame by instant radiosity
     /// (`paths = 0`: none).
     pub vpl: VplSpec,
+    /// `sst`'s suitability thresholds (`sst_nu_min`, `sst_sigma_max`).
+    pub sst: SubstituteParams,
 }
 
 impl Default for ManyLightSpec {
@@ -181,6 +184,7 @@ impl Default for ManyLightSpec {
             time: 0.0,
             frame: 0,
             vpl: VplSpec::default(),
+            sst: SubstituteParams::default(),
         }
     }
 }

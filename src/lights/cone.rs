@@ -97,8 +97,18 @@ impl Angle {
     }
 
     /// Half of an angle in `(0, 2π)`, from whichever of the two half-angle
-    /// vectors `(1 + c, s)` and `(s, 1 − c)` is well conditioned.
+    /// vectors `(1 + c, s)` and `(s, 1 − c)` is well conditioned. An angle
+    /// within 1.4e-3 rad below 2π or at 0 (`s ≤ 0`, `c ≥ 0.999999`) halves
+    /// to 0: in [`LightCone::union`] it is `θ_d + θ_b − θ_a`, which the
+    /// containment tests have found ≥ 0, so such a value is that 0 pushed
+    /// below it by rounding (halving it as an angle near 2π turned the axis
+    /// around, and `(1, 0)` itself gave 0/0: NaN cones over VPLs sharing a
+    /// normal). A true value near 2π needs `θ_d + θ_b ≥ π`, which the
+    /// union then resolves to the whole sphere anyway.
     fn half(self) -> Angle {
+        if self.s <= 0.0 && self.c >= 0.999_999 {
+            return Angle::ZERO;
+        }
         if self.s > 0.0 && self.c >= 0.0 {
             Angle::new(1.0 + self.c, self.s)
         } else {

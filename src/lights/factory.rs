@@ -7,6 +7,7 @@ use super::cut::{Importance, LightTree, TreeSampler};
 use super::importance::Shading;
 use super::perfect::{self, PerfectTree};
 use super::sampler::{LightSample, LightSampler, SamplerKind};
+use super::substitute::{self, SstSampler, SubstituteParams};
 use super::LightPrim;
 
 /// Every light with probability `1/N`.
@@ -42,7 +43,9 @@ pub type UnbalancedSampler = TreeSampler<LightBvh>;
 /// A CPU sampler of `kind` over `prims`. `cut_at` = (representative
 /// shading point, cut size) selects the cut of the kinds with cuts
 /// (without it they sample from the root); the other kinds ignore it.
-/// Zero lights give a sampler that never returns a light.
+/// Zero lights give a sampler that never returns a light. `sst` uses the
+/// default [`SubstituteParams`]; its samples that stop at a substitute
+/// are `None` here (a substitute is not a light).
 pub fn new_sampler(
     kind: SamplerKind,
     prims: &[LightPrim],
@@ -77,5 +80,9 @@ pub fn new_sampler(
                 cut_at,
             )
         }
+        SamplerKind::Sst | SamplerKind::SstNoSub => Box::new(SstSampler {
+            tree: substitute::build(prims).unwrap(),
+            params: (kind == SamplerKind::Sst).then(SubstituteParams::default),
+        }),
     }
 }

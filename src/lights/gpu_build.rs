@@ -77,6 +77,7 @@
 //! stated tolerance; every cone is widened so that it bounds its lights
 //! either way.
 
+use super::substitute::{self, Substitute};
 use super::{cone, luminance, LightCone, LightPrim, TreeNode, KIND_TRIANGLE, KIND_VPL, NO_LIGHT};
 use crate::gpu::buffer::STORAGE;
 use crate::gpu::profiler::PhaseTimes;
@@ -94,18 +95,23 @@ const WG: u32 = 128;
 /// Bits of a Morton code.
 const CODE_BITS: u32 = 30;
 
-/// Profiler phase names, in the order they run.
-pub const PHASES: [&str; 6] = [
+/// Profiler phase names, in the order they run (`normals`, `normal_sort`
+/// and `substitutes` only for a substitute tree, `cones` only with cones).
+pub const PHASES: [&str; 9] = [
     "light_tree.bounds",
     "light_tree.morton",
     "light_tree.sort",
     "light_tree.leaves",
     "light_tree.internal",
     "light_tree.cones",
+    "light_tree.normals",
+    "light_tree.normal_sort",
+    "light_tree.substitutes",
 ];
 
 const _: () = assert!(std::mem::size_of::<LightPrim>() == 64);
 const _: () = assert!(std::mem::size_of::<TreeNode>() == 32);
+const _: () = assert!(std::mem::size_of::<Substitute>() == 64);
 
 /// Uniform of the tree kernels (`BuildParams` in `tree_bindings.wgsl`;
 /// public for `tests/shader_interfaces.rs`, which compares the layouts).
@@ -133,6 +139,11 @@ pub struct BuildTimes {
     /// The internal nodes' cones (0 for a tree without cones; the leaves'
     /// cones are part of `leaves`).
     pub cones: f64,
+    /// Substitute trees: the normal codes, their sort (the first of the
+    /// two stable passes) and the substitute distributions (0 otherwise).
+    pub normals: f64,
+    pub normal_sort: f64,
+    pub substitutes: f64,
 }
 
 impl BuildTimes {
@@ -147,11 +158,22 @@ impl BuildTimes {
             leaves: get(3),
             internal: get(4),
             cones: get(5),
+            normals: get(6),
+            normal_sort: get(7),
+            substitutes: get(8),
         }
     }
 
     pub fn total(&self) -> f64 {
-        self.bounds + self.morton + self.sort + self.leaves + self.internal + self.cones
+        self.bounds
+            + self.morton
+            + self.sort
+            + self.leaves
+            + self.internal
+            + self.cones
+            + self.normals
+            + self.normal_sort
+            + self.substitutes
     }
 }
 
@@ -174,6 +196,7 @@ pub fn prim_wgsl() -> Wgsl {
         .constant("EMPTY_MAX_BITS", TreeNode::EMPTY_MAX.to_bits())
         .part(wgsl_file!("lights/light_prim.wgsl"))
         .part(wgsl_file!("lights/cone.wgsl"))
+        .part(wgsl_file!("lights/substitute.wgsl"))
 }
 
 /// A perfect light tree for up to `capacity` lights, rebuilt on the GPU by
@@ -196,6 +219,11 @@ pub struct GpuLightTree {
     pub cones: Option<wgpu::Buffer>,
     /// Binds in place of `cones` when the tree has none.
     no_cones: wgpu::Buffer,
+    /// A substitute tree ([`GpuLightTree::with_substitutes`]): the
+    /// [`Substitute`] of each node, indexed like `nodes` (within a stated
+    /// tolerance of [`super::substitute::build`]'s); otherwise `None`.
+    pub substitutes: Option<wgpu::Buffer>,
+    no_substitutes: wgpu::Buffer,
     centroid_bounds: wgpu::Buffer,
     sorter: RadixSort,
     layout: wgpu::BindGroupLayout,
@@ -204,6 +232,9 @@ pub struct GpuLightTree {
     leaves_pipeline: wgpu::ComputePipeline,
     internal_pipeline: wgpu::ComputePipeline,
     cone_pipeline: wgpu::ComputePipeline,
+    normal_pipeline: wgpu::ComputePipeline,
+    morton_sorted_pipeline: wgpu::ComputePipeline,
+    substitute_pipeline: wgpu::ComputePipeline,
     light_count: u32,
 }
 
@@ -219,11 +250,21 @@ impl GpuLightTree {
     }
 
     /// The one layout of the build kernels (`lights/tree_bindings.wgsl`):
-    /// parameters, the lights (read-only), then six read-write buffers.
+    /// parameters, the lights (read-only), then seven read-write buffers.
     pub fn layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
         let mut entries = vec![uniform_entry(0), storage_entry(1, true)];
-        entries.extend((2..=7).map(|b| storage_entry(b, false)));
+        entries.extend((2..=8).map(|b| storage_entry(b, false)));
         entries
+    }
+
+    /// A substitute tree ([`super::substitute`]) for up to `capacity` ≤
+    /// 2^30 lights: leaves sorted by (Morton code, normal code, id), with
+    /// cones and a 64-byte [`Substitute`] per node.
+    pub fn with_substitutes(gpu: &Gpu, capacity: u32) -> Result<GpuLightTree> {
+        if capacity > substitute::MAX_LIGHTS {
+            bail!("a substitute tree holds at most 2^30 lights; {capacity} requested");
+        }
+        Self::create(gpu, capacity, true, true)
     }
 
     /// Compiles the kernels and allocates a tree for up to `capacity`
@@ -232,6 +273,15 @@ impl GpuLightTree {
     /// per light of scratch). Fails with a clear message when the adapter
     /// cannot hold or dispatch it.
     pub fn new(gpu: &Gpu, capacity: u32, with_cones: bool) -> Result<GpuLightTree> {
+        Self::create(gpu, capacity, with_cones, false)
+    }
+
+    fn create(
+        gpu: &Gpu,
+        capacity: u32,
+        with_cones: bool,
+        with_substitutes: bool,
+    ) -> Result<GpuLightTree> {
         if capacity > 1 << 31 {
             bail!("a light tree holds at most 2^31 lights; {capacity} requested");
         }
@@ -241,6 +291,10 @@ impl GpuLightTree {
         let cone_bytes = (2 * p - 1) * std::mem::size_of::<LightCone>() as u64;
         if with_cones {
             gpu.check_binding_size("light_tree.cones", cone_bytes)?;
+        }
+        let substitute_bytes = (2 * p - 1) * std::mem::size_of::<Substitute>() as u64;
+        if with_substitutes {
+            gpu.check_binding_size("light_tree.substitutes", substitute_bytes)?;
         }
         let (_, gy) = gpu.dispatch_dims(p.div_ceil(WG as u64) as u32);
         if gy > gpu.limits.max_compute_workgroups_per_dimension {
@@ -282,6 +336,21 @@ impl GpuLightTree {
             wgsl_file!("lights/tree_build.wgsl"),
             "cone_level",
         )?;
+        let normal_pipeline = pipeline(
+            "light_tree.normals",
+            wgsl_file!("lights/morton.wgsl"),
+            "normal_codes",
+        )?;
+        let morton_sorted_pipeline = pipeline(
+            "light_tree.morton_sorted",
+            wgsl_file!("lights/morton.wgsl"),
+            "morton_codes_sorted",
+        )?;
+        let substitute_pipeline = pipeline(
+            "light_tree.substitutes",
+            wgsl_file!("lights/tree_build.wgsl"),
+            "substitute_level",
+        )?;
 
         let light_bytes = 4 * capacity as u64;
         Ok(GpuLightTree {
@@ -296,6 +365,12 @@ impl GpuLightTree {
                 None
             },
             no_cones: gpu.buffer_zeroed("light_tree.no_cones", 32, STORAGE)?,
+            substitutes: if with_substitutes {
+                Some(gpu.buffer_zeroed("light_tree.substitutes", substitute_bytes, STORAGE)?)
+            } else {
+                None
+            },
+            no_substitutes: gpu.buffer_zeroed("light_tree.no_substitutes", 64, STORAGE)?,
             centroid_bounds: gpu.buffer_zeroed("light_tree.centroid_bounds", 32, STORAGE)?,
             sorter,
             layout,
@@ -304,6 +379,9 @@ impl GpuLightTree {
             leaves_pipeline,
             internal_pipeline,
             cone_pipeline,
+            normal_pipeline,
+            morton_sorted_pipeline,
+            substitute_pipeline,
             light_count: 0,
         })
     }
@@ -384,14 +462,19 @@ impl GpuLightTree {
             steps.push((src, k));
             src -= k;
         }
-        // Then one entry per cone level, leaf_level − 1 down to 0.
+        // Then one entry per cone level, leaf_level − 1 down to 0, and
+        // one per substitute level, leaf_level down to 0.
         let cone_levels: Vec<u32> = match self.cones {
             Some(_) => (0..leaf_level).rev().collect(),
             None => Vec::new(),
         };
+        let substitute_levels: Vec<u32> = match self.substitutes {
+            Some(_) => (0..=leaf_level).rev().collect(),
+            None => Vec::new(),
+        };
         let stride = (std::mem::size_of::<BuildParams>() as u64)
             .next_multiple_of(gpu.limits.min_uniform_buffer_offset_alignment as u64);
-        let params_count = 1 + steps.len() + cone_levels.len();
+        let params_count = 1 + steps.len() + cone_levels.len() + substitute_levels.len();
         let mut bytes = vec![0u8; stride as usize * params_count];
         let entry = |src_level: u32, levels_up: u32| BuildParams {
             n: count,
@@ -404,7 +487,8 @@ impl GpuLightTree {
         };
         let entries = std::iter::once(entry(0, 0))
             .chain(steps.iter().map(|&(s, k)| entry(s, k)))
-            .chain(cone_levels.iter().map(|&l| entry(l, 0)));
+            .chain(cone_levels.iter().map(|&l| entry(l, 0)))
+            .chain(substitute_levels.iter().map(|&l| entry(l, 0)));
         for (i, e) in entries.enumerate() {
             let at = i * stride as usize;
             bytes[at..at + std::mem::size_of::<BuildParams>()]
@@ -438,6 +522,7 @@ impl GpuLightTree {
                     binding(5, &self.nodes),
                     binding(6, &self.leaf_of_light),
                     binding(7, self.cones.as_ref().unwrap_or(&self.no_cones)),
+                    binding(8, self.substitutes.as_ref().unwrap_or(&self.no_substitutes)),
                 ],
             })
         };
@@ -472,13 +557,35 @@ impl GpuLightTree {
                 light_groups,
                 Some(&self.centroid_bounds),
             )?;
-            single(
-                profiler,
-                PHASES[1],
-                &self.morton_pipeline,
-                light_groups,
-                None,
-            )?;
+            if self.substitutes.is_some() {
+                // (normal code, id) first; the Morton pass below is stable.
+                single(
+                    profiler,
+                    PHASES[6],
+                    &self.normal_pipeline,
+                    light_groups,
+                    None,
+                )?;
+                let mut sorted = Ok(());
+                profiler.phase(PHASES[7], |encoder, timestamps| {
+                    sorted = self.sorter.sort(
+                        gpu,
+                        encoder,
+                        timestamps,
+                        &self.sorted_codes,
+                        &self.sorted_ids,
+                        count,
+                        substitute::NORMAL_BITS,
+                    );
+                })?;
+                sorted?;
+            }
+            let morton = if self.substitutes.is_some() {
+                &self.morton_sorted_pipeline
+            } else {
+                &self.morton_pipeline
+            };
+            single(profiler, PHASES[1], morton, light_groups, None)?;
             let mut sorted = Ok(());
             profiler.phase(PHASES[2], |encoder, timestamps| {
                 sorted = self.sorter.sort(
@@ -524,6 +631,24 @@ impl GpuLightTree {
                     });
                     pass.set_pipeline(&self.cone_pipeline);
                     for (&level, g) in cone_levels.iter().zip(&cone_groups) {
+                        let (gx, gy) = gpu.dispatch_dims((1u32 << level).div_ceil(WG));
+                        pass.set_bind_group(0, g, &[]);
+                        pass.dispatch_workgroups(gx, gy, 1);
+                    }
+                })?;
+            }
+            let first = first + cone_levels.len();
+            let substitute_groups: Vec<_> = (first..first + substitute_levels.len())
+                .map(group)
+                .collect();
+            if !substitute_levels.is_empty() {
+                profiler.phase(PHASES[8], |encoder, timestamps| {
+                    let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                        label: Some(PHASES[8]),
+                        timestamp_writes: timestamps,
+                    });
+                    pass.set_pipeline(&self.substitute_pipeline);
+                    for (&level, g) in substitute_levels.iter().zip(&substitute_groups) {
                         let (gx, gy) = gpu.dispatch_dims((1u32 << level).div_ceil(WG));
                         pass.set_bind_group(0, g, &[]);
                         pass.dispatch_workgroups(gx, gy, 1);

@@ -1,5 +1,5 @@
 //! The GPU side of the light samplers: the buffers of `@group(1)` bindings
-//! 16–22 that `wgsl/lights/sample.wgsl` reads, their layout entries and the
+//! 16–23 that `wgsl/lights/sample.wgsl` reads, their layout entries and the
 //! WGSL to include.
 //!
 //! | binding | WGSL | contents |
@@ -11,6 +11,7 @@
 //! | 20 | `light_cuts: array<u32>` | tree kinds with cuts: `cut_size` nodes per k×k block, `NO_LIGHT`-padded |
 //! | 21 | `light_params: LightParams` | uniform: counts, kind, tree shape, cut layout |
 //! | 22 | `light_cones: array<LightCone>` | cone kinds: the orientation bound of every node, same indices as `light_nodes` |
+//! | 23 | `light_substitutes: array<Substitute>` | `sst`, `sst_nosub`: the substitute distribution of every node, same indices as `light_nodes` |
 //!
 //! Unused bindings hold one zeroed element. The cuts buffer is writable
 //! (`STORAGE | COPY_DST`): a cut pre-pass binds it read-write in its own
@@ -23,6 +24,7 @@ use super::cut::MAX_CUT;
 use super::importance::NEAR_CLAMP;
 use super::perfect::{self, PerfectTree};
 use super::sampler::SamplerKind;
+use super::substitute::{self, Substitute, SubstituteParams, SubstituteTree};
 use super::{gpu_build, LightCone, LightPrim, TreeNode, NO_LIGHT};
 use crate::gpu::buffer::STORAGE;
 use crate::gpu::shader::{storage_entry, uniform_entry, Wgsl};
@@ -64,7 +66,18 @@ pub struct LightParams {
     /// Square of the VPL distance clamp: a VPL's `1/d²` uses
     /// `max(d², vpl_clamp2)` (0 = no clamp).
     pub vpl_clamp2: f32,
-    pub _pad: [u32; 3],
+    /// `sst`: ν_min and σ_max² of the suitability test (eq. 3).
+    pub sst_nu_min: f32,
+    pub sst_sigma_max2: f32,
+    pub _pad: u32,
+}
+
+impl LightParams {
+    /// Sets `sst`'s suitability thresholds.
+    pub fn set_substitute_params(&mut self, q: &SubstituteParams) {
+        self.sst_nu_min = q.nu_min;
+        self.sst_sigma_max2 = q.sigma_max * q.sigma_max;
+    }
 }
 
 /// How the film is tiled into cut-sharing blocks (§3.3).
@@ -121,17 +134,21 @@ pub enum TreeSource<'a> {
         nodes: &'a wgpu::Buffer,
         leaf_of_light: &'a wgpu::Buffer,
         cones: Option<&'a wgpu::Buffer>,
+        substitutes: Option<&'a wgpu::Buffer>,
     },
+    /// A substitute tree built on the CPU.
+    Substitute(&'a SubstituteTree),
     /// The unbalanced BVH.
     Bvh(&'a LightBvh),
 }
 
-/// The buffers of bindings 16–22 for one sampler kind.
+/// The buffers of bindings 16–23 for one sampler kind.
 pub struct GpuSamplerData {
     pub kind: SamplerKind,
     pub params: LightParams,
     pub nodes: wgpu::Buffer,
     pub cones: wgpu::Buffer,
+    pub substitutes: wgpu::Buffer,
     pub prims: wgpu::Buffer,
     pub index: wgpu::Buffer,
     pub alias: wgpu::Buffer,
@@ -169,12 +186,14 @@ impl GpuSamplerData {
             frame: cuts.frame,
             ..Default::default()
         };
+        params.set_substitute_params(&SubstituteParams::default());
         let label = |s: &str| format!("lights.sampler.{s}");
 
         let mut alias = None;
         let mut index = None;
         let mut nodes = None;
         let mut cones = None;
+        let mut substitutes = None;
         let upload_cones = |c: &[LightCone]| -> Result<Option<wgpu::Buffer>> {
             Ok(if kind.uses_cones() {
                 Some(gpu.buffer_from(&label("cones"), c, STORAGE)?)
@@ -192,20 +211,61 @@ impl GpuSamplerData {
                     let bits: Vec<u32> = power.pmf.iter().map(|p| p.to_bits()).collect();
                     index = Some(gpu.buffer_from(&label("index"), &bits, STORAGE)?);
                 }
-                SamplerKind::Tree | SamplerKind::TreeNoCut | SamplerKind::TreeCone => {
+                SamplerKind::Tree
+                | SamplerKind::TreeNoCut
+                | SamplerKind::TreeCone
+                | SamplerKind::Sst
+                | SamplerKind::SstNoSub => {
                     let p = n.next_power_of_two();
                     params.leaf_count = p;
                     params.levels = p.trailing_zeros() + 1;
                     params.node_count = 2 * p - 1;
-                    let built;
+                    let (built, built_sub);
                     let source = match tree {
                         Some(t) => t,
+                        None if kind.uses_substitute_tree() => {
+                            built_sub = substitute::build(prims).unwrap();
+                            TreeSource::Substitute(&built_sub)
+                        }
                         None => {
                             built = perfect::build(prims).unwrap();
                             TreeSource::Perfect(&built)
                         }
                     };
+                    if kind.uses_substitute_tree()
+                        != matches!(
+                            source,
+                            TreeSource::Substitute(_)
+                                | TreeSource::PerfectGpu {
+                                    substitutes: Some(_),
+                                    ..
+                                }
+                        )
+                    {
+                        bail!("sampler '{kind}' and the tree given disagree on substitutes");
+                    }
                     match source {
+                        TreeSource::Substitute(t) => {
+                            if t.tree.light_count() != n {
+                                bail!(
+                                    "substitute tree over {} lights for {n} lights",
+                                    t.tree.light_count()
+                                );
+                            }
+                            nodes =
+                                Some(gpu.buffer_from(&label("nodes"), &t.tree.nodes, STORAGE)?);
+                            index = Some(gpu.buffer_from(
+                                &label("index"),
+                                &t.tree.leaf_of_light,
+                                STORAGE,
+                            )?);
+                            cones = upload_cones(&t.tree.cones)?;
+                            substitutes = Some(gpu.buffer_from(
+                                &label("substitutes"),
+                                &t.substitutes,
+                                STORAGE,
+                            )?);
+                        }
                         TreeSource::Perfect(t) => {
                             if t.light_count() != n {
                                 bail!(
@@ -225,6 +285,7 @@ impl GpuSamplerData {
                             nodes: gpu_nodes,
                             leaf_of_light,
                             cones: gpu_cones,
+                            substitutes: gpu_substitutes,
                         } => {
                             let count = params.node_count as u64;
                             let need = count * size_of::<TreeNode>() as u64;
@@ -241,6 +302,12 @@ impl GpuSamplerData {
                                         "sampler '{kind}' needs the GPU tree's cones for {n} lights"
                                     ),
                                 }
+                            }
+                            if let Some(b) = gpu_substitutes {
+                                if b.size() < count * size_of::<Substitute>() as u64 {
+                                    bail!("GPU substitute buffer too small for {n} lights");
+                                }
+                                substitutes = Some(b.clone());
                             }
                         }
                         TreeSource::Bvh(_) => {
@@ -295,6 +362,10 @@ impl GpuSamplerData {
                 || gpu.buffer_from::<LightCone>(&label("unused"), &[], STORAGE),
                 Ok,
             )?,
+            substitutes: substitutes.map_or_else(
+                || gpu.buffer_from::<Substitute>(&label("unused"), &[], STORAGE),
+                Ok,
+            )?,
             prims: gpu.buffer_from(&label("prims"), prims, STORAGE)?,
             index: index.map_or_else(
                 || gpu.buffer_from::<u32>(&label("unused"), &[], STORAGE),
@@ -307,6 +378,12 @@ impl GpuSamplerData {
             cuts: gpu.buffer_from(&label("cuts"), &cut_entries, STORAGE)?,
             uniform: gpu.uniform(&label("params"), &params),
         })
+    }
+
+    /// Sets `sst`'s suitability thresholds (uploaded with the next
+    /// [`Self::set_time`]).
+    pub fn set_substitute_params(&mut self, q: &SubstituteParams) {
+        self.params.set_substitute_params(q);
     }
 
     /// Sets the frame time the kernels read from `light_params.time`.
@@ -330,7 +407,7 @@ impl GpuSamplerData {
         Ok(())
     }
 
-    /// Layout entries of bindings 16–22 (compute, read-only storage and a
+    /// Layout entries of bindings 16–23 (compute, read-only storage and a
     /// uniform), to merge into a `@group(1)` layout.
     pub fn layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
         let mut e: Vec<_> = (0..5)
@@ -338,6 +415,7 @@ impl GpuSamplerData {
             .collect();
         e.push(uniform_entry(FIRST_BINDING + 5));
         e.push(storage_entry(FIRST_BINDING + 6, true));
+        e.push(storage_entry(FIRST_BINDING + 7, true));
         e
     }
 
@@ -351,6 +429,7 @@ impl GpuSamplerData {
             &self.cuts,
             &self.uniform,
             &self.cones,
+            &self.substitutes,
         ]
         .into_iter()
         .enumerate()
@@ -370,7 +449,8 @@ impl GpuSamplerData {
             .constant("MAX_CUT", MAX_CUT)
             .constant("LIGHT_MAX_DEPTH", bvh::MAX_DEPTH)
             .constant("LIGHT_INTERNAL_BIT", INTERNAL_BIT)
-            .constant("LIGHT_NEAR_CLAMP_BITS", NEAR_CLAMP.to_bits());
+            .constant("LIGHT_NEAR_CLAMP_BITS", NEAR_CLAMP.to_bits())
+            .constant("LIGHT_SUBSTITUTE_BIT", substitute::SUBSTITUTE_BIT);
         for k in SamplerKind::ALL {
             let name = format!("LIGHT_KIND_{}", k.name().to_uppercase());
             w = w.constant(&name, k.index());

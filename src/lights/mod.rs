@@ -53,6 +53,7 @@ pub mod morton;
 pub mod perfect;
 pub mod sampler;
 pub mod scene_lights;
+pub mod substitute;
 pub mod vpl;
 
 pub use alias::{AliasEntry, PowerSampler};

@@ -82,14 +82,22 @@ pub fn sort_lights(prims: &[LightPrim]) -> Vec<u32> {
 
 /// Builds the perfect tree; `None` for zero lights.
 pub fn build(prims: &[LightPrim]) -> Option<PerfectTree> {
-    let n = prims.len();
-    if n == 0 {
+    if prims.is_empty() {
         return None;
     }
+    Some(build_sorted(prims, sort_lights(prims)))
+}
+
+/// Builds the perfect tree with the lights in the leaf order `sorted` (a
+/// permutation of `0..N`, `N ≥ 1`): [`build`] sorts by (Morton code, id),
+/// the substitute tree ([`super::substitute`]) by (Morton code, normal
+/// code, id).
+pub fn build_sorted(prims: &[LightPrim], sorted: Vec<u32>) -> PerfectTree {
+    let n = prims.len();
+    assert!(n > 0 && sorted.len() == n, "a permutation of N >= 1 lights");
     assert!(n <= 1 << 31, "at most 2^31 lights");
     let p = n.next_power_of_two();
     let levels = p.trailing_zeros() + 1;
-    let sorted = sort_lights(prims);
     let mut leaf_of_light = vec![0u32; n];
     for (slot, &id) in sorted.iter().enumerate() {
         leaf_of_light[id as usize] = slot as u32;
@@ -107,14 +115,14 @@ pub fn build(prims: &[LightPrim]) -> Option<PerfectTree> {
         nodes[i] = gather(&nodes[2 * i + 1], &nodes[2 * i + 2]);
         cones[i] = cones[2 * i + 1].union(&cones[2 * i + 2]);
     }
-    Some(PerfectTree {
+    PerfectTree {
         nodes,
         levels,
         leaf_count: p as u32,
         sorted,
         leaf_of_light,
         cones,
-    })
+    }
 }
 
 impl PerfectTree {

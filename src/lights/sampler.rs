@@ -14,6 +14,8 @@
 //! | `unbalanced_nocut` | [`TreeSampler`](super::cut::TreeSampler) with cones over a SAOH [`LightBvh`](super::bvh::LightBvh), cut = root | §4, pbrt-v4 |
 //! | `unbalanced` | same, with a greedy cut | §4, pbrt-v4 |
 //! | `unbalanced_nocone` | a cone-free SAH BVH with a greedy cut | §4 |
+//! | `sst` | [`SstSampler`](super::substitute::SstSampler): a perfect tree sorted with normal codes, `tree_cone` descent from the root, stopping at the first suitable substitute (biased) | Tatzgern et al. 2020 |
+//! | `sst_nosub` | the same with substitution off: a leaf-only (unbiased) tree sampler | Tatzgern et al. 2020 |
 //!
 //! A sampler's pmf is an f64 product of the f32 probabilities the
 //! sampling decisions use, so `sample(s, u).pmf == pmf(s, light)` exactly.
@@ -51,10 +53,12 @@ pub enum SamplerKind {
     Unbalanced,
     UnbalancedNoCut,
     UnbalancedNoCone,
+    Sst,
+    SstNoSub,
 }
 
 impl SamplerKind {
-    pub const ALL: [SamplerKind; 8] = [
+    pub const ALL: [SamplerKind; 10] = [
         SamplerKind::Uniform,
         SamplerKind::Power,
         SamplerKind::TreeNoCut,
@@ -63,6 +67,8 @@ impl SamplerKind {
         SamplerKind::Unbalanced,
         SamplerKind::UnbalancedNoCut,
         SamplerKind::UnbalancedNoCone,
+        SamplerKind::Sst,
+        SamplerKind::SstNoSub,
     ];
 
     pub fn name(self) -> &'static str {
@@ -75,6 +81,8 @@ impl SamplerKind {
             SamplerKind::Unbalanced => "unbalanced",
             SamplerKind::UnbalancedNoCut => "unbalanced_nocut",
             SamplerKind::UnbalancedNoCone => "unbalanced_nocone",
+            SamplerKind::Sst => "sst",
+            SamplerKind::SstNoSub => "sst_nosub",
         }
     }
 
@@ -99,12 +107,30 @@ impl SamplerKind {
         )
     }
 
-    /// Whether the kind samples the perfect tree.
+    /// Whether the kind samples a perfect tree (the substitute tree is one).
     pub fn uses_perfect_tree(self) -> bool {
         matches!(
             self,
-            SamplerKind::Tree | SamplerKind::TreeNoCut | SamplerKind::TreeCone
+            SamplerKind::Tree
+                | SamplerKind::TreeNoCut
+                | SamplerKind::TreeCone
+                | SamplerKind::Sst
+                | SamplerKind::SstNoSub
         )
+    }
+
+    /// Whether the kind samples the substitute tree (leaves sorted with
+    /// normal codes, a [`Substitute`](super::substitute::Substitute) per
+    /// node).
+    pub fn uses_substitute_tree(self) -> bool {
+        matches!(self, SamplerKind::Sst | SamplerKind::SstNoSub)
+    }
+
+    /// Whether a sample may be a substitute instead of a light: the one
+    /// biased kind. Its [`LightSampler`] view returns only the samples that
+    /// stop at a light, so its light pmfs sum to less than one.
+    pub fn is_biased(self) -> bool {
+        self == SamplerKind::Sst
     }
 
     /// Whether the kind samples the unbalanced BVH.
@@ -119,7 +145,11 @@ impl SamplerKind {
     pub fn uses_cones(self) -> bool {
         matches!(
             self,
-            SamplerKind::TreeCone | SamplerKind::Unbalanced | SamplerKind::UnbalancedNoCut
+            SamplerKind::TreeCone
+                | SamplerKind::Unbalanced
+                | SamplerKind::UnbalancedNoCut
+                | SamplerKind::Sst
+                | SamplerKind::SstNoSub
         )
     }
 

@@ -4,9 +4,11 @@
 use super::ctx::quoted_list;
 use super::ctx::{Ctx, Result};
 use super::raw::*;
+use super::values::{Num, S};
 use super::*;
 use crate::integrand::ManyLightSpec;
 use crate::lights::sampler::SamplerKind;
+use crate::lights::substitute::SubstituteParams;
 use crate::lights::vpl::{self, VplSpec};
 
 impl Ctx<'_> {
@@ -84,9 +86,46 @@ impl Ctx<'_> {
                     time: r.time.as_ref().map_or(d.time, |v| v.get_ref().0),
                     frame: self.u32(&r.frame, "frame", 0, d.frame)?,
                     vpl: self.vpl(r)?,
+                    sst: self.sst(r)?,
                 })
             }
             _ => unreachable!("INTEGRAND_TYPES and this match list the same types"),
+        })
+    }
+
+    /// The substitute-tree keys of a `many_light` `[integrand]`: ν_min in
+    /// [0, 1], σ_max a finite distance ≥ 0.
+    fn sst(&self, r: &RawIntegrand) -> Result<SubstituteParams> {
+        let d = SubstituteParams::default();
+        let num =
+            |v: &Option<S<Num>>, name: &str, ok: &dyn Fn(f32) -> bool, what: &str, default: f32| {
+                match v {
+                    None => Ok(default),
+                    Some(v) => {
+                        let x = v.get_ref().0;
+                        if ok(x) {
+                            Ok(x)
+                        } else {
+                            Err(self.error(v.span(), format!("{name} must be {what}, found {x}")))
+                        }
+                    }
+                }
+            };
+        Ok(SubstituteParams {
+            nu_min: num(
+                &r.sst_nu_min,
+                "sst_nu_min",
+                &|x| (0.0..=1.0).contains(&x),
+                "in [0, 1]",
+                d.nu_min,
+            )?,
+            sigma_max: num(
+                &r.sst_sigma_max,
+                "sst_sigma_max",
+                &|x| x >= 0.0 && x.is_finite(),
+                "a finite distance ≥ 0",
+                d.sigma_max,
+            )?,
         })
     }
 

@@ -236,12 +236,14 @@ pub(super) struct RawIntegrand {
     pub(super) vpl_bounces: Option<S<i64>>,
     pub(super) vpl_seed: Option<S<i64>>,
     pub(super) vpl_clamp: Option<S<Num>>,
+    pub(super) sst_nu_min: Option<S<Num>>,
+    pub(super) sst_sigma_max: Option<S<Num>>,
 }
 
 impl RawIntegrand {
     pub(super) fn type_keys(&self) -> Vec<(&'static str, Range<usize>)> {
         present_keys!(self; max_bounces, radius, sampler, cut_size, block, interleave, time, frame,
-            vpls, vpl_bounces, vpl_seed, vpl_clamp)
+            vpls, vpl_bounces, vpl_seed, vpl_clamp, sst_nu_min, sst_sigma_max)
     }
 }
 
@@ -264,6 +266,8 @@ pub(super) const INTEGRAND_TYPES: [(&str, &[&str]); 6] = [
             "vpl_bounces",
             "vpl_seed",
             "vpl_clamp",
+            "sst_nu_min",
+            "sst_sigma_max",
         ],
     ),
 ];

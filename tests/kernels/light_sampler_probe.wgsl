@@ -18,7 +18,10 @@ fn sample_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let q = queries[i];
     let pick = light_sample(q.p, q.n, q.cut_base, q.u);
     var sampled = LightPmf(0.0, 0);
-    if (pick.light != NO_LIGHT) {
+    if (pick.light != NO_LIGHT && (pick.light & LIGHT_SUBSTITUTE_BIT) != 0u) {
+        // A substitute (sst) is no light: light_pmf has nothing to say.
+        sampled = LightPmf(pick.pmf_m, pick.pmf_e);
+    } else if (pick.light != NO_LIGHT) {
         sampled = light_pmf(q.p, q.n, q.cut_base, pick.light);
     }
     let probe = light_pmf(q.p, q.n, q.cut_base, q.probe);

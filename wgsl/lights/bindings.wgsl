@@ -1,6 +1,6 @@
-// Light-sampler bindings at @group(1), 16–22 (src/lights/gpu_sampler.rs owns
+// Light-sampler bindings at @group(1), 16–23 (src/lights/gpu_sampler.rs owns
 // the layout and the buffers). TreeNode and LightPrim come from
-// lights/light_prim.wgsl, LightCone from lights/cone.wgsl; constants from Rust: MAX_CUT, LIGHT_MAX_DEPTH,
+// lights/light_prim.wgsl, LightCone from lights/cone.wgsl, Substitute from lights/substitute.wgsl; constants from Rust: MAX_CUT, LIGHT_MAX_DEPTH,
 // LIGHT_INTERNAL_BIT, NO_LIGHT, LIGHT_KIND_* (SamplerKind::index).
 //
 // 16 light_nodes   perfect tree (2P − 1 nodes, level by level) or the
@@ -19,6 +19,8 @@
 // 22 light_cones   cone kinds (tree_cone, unbalanced, unbalanced_nocut): the
 //                  orientation bound of every node, indexed like light_nodes;
 //                  others: unused
+// 23 light_substitutes  sst, sst_nosub: the substitute distribution of every
+//                  node, indexed like light_nodes; others: unused
 
 // AliasEntry { q, alias } of src/lights/alias.rs (`alias` is a WGSL keyword).
 struct AliasEntry {
@@ -50,9 +52,10 @@ struct LightParams {
     time: f32,
     // Square of the VPL distance clamp (0 = none): 1/max(d², vpl_clamp2).
     vpl_clamp2: f32,
+    // sst: ν_min and σ_max² of the suitability test (substitute.rs, eq. 3).
+    sst_nu_min: f32,
+    sst_sigma_max2: f32,
     _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
 }
 
 @group(1) @binding(16) var<storage, read> light_nodes: array<TreeNode>;
@@ -62,6 +65,7 @@ struct LightParams {
 @group(1) @binding(20) var<storage, read> light_cuts: array<u32>;
 @group(1) @binding(21) var<uniform> light_params: LightParams;
 @group(1) @binding(22) var<storage, read> light_cones: array<LightCone>;
+@group(1) @binding(23) var<storage, read> light_substitutes: array<Substitute>;
 
 // The part [start, end) of the block's cut this pixel samples: the whole cut
 // unless interleaved sampling is on (light_cut_base sets it).

@@ -34,6 +34,10 @@ fn cone_sub(a: vec2<f32>, b: vec2<f32>) -> vec2<f32> {
 
 // Half of an angle in (0, 2π).
 fn cone_half(a: vec2<f32>) -> vec2<f32> {
+    // Within rounding of 0 (cone.rs Angle::half explains): 0.
+    if (a.y <= 0.0 && a.x >= 0.999999) {
+        return vec2<f32>(1.0, 0.0);
+    }
     if (a.y > 0.0 && a.x >= 0.0) {
         return cone_angle(1.0 + a.x, a.y);
     }

@@ -2,7 +2,8 @@
 // of src/lights/morton.rs (its docs spell out the WGSL side): E from the
 // bits of the extent, powers of two built from bits and split in two above
 // 2^127, floor and clamp to 1023. Also writes the light ids 0..N as the
-// values the sort carries.
+// values the sort carries. The substitute tree's normal codes come first
+// (normal_codes, morton_codes_sorted).
 
 fn exponent_of(e: f32) -> i32 {
     let bits = bitcast<u32>(e) & 0x7fffffffu;
@@ -42,6 +43,18 @@ fn spread3(v: u32) -> u32 {
     return x;
 }
 
+// The Morton code of one light's centroid (after the bounds pass).
+fn morton_of(l: LightPrim) -> u32 {
+    let c = prim_centroid(l);
+    var q: array<u32, 3>;
+    for (var a = 0u; a < 3u; a++) {
+        let lo = from_ordered_bits(~atomicLoad(&centroid_bounds[a]));
+        let hi = from_ordered_bits(atomicLoad(&centroid_bounds[3u + a]));
+        q[a] = quantize_axis(c[a], lo, hi);
+    }
+    return (spread3(q[0]) << 2u) | (spread3(q[1]) << 1u) | spread3(q[2]);
+}
+
 @compute @workgroup_size(WG)
 fn morton_codes(@builtin(workgroup_id) wid: vec3<u32>,
                 @builtin(num_workgroups) groups: vec3<u32>,
@@ -51,13 +64,34 @@ fn morton_codes(@builtin(workgroup_id) wid: vec3<u32>,
     if (i >= params.n) {
         return;
     }
-    let c = prim_centroid(prims[i]);
-    var q: array<u32, 3>;
-    for (var a = 0u; a < 3u; a++) {
-        let lo = from_ordered_bits(~atomicLoad(&centroid_bounds[a]));
-        let hi = from_ordered_bits(atomicLoad(&centroid_bounds[3u + a]));
-        q[a] = quantize_axis(c[a], lo, hi);
-    }
-    codes[i] = (spread3(q[0]) << 2u) | (spread3(q[1]) << 1u) | spread3(q[2]);
+    codes[i] = morton_of(prims[i]);
     sorted_ids[i] = i;
+}
+
+// Substitute trees sort by (Morton code, normal code, id) in two stable
+// passes: first by normal code (`normal_codes`: the codes and the ids
+// 0..N), then by Morton code, the keys gathered in the order the first pass
+// left (`morton_codes_sorted`: codes[s] of light sorted_ids[s]).
+@compute @workgroup_size(WG)
+fn normal_codes(@builtin(workgroup_id) wid: vec3<u32>,
+                @builtin(num_workgroups) groups: vec3<u32>,
+                @builtin(local_invocation_index) lid: u32) {
+    let i = linear_index(wid, groups, lid);
+    if (i >= params.n) {
+        return;
+    }
+    codes[i] = normal_code(prim_normal(prims[i]));
+    sorted_ids[i] = i;
+}
+
+@compute @workgroup_size(WG)
+fn morton_codes_sorted(@builtin(workgroup_id) wid: vec3<u32>,
+                       @builtin(num_workgroups) groups: vec3<u32>,
+                       @builtin(local_invocation_index) lid: u32) {
+    opaque_zero = params.zero;
+    let s = linear_index(wid, groups, lid);
+    if (s >= params.n) {
+        return;
+    }
+    codes[s] = morton_of(prims[sorted_ids[s]]);
 }

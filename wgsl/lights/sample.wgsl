@@ -20,7 +20,9 @@ struct LightPmf {
 }
 
 struct LightPick {
-    // The light, or NO_LIGHT (no lights, or all candidates have zero importance).
+    // The light, or NO_LIGHT (no lights, or all candidates have zero
+    // importance), or for sst LIGHT_SUBSTITUTE_BIT | the node whose
+    // substitute was picked.
     light: u32,
     // pmf = pmf_m · 2^pmf_e.
     pmf_m: f32,
@@ -62,7 +64,21 @@ fn light_uses_cut() -> bool {
 
 fn light_uses_cones() -> bool {
     let k = light_params.kind;
-    return k == LIGHT_KIND_TREE_CONE || k == LIGHT_KIND_UNBALANCED || k == LIGHT_KIND_UNBALANCED_NOCUT;
+    return k == LIGHT_KIND_TREE_CONE || k == LIGHT_KIND_UNBALANCED || k == LIGHT_KIND_UNBALANCED_NOCUT
+        || k == LIGHT_KIND_SST || k == LIGHT_KIND_SST_NOSUB;
+}
+
+// sst: the descent stops at suitable nodes (sst_nosub: only at leaves).
+fn light_substitutes_on() -> bool {
+    return light_params.kind == LIGHT_KIND_SST;
+}
+
+// Eq. 3 of the substitute-tree paper for internal node `node` (substitute.rs
+// SubstituteParams::suitable).
+fn light_suitable(node: u32) -> bool {
+    let sub = light_substitutes[node];
+    return light_nodes[node].intensity > 0.0 && sub.nu >= light_params.sst_nu_min
+        && substitute_sigma_z2(sub) <= light_params.sst_sigma_max2;
 }
 
 fn light_is_leaf(node: u32) -> bool {
@@ -211,6 +227,9 @@ fn light_descend(start: u32, x: vec3<f32>, n: vec3<f32>, u_in: f32, pmf_in: Ligh
     for (var step = 0u; step < LIGHT_MAX_DEPTH; step++) {
         if (light_is_leaf(node)) {
             break;
+        }
+        if (light_substitutes_on() && light_suitable(node)) {
+            return LightPick(LIGHT_SUBSTITUTE_BIT | node, pmf.m, pmf.e);
         }
         let l = light_left_child(node);
         let p_left = light_p_left(light_importance_of(l, x, n), light_importance_of(l + 1u, x, n));
@@ -411,6 +430,10 @@ fn light_pmf_perfect(x: vec3<f32>, n: vec3<f32>, cut_base: u32, light: u32) -> L
     for (var t = d; t > 0u; t--) {
         let node = (leaf1 >> t) - 1u;
         let child = (leaf1 >> (t - 1u)) - 1u;
+        if (light_substitutes_on() && light_suitable(node)) {
+            // The descent stops above the leaf: it is never picked.
+            return LightPmf(0.0, 0);
+        }
         let l = 2u * node + 1u;
         let p_left = light_p_left(light_importance_of(l, x, n), light_importance_of(l + 1u, x, n));
         if (p_left < 0.0) {

@@ -30,6 +30,9 @@ struct BuildParams {
 // The nodes' orientation bounds (2P − 1, indexed like nodes) when
 // params.cones == 1; a dummy otherwise.
 @group(0) @binding(7) var<storage, read_write> cones: array<LightCone>;
+// The nodes' substitute distributions (2P − 1, indexed like nodes) for a
+// substitute tree; a dummy otherwise.
+@group(0) @binding(8) var<storage, read_write> substitutes: array<Substitute>;
 
 // Linear invocation index of a 2D dispatch of WG-wide workgroups.
 fn linear_index(wid: vec3<u32>, groups: vec3<u32>, lid: u32) -> u32 {

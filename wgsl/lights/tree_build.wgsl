@@ -45,6 +45,33 @@ fn cone_level(@builtin(workgroup_id) wid: vec3<u32>,
     cones[i] = cone_union(cones[2u * i + 1u], cones[2u * i + 2u]);
 }
 
+// The substitutes of level ℓ = params.src_level (one dispatch per level,
+// leaves first, after `internal`): a leaf's from its light, an internal
+// node's from its children, weighted by their intensities.
+@compute @workgroup_size(WG)
+fn substitute_level(@builtin(workgroup_id) wid: vec3<u32>,
+                    @builtin(num_workgroups) groups: vec3<u32>,
+                    @builtin(local_invocation_index) lid: u32) {
+    opaque_zero = params.zero;
+    let j = linear_index(wid, groups, lid);
+    let level = params.src_level;
+    if (j >= (1u << level)) {
+        return;
+    }
+    let i = (1u << level) - 1u + j;
+    if (i + 1u >= params.leaf_count) {
+        let id = nodes[i].id;
+        if (id == NO_LIGHT) {
+            substitutes[i] = substitute_zero();
+        } else {
+            substitutes[i] = substitute_of_prim(prims[id]);
+        }
+        return;
+    }
+    let l = 2u * i + 1u;
+    substitutes[i] = substitute_merge(substitutes[l], nodes[l].intensity, substitutes[l + 1u], nodes[l + 1u].intensity);
+}
+
 // A workgroup loads B = 2^k consecutive nodes of level ℓs and gathers them
 // pairwise in shared memory, writing level ℓs − t (t = 1..k) as it goes:
 // destination node j of level ℓs − t is the balanced pairwise gather, in
