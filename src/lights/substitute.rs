@@ -14,7 +14,8 @@
 //!
 //! With `c` the node's scalar intensity (the luminance the tree sums):
 //!
-//! * mean `p = (c₁p₁ + c₂p₂)/(c₁ + c₂)` (eq. 1);
+//! * mean `p = (c₁p₁ + c₂p₂)/(c₁ + c₂)` (eq. 1), computed as
+//!   `p₁ + (p₂ − p₁)·c₂/(c₁ + c₂)`;
 //! * normal `n = normalize(c₁n₁ + c₂n₂)` (the paper's "linearly
 //!   interpolated based on the child contributions");
 //! * the positional covariance `Σ = Σᵢ cᵢ(Σᵢ + ΔᵢΔᵢᵀ)/(c₁ + c₂)`,
@@ -244,7 +245,10 @@ pub fn merge(a: &Substitute, ca: f32, b: &Substitute, cb: f32) -> Substitute {
     let w = ca + cb;
     let (ta, tb) = (ca / w, cb / w);
     let (pa, pb) = (Vec3::from(a.mean), Vec3::from(b.mean));
-    let mean = pa * ta + pb * tb;
+    // p_a + t_b·(p_b − p_a): equal child means give exactly that mean (and
+    // a zero Δ), so coincident or axis-aligned coplanar lights keep a zero
+    // spread where they have none.
+    let mean = pa + (pb - pa) * tb;
     let m = Vec3::from(a.normal) * ca + Vec3::from(b.normal) * cb;
     let len = m.length();
     let (normal, nu) = if len > 0.0 {
@@ -487,12 +491,15 @@ impl SstSampler {
         pmf
     }
 
-    /// Every stop with probability > 0 at `s` (exhaustive: for tests and
-    /// small trees).
-    pub fn stops(&self, s: &Shading) -> Vec<Stop> {
+    /// Every stop with probability > 0 at `s`, and the probability that
+    /// the descent ends on a dead branch instead (no stop: [`Self::sample`]
+    /// returns `None`); the two add up to one. Exhaustive: for tests and
+    /// small trees.
+    pub fn stops(&self, s: &Shading) -> (Vec<Stop>, f64) {
         let mut out = Vec::new();
+        let mut dead = 0.0;
         let Some(probs) = cut_probabilities(&[Importance::Cones.of(&self.tree, 0, s)]) else {
-            return out;
+            return (out, 1.0);
         };
         let mut stack = vec![(0usize, probs[0] as f64)];
         while let Some((node, pmf)) = stack.pop() {
@@ -508,12 +515,15 @@ impl SstSampler {
             }
             let (l, r) = self.tree.children(node).expect("internal");
             let imp = |n| Importance::Cones.of(&self.tree, n, s);
-            if let Some(p) = p_left(&imp(l), &imp(r)) {
-                stack.push((l, pmf * p as f64));
-                stack.push((r, pmf * (1.0 - p) as f64));
+            match p_left(&imp(l), &imp(r)) {
+                Some(p) => {
+                    stack.push((l, pmf * p as f64));
+                    stack.push((r, pmf * (1.0 - p) as f64));
+                }
+                None => dead += pmf,
             }
         }
-        out
+        (out, dead)
     }
 }
 

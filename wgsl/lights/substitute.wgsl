@@ -105,7 +105,7 @@ fn substitute_merge(a: Substitute, ca: f32, b: Substitute, cb: f32) -> Substitut
     let w = ca + cb;
     let ta = ca / w;
     let tb = cb / w;
-    let mean = a.mean * ta + b.mean * tb;
+    let mean = a.mean + (b.mean - a.mean) * tb;
     let m = a.normal * ca + b.normal * cb;
     let len = length(m);
     var out = substitute_zero();
