@@ -13,6 +13,14 @@
 //! to `uniform` on the same scene is the selection's own cost: the rays
 //! are the same in number. Output: one table row per (scene, sampler).
 //!
+//! For the scenes with VPLs it also prints `sst`'s mean stop depth (the
+//! substitute-tree paper's Fig. 5 measure: 15 for SST against 20 for
+//! stochastic lightcuts at 100k VPLs), on the CPU oracle over the frame's
+//! lights: 16 draws at each of 2,000 shading points placed at VPLs (points
+//! on lit diffuse surfaces, lifted 1 mm along their normals) — a proxy for
+//! the camera's shading points. The perfect tree's leaves all sit at depth
+//! log2(P).
+//!
 //! Run: `cargo bench --bench light_sampling` (a few minutes on lavapipe;
 //! `MDAS_BENCH_SCALE=1` for full films on a GPU).
 
@@ -23,7 +31,13 @@ use mdas::integrand::IntegrandSpec;
 use mdas::integrand::ManyLight;
 use mdas::integrand::ManyLightSpec;
 use mdas::integrator::{Halton, Integrator};
+use glam::Vec3;
+use mdas::lights::perfect;
 use mdas::lights::sampler::SamplerKind;
+use mdas::lights::substitute::{self, SstSampler};
+use mdas::lights::{LightPrim, Shading, KIND_VPL};
+use rand::rngs::StdRng;
+use rand::{RngExt, SeedableRng};
 use std::path::Path;
 use std::sync::Arc;
 
@@ -53,6 +67,7 @@ fn main() -> anyhow::Result<()> {
         };
         let gpu_scene = Arc::new(GpuScene::new(gpu, scene, film)?);
         let mut uniform_ns = None;
+        let mut depths = Vec::new();
         for kind in SamplerKind::ALL {
             let spec = ManyLightSpec {
                 sampler: kind,
@@ -73,6 +88,9 @@ fn main() -> anyhow::Result<()> {
             let samples = SPP as f64 * film.width as f64 * film.height as f64;
             let ns = ms * 1e6 / samples;
             let base = *uniform_ns.get_or_insert(ns);
+            if kind == SamplerKind::Sst {
+                depths.push(stop_depth(integrand.lights(), &spec));
+            }
             println!(
                 "| `{}` | {}×{} | {} | {kind} | {vpls:.2} / {:.2} / {:.2} | {ms:.1} | {ns:.0} | {:+.0} ns |",
                 Path::new(file).file_stem().unwrap().to_string_lossy(),
@@ -84,6 +102,49 @@ fn main() -> anyhow::Result<()> {
                 ns - base
             );
         }
+        for d in depths.into_iter().flatten() {
+            println!("\n`{file}`: {d}\n");
+        }
     }
     Ok(())
+}
+
+/// `sst`'s mean stop depth over shading points at the frame's VPLs (module
+/// docs), or `None` without VPLs.
+fn stop_depth(prims: &[LightPrim], spec: &ManyLightSpec) -> Option<String> {
+    let vpls: Vec<&LightPrim> = prims.iter().filter(|p| p.kind == KIND_VPL).collect();
+    if vpls.is_empty() {
+        return None;
+    }
+    let tree = substitute::build(prims)?;
+    let levels = tree.tree.levels;
+    let sampler = SstSampler {
+        tree,
+        params: Some(spec.sst),
+    };
+    let mut rng = StdRng::seed_from_u64(1);
+    let (mut depth, mut stops, mut substitutes, mut draws) = (0u64, 0u64, 0u64, 0u64);
+    for _ in 0..2000 {
+        let v = vpls[rng.random_range(0..vpls.len())];
+        let n = Vec3::from(v.p1);
+        let sh = Shading {
+            p: Vec3::from(v.p0) + n * 1e-3,
+            n,
+        };
+        for _ in 0..16 {
+            draws += 1;
+            if let Some(stop) = sampler.sample(&sh, rng.random()) {
+                depth += perfect::level_of(stop.node) as u64;
+                stops += 1;
+                substitutes += !sampler.tree.tree.is_leaf(stop.node) as u64;
+            }
+        }
+    }
+    Some(format!(
+        "sst mean stop depth {:.2} (leaves at {}; {:.1} % of stops are substitutes, {:.1} % of draws end on a dead branch)",
+        depth as f64 / stops.max(1) as f64,
+        levels - 1,
+        100.0 * substitutes as f64 / stops.max(1) as f64,
+        100.0 * (draws - stops) as f64 / draws as f64
+    ))
 }

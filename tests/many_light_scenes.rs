@@ -9,6 +9,7 @@ use mdas::integrand::IntegrandSpec;
 use mdas::integrand::ManyLightSpec;
 use mdas::lights::sampler::SamplerKind;
 use mdas::lights::scene_lights::{light_count, light_counts, light_prims, LightCounts};
+use mdas::lights::substitute::SubstituteParams;
 use mdas::lights::vpl::VplSpec;
 use mdas::lights::{LightPrim, KIND_POINT, KIND_TRIANGLE};
 use mdas::scene_file;
@@ -460,6 +461,10 @@ fn many_light_integrand_parses_with_defaults() {
                 seed: 0,
                 clamp: 0.0
             },
+            sst: SubstituteParams {
+                nu_min: 0.5,
+                sigma_max: 0.1
+            },
         }
     );
     for sampler in SamplerKind::ALL {
@@ -477,6 +482,7 @@ fn many_light_integrand_parses_with_defaults() {
                 time: 2.5,
                 frame: 7,
                 vpl: VplSpec::default(),
+                sst: SubstituteParams::default(),
             })
         );
     }
@@ -497,6 +503,23 @@ fn many_light_integrand_parses_with_defaults() {
         }
     );
     assert_eq!(spec.vpl.count(), 3000);
+    let s = ok(
+        "ml-sst",
+        &format!("{BASE}[integrand]\ntype = \"many_light\"\nsampler = \"sst\"\nsst_nu_min = 0.8\nsst_sigma_max = 0.02\n"),
+    );
+    let IntegrandSpec::ManyLight(spec) = s.integrand else {
+        panic!("many_light")
+    };
+    assert_eq!(
+        (spec.sampler, spec.sst),
+        (
+            SamplerKind::Sst,
+            SubstituteParams {
+                nu_min: 0.8,
+                sigma_max: 0.02
+            }
+        )
+    );
 }
 
 #[test]
@@ -504,7 +527,7 @@ fn bad_many_light_input_is_an_error_at_its_position() {
     let integrand = |body: &str| format!("{BASE}[integrand]\ntype = \"many_light\"\n{body}");
     let m = error_at("sampler", &integrand("sampler = \"bvh\"\n"), 14, 11);
     assert!(
-        m.contains("unknown sampler 'bvh', expected one of 'uniform', 'power', 'tree_nocut', 'tree', 'tree_cone', 'unbalanced', 'unbalanced_nocut', 'unbalanced_nocone'"),
+        m.contains("unknown sampler 'bvh', expected one of 'uniform', 'power', 'tree_nocut', 'tree', 'tree_cone', 'unbalanced', 'unbalanced_nocut', 'unbalanced_nocone', 'sst', 'sst_nosub'"),
         "{m}"
     );
     let m = error_at("vpls", &integrand("vpls = -1\n"), 14, 8);
@@ -526,6 +549,13 @@ fn bad_many_light_input_is_an_error_at_its_position() {
     let m = error_at("clamp", &integrand("vpl_clamp = -0.5\n"), 14, 13);
     assert!(
         m.contains("vpl_clamp must be a finite distance ≥ 0, found -0.5"),
+        "{m}"
+    );
+    let m = error_at("nu", &integrand("sst_nu_min = 1.5\n"), 14, 14);
+    assert!(m.contains("sst_nu_min must be in [0, 1], found 1.5"), "{m}");
+    let m = error_at("sigma", &integrand("sst_sigma_max = -1\n"), 14, 17);
+    assert!(
+        m.contains("sst_sigma_max must be a finite distance ≥ 0, found -1"),
         "{m}"
     );
     let m = error_at("cut0", &integrand("cut_size = 0\n"), 14, 12);

@@ -650,6 +650,7 @@ fn many_light_scenes_parse_their_integrand_and_light_sets() {
             time: 0.5,
             frame: 0,
             vpl: Default::default(),
+            sst: Default::default(),
         })
     );
     assert!(s.scene.point_light_sets.is_empty());

@@ -36,8 +36,9 @@ pub(crate) struct RenderArgs {
     pub(crate) reference: Option<PathBuf>,
     /// Light sampler of a many_light scene, overriding its [integrand]
     /// sampler: uniform, power, tree_nocut, tree, tree_cone, unbalanced,
-    /// unbalanced_nocut or unbalanced_nocone (an error for other
-    /// integrands; docs/light-sampling.md).
+    /// unbalanced_nocut, unbalanced_nocone, sst (stochastic substitute
+    /// trees; biased) or sst_nosub (an error for other integrands;
+    /// docs/light-sampling.md).
     #[arg(long, value_name = "NAME")]
     pub(crate) sampler: Option<SamplerKind>,
     /// Render once untimed first, so that the printed times are warm:

@@ -56,7 +56,7 @@ use crate::lights::gpu_sampler::{CutLayout, GpuSamplerData, TreeSource, FIRST_BI
 use crate::lights::sampler::SamplerKind;
 use crate::lights::scene_lights::light_prims;
 use crate::lights::vpl::{self, VplGenerator};
-use crate::lights::KIND_TRIANGLE;
+use crate::lights::{LightPrim, KIND_TRIANGLE};
 use crate::scene::Scene;
 use crate::wgsl_file;
 use anyhow::{Context, Result};
@@ -70,6 +70,8 @@ pub struct ManyLight {
     film: Film,
     kind: SamplerKind,
     light_count: u32,
+    /// The frame's lights: the scene's, then the VPLs.
+    prims: Vec<LightPrim>,
     triangles: bool,
     sampler: GpuSamplerData,
     layout: wgpu::BindGroupLayout,
@@ -210,6 +212,7 @@ impl ManyLight {
             film,
             kind,
             light_count: n,
+            prims,
             triangles,
             sampler,
             layout,
@@ -287,6 +290,12 @@ impl ManyLight {
 
     pub fn light_count(&self) -> u32 {
         self.light_count
+    }
+
+    /// The frame's light list as the sampler sees it: the scene's lights at
+    /// the frame time, then the frame's VPLs (light id = index).
+    pub fn lights(&self) -> &[LightPrim] {
+        &self.prims
     }
 
     /// GPU (or wall-clock) times of the frame's set-up: the light tree's
