@@ -24,6 +24,7 @@
 //! Run: `cargo bench --bench light_sampling` (a few minutes on lavapipe;
 //! `MDAS_BENCH_SCALE=1` for full films on a GPU).
 
+use glam::Vec3;
 use mdas::accel::GpuScene;
 use mdas::app;
 use mdas::gpu::Gpu;
@@ -31,7 +32,6 @@ use mdas::integrand::IntegrandSpec;
 use mdas::integrand::ManyLight;
 use mdas::integrand::ManyLightSpec;
 use mdas::integrator::{Halton, Integrator};
-use glam::Vec3;
 use mdas::lights::perfect;
 use mdas::lights::sampler::SamplerKind;
 use mdas::lights::substitute::{self, SstSampler};

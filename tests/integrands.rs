@@ -849,7 +849,10 @@ fn tilted_emitter_over_tilted_receiver_matches_lambert() {
             kind.name()
         ));
     }
-    assert_eq!(configs.len(), 10);
+    assert_eq!(
+        configs.len(),
+        2 + mdas::lights::sampler::SamplerKind::ALL.len()
+    );
     const K: u32 = 8;
     const T: f64 = 8.1;
     for integrand in &configs {

@@ -21,11 +21,11 @@ use mdas::lights::cut::{Importance, LightTree, MAX_CUT};
 use mdas::lights::importance::{node_importance, ONE_MINUS_EPSILON};
 use mdas::lights::morton::{codes, exponent, morton30, quantize_axis};
 use mdas::lights::perfect::{self, gather, PerfectTree};
+use mdas::lights::substitute::{self, SstSampler, Stop, Substitute, SubstituteParams};
 use mdas::lights::{
     new_sampler, select_cut, LightSampler, PowerSampler, SamplerKind, Shading, TreeSampler,
     UniformSampler,
 };
-use mdas::lights::substitute::{self, SstSampler, Stop, Substitute, SubstituteParams};
 use mdas::lights::{LightPrim, TreeNode, NO_LIGHT};
 use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
@@ -1158,8 +1158,15 @@ fn cone_kinds_skip_lights_facing_away() {
 fn vpl_walls(rng: &mut StdRng, n: usize) -> Vec<LightPrim> {
     (0..n)
         .map(|i| {
-            let (a, b) = (rng.random_range(-5.0..5.0f32), rng.random_range(-5.0..5.0f32));
-            let lift = if i % 5 == 4 { rng.random_range(0.0..0.3) } else { 0.0 };
+            let (a, b) = (
+                rng.random_range(-5.0..5.0f32),
+                rng.random_range(-5.0..5.0f32),
+            );
+            let lift = if i % 5 == 4 {
+                rng.random_range(0.0..0.3)
+            } else {
+                0.0
+            };
             let (p, mut nrm) = match i % 3 {
                 0 => (Vec3::new(-5.0 + lift, a, b), Vec3::X),
                 1 => (Vec3::new(a, -5.0 + lift, b), Vec3::Y),
@@ -1186,8 +1193,8 @@ fn weighted_moments(prims: &[LightPrim]) -> ([f64; 3], [[f64; 3]; 3]) {
     let pos = |p: &LightPrim| p.p0.map(|x| x as f64);
     let mut mean = [0.0; 3];
     for (p, w) in prims.iter().zip(&w) {
-        for a in 0..3 {
-            mean[a] += w * pos(p)[a] / total;
+        for (m, x) in mean.iter_mut().zip(pos(p)) {
+            *m += w * x / total;
         }
     }
     let mut cov = [[0.0; 3]; 3];
@@ -1214,7 +1221,11 @@ fn substitute_moments_are_exact_for_coplanar_vpls() {
     let mut rng = StdRng::seed_from_u64(31);
     let prims: Vec<_> = (0..1000)
         .map(|_| {
-            let p = Vec3::new(rng.random_range(-4.0..4.0), 2.0, rng.random_range(-1.0..3.0));
+            let p = Vec3::new(
+                rng.random_range(-4.0..4.0),
+                2.0,
+                rng.random_range(-1.0..3.0),
+            );
             let e = Vec3::new(rng.random(), rng.random(), rng.random()) * 3.0;
             LightPrim::vpl(p, Vec3::Y, e)
         })
@@ -1241,9 +1252,18 @@ fn substitute_moments_are_exact_for_coplanar_vpls() {
             );
         }
     }
-    assert!((root.sigma_z2().abs() as f64) < 1e-9 * extent * extent, "{}", root.sigma_z2());
-    assert!(root.nu >= 1.0 - 1e-6 && root.normal == [0.0, 1.0, 0.0], "{root:?}");
-    let sum = prims.iter().fold(Vec3::ZERO, |s, p| s + Vec3::from(p.emission));
+    assert!(
+        (root.sigma_z2().abs() as f64) < 1e-9 * extent * extent,
+        "{}",
+        root.sigma_z2()
+    );
+    assert!(
+        root.nu >= 1.0 - 1e-6 && root.normal == [0.0, 1.0, 0.0],
+        "{root:?}"
+    );
+    let sum = prims
+        .iter()
+        .fold(Vec3::ZERO, |s, p| s + Vec3::from(p.emission));
     assert!((Vec3::from(root.emission) - sum).abs().max_element() < 1e-4 * sum.max_element());
     let sampler = SstSampler {
         tree: t,
@@ -1292,7 +1312,10 @@ fn substitute_hard_cases() {
         .collect();
     let t = substitute::build(&same).unwrap();
     assert_eq!(t.substitutes[0].cholesky(), [[0.0; 3]; 3]);
-    let (lo, hi) = (Vec3::from(t.tree.nodes[0].min), Vec3::from(t.tree.nodes[0].max));
+    let (lo, hi) = (
+        Vec3::from(t.tree.nodes[0].min),
+        Vec3::from(t.tree.nodes[0].max),
+    );
     for u in [[0.0, 0.5, 0.9], [0.999, 0.001, 0.5]] {
         assert_eq!(t.substitutes[0].sample_position(u, lo, hi), at);
     }
@@ -1335,7 +1358,11 @@ fn substitute_hard_cases() {
                 None => {}
             }
         }
-        assert!(ys.iter().all(|&y| y == ys[0]), "stop {} mixes the planes", st.node);
+        assert!(
+            ys.iter().all(|&y| y == ys[0]),
+            "stop {} mixes the planes",
+            st.node
+        );
         substitutes += !s.tree.tree.is_leaf(st.node) as u32;
     }
     assert!(substitutes > 0, "no substitute between the planes");
@@ -1352,14 +1379,18 @@ fn substitute_hard_cases() {
             }
         })
         .collect();
-    let bright: Vec<_> = mixed.iter().copied().filter(|p| p.intensity() > 0.0).collect();
+    let bright: Vec<_> = mixed
+        .iter()
+        .copied()
+        .filter(|p| p.intensity() > 0.0)
+        .collect();
     let t = substitute::build(&mixed).unwrap();
     let (mean, _) = weighted_moments(&bright);
-    for a in 0..3 {
-        assert!((t.substitutes[0].mean[a] as f64 - mean[a]).abs() < 1e-5);
+    for (got, want) in t.substitutes[0].mean.iter().zip(mean) {
+        assert!((*got as f64 - want).abs() < 1e-5);
     }
     assert!(t.substitutes[0].sigma_z2() < 1e-10);
-    assert!(params.unwrap().suitable(&t.substitutes[0], t.tree.nodes[0].intensity));
+    assert!(SubstituteParams::default().suitable(&t.substitutes[0], t.tree.nodes[0].intensity));
     let s = SstSampler {
         tree: t,
         params: None,
@@ -1407,7 +1438,10 @@ fn substitute_stops_sum_to_one_and_fit_their_pmfs() {
         };
         let (stops, dead) = sst.stops(&sh);
         let total: f64 = stops.iter().map(|s| s.pmf).sum();
-        assert!((total + dead - 1.0).abs() < 1e-5, "case {case}: Σ {total} + dead {dead}");
+        assert!(
+            (total + dead - 1.0).abs() < 1e-5,
+            "case {case}: Σ {total} + dead {dead}"
+        );
         for st in &stops {
             assert_eq!(sst.stop_pmf(&sh, st.node), st.pmf, "case {case}");
             if !tree.tree.is_leaf(st.node) {
@@ -1432,7 +1466,10 @@ fn substitute_stops_sum_to_one_and_fit_their_pmfs() {
         let mut expected: Vec<f64> = stops.iter().map(|s| s.pmf * M as f64).collect();
         expected.push(dead * M as f64);
         let (p, dof) = chi_square_p(&observed, &expected);
-        assert!(p > 1e-3 / 16.0, "case {case}: chi-square p = {p} ({dof} dof)");
+        assert!(
+            p > 1e-3 / 16.0,
+            "case {case}: chi-square p = {p} ({dof} dof)"
+        );
         // sst_nosub is the cone tree sampler from the root.
         for light in (0..prims.len() as u32).step_by(7) {
             assert_eq!(
@@ -1476,7 +1513,10 @@ fn substitute_positions_follow_their_gaussian() {
     let want = sub.covariance();
     for a in 0..3 {
         let se = (want[a][a] as f64 / N as f64).sqrt();
-        assert!(((mean[a] - sub.mean[a]) as f64).abs() < 5.0 * se, "mean {a}: {mean}");
+        assert!(
+            ((mean[a] - sub.mean[a]) as f64).abs() < 5.0 * se,
+            "mean {a}: {mean}"
+        );
         for b in 0..3 {
             let c: f64 = pts
                 .iter()
@@ -1485,13 +1525,18 @@ fn substitute_positions_follow_their_gaussian() {
                 / (N - 1) as f64;
             let w = want[a][b] as f64;
             let se = ((want[a][a] * want[b][b]) as f64 + w * w).sqrt() / (N as f64).sqrt();
-            assert!((c - w).abs() < 5.0 * se, "cov[{a}][{b}] = {c}, want {w} (se {se})");
+            assert!(
+                (c - w).abs() < 5.0 * se,
+                "cov[{a}][{b}] = {c}, want {w} (se {se})"
+            );
         }
     }
     // Clamped to the box.
     let lo = Vec3::new(0.9, -2.1, 0.4);
     let hi = Vec3::new(1.1, -1.9, 0.6);
-    for p in (0..100).map(|_| sub.sample_position([rng.random(), rng.random(), rng.random()], lo, hi)) {
+    for p in
+        (0..100).map(|_| sub.sample_position([rng.random(), rng.random(), rng.random()], lo, hi))
+    {
         assert!(p.cmpge(lo).all() && p.cmple(hi).all(), "{p}");
     }
 }

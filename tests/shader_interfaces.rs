@@ -394,6 +394,7 @@ fn bind_group_layouts_match_the_wgsl() {
 #[rustfmt::skip]
 fn mirrors() -> BTreeMap<(&'static str, &'static str), Layout> {
     use mdas::accel::trace::TraceParams;
+    use mdas::lights::substitute::Substitute;
     use mdas::lights::LightCone;
     use mdas::integrator::halton::HaltonParams;
     use mdas::integrator::mdas::gpu_params::GpuParams;
@@ -444,7 +445,10 @@ fn mirrors() -> BTreeMap<(&'static str, &'static str), Layout> {
         ((lights, "AliasEntry"), host!(AliasEntry { q, alias })),
         ((lights, "LightParams"), host!(LightParams {
             count, kind, levels, leaf_count, node_count, cut_size, block_size, blocks_per_row,
-            alias_count, interleave, frame, time, vpl_clamp2, _pad,
+            alias_count, interleave, frame, time, vpl_clamp2, sst_nu_min, sst_sigma_max2, _pad,
+        })),
+        (("lights/substitute.wgsl", "Substitute"), host!(Substitute {
+            mean, nu, normal, cov_xy, cov_diag, cov_xz, emission, cov_yz,
         })),
         (("lights/tree_bindings.wgsl", "BuildParams"), host!(BuildParams {
             n, leaf_count, zero, src_level, levels_up, cones, _pad,

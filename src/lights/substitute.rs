@@ -84,7 +84,7 @@ pub fn normal_code(n: [f32; 3]) -> u32 {
     let octant = ((n[0] < 0.0) as u32) << 2 | ((n[1] < 0.0) as u32) << 1 | (n[2] < 0.0) as u32;
     let (mut a, mut b, mut c) = (n[0].abs(), n[1].abs(), n[2].abs());
     let s = (a + b) + c;
-    if !(s > 0.0) || !s.is_finite() {
+    if s.is_nan() || s <= 0.0 || s.is_infinite() {
         return 0;
     }
     let mut code = octant;
@@ -236,10 +236,10 @@ impl Substitute {
 
 /// Merges two children of scalar intensities `ca`, `cb` (module docs).
 pub fn merge(a: &Substitute, ca: f32, b: &Substitute, cb: f32) -> Substitute {
-    if !(cb > 0.0) {
+    if cb.is_nan() || cb <= 0.0 {
         return if ca > 0.0 { *a } else { Substitute::default() };
     }
-    if !(ca > 0.0) {
+    if ca.is_nan() || ca <= 0.0 {
         return *b;
     }
     let w = ca + cb;
@@ -316,7 +316,7 @@ pub fn inverse_normal_cdf(u: f32) -> f32 {
             5.739_507_7e-3,
             -7.622_461_3e-3,
             9.438_870_5e-3,
-            1.001_674_1,
+            1.001_674,
             2.832_976_8,
         ] {
             p = k + p * w;
