@@ -6,7 +6,10 @@
 #   2. the same on the paper's seven scenes at their full film size and
 #      spp (Table 1 of the MDAS paper sits beside them in BENCHMARKS.md);
 #   3. `mdas compare` (equal time) on cornell_pt and pool at 1/4 scale,
-#      and at full film size with a REF_SPP_FULL reference.
+#      and at full film size with a REF_SPP_FULL reference;
+#   4. the light samplers at equal time on vpl_atrium (100,000 VPLs made
+#      per frame), stochastic substitute trees among them (issue 13), at
+#      1/4 and full scale, and `sst`'s bias over seeds.
 # With a baseline binary (another build of mdas that has `bench`), steps 1
 # and 2 also run it, right after the same step of this build.
 #
@@ -68,3 +71,10 @@ for scene in cornell_pt pool; do
     step "compare-$scene-full" "$BIN" compare "scenes/$scene.toml" --scale "$FULL_SCALE" \
         --ref-spp "$REF_SPP_FULL" --repeats "$REPEATS" --out "$OUT/compare-$scene-full"
 done
+SAMPLERS=power,tree_nocut,tree,tree_cone,unbalanced,sst,sst_nosub
+step "samplers-vpl_atrium" "$BIN" compare scenes/vpl_atrium.toml --samplers "$SAMPLERS" \
+    --scale "$QUARTER_SCALE" --ref-spp "$REF_SPP" --repeats "$REPEATS" --out "$OUT/samplers-vpl_atrium"
+step "samplers-vpl_atrium-full" "$BIN" compare scenes/vpl_atrium.toml --samplers "$SAMPLERS" \
+    --scale "$FULL_SCALE" --ref-spp "$REF_SPP_FULL" --repeats "$REPEATS" --out "$OUT/samplers-vpl_atrium-full"
+step "sst-bias-vpl_atrium" "$BIN" compare scenes/vpl_atrium.toml --sampler sst --seeds 8 --spp 16 \
+    --scale "$QUARTER_SCALE" --ref-spp "$REF_SPP" --repeats "$REPEATS" --out "$OUT/sst-bias-vpl_atrium"

@@ -522,6 +522,19 @@ fn many_light_integrand_parses_with_defaults() {
     );
 }
 
+/// The substitute-tree threshold scene: three tessellated spheres and a
+/// point light whose 40,000 VPLs land on curved and flat surfaces.
+#[test]
+fn vpl_spheres_scene_loads() {
+    let s = scene_file::load(Path::new("scenes/tests/vpl_spheres.toml")).unwrap();
+    let IntegrandSpec::ManyLight(spec) = s.integrand else {
+        panic!("many_light")
+    };
+    assert_eq!((spec.vpl.count(), spec.vpl.clamp), (40_000, 0.1));
+    assert_eq!(s.scene.meshes.len(), 5);
+    assert_eq!(light_count(&s.scene), 1);
+}
+
 #[test]
 fn bad_many_light_input_is_an_error_at_its_position() {
     let integrand = |body: &str| format!("{BASE}[integrand]\ntype = \"many_light\"\n{body}");

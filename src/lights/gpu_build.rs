@@ -5,7 +5,7 @@
 //! # Algorithm
 //!
 //! [`GpuLightTree::build`] takes the frame's `array<LightPrim>` (already on
-//! the GPU: lights may be animated) and runs five phases (six with cones), each one compute
+//! the GPU: lights may be animated) and runs five phases (six with cones, nine for a substitute tree), each one compute
 //! pass timed by the [`Profiler`]:
 //!
 //! | phase | kernel | work |
@@ -16,6 +16,20 @@
 //! | `light_tree.leaves` | `wgsl/lights/tree_build.wgsl` `leaves` | leaf slot `s < N` = leaf of light `sorted[s]`, slots `N..P` bogus ([`TreeNode::EMPTY`]), `leaf_of_light[sorted[s]] = s` |
 //! | `light_tree.internal` | `wgsl/lights/tree_build.wgsl` `internal` | levels bottom-up, up to 7 per dispatch from one source level |
 //! | `light_tree.cones` | `wgsl/lights/tree_build.wgsl` `cone_level` | with cones only: each level's cones from the level below, one dispatch per level (the leaves' cones are written by `leaves`) |
+//!
+//! A substitute tree ([`GpuLightTree::with_substitutes`], `sst`) sorts by
+//! (Morton code, normal code, id) in two stable passes: `light_tree.normals`
+//! (`morton.wgsl` `normal_codes`: the 9-bit normal code of every light,
+//! ids as values) and `light_tree.normal_sort` (its 9-bit radix sort) run
+//! after the bounds, then `light_tree.morton` gathers the Morton codes in that order
+//! (`morton_codes_sorted`) and the 30-bit sort keeps normal order among
+//! equal codes. After the cones, `light_tree.substitutes`
+//! (`tree_build.wgsl` `substitute_level`) writes the [`Substitute`] of every
+//! node, leaves first, one dispatch per level. The normal codes are exact
+//! on both sides, so the leaf order and the nodes still equal the oracle's
+//! ([`super::substitute::build`]) bit for bit; the substitutes divide and
+//! take square roots and are compared within a tolerance
+//! (`tests/lights_gpu_sampler.rs`).
 //!
 //! The internal levels are built in groups as in the paper (§4): a dispatch
 //! reads source level `ℓs` once; each workgroup loads `B = 2^k` (≤ 128)
