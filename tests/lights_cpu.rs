@@ -1209,6 +1209,29 @@ fn weighted_moments(prims: &[LightPrim]) -> ([f64; 3], [[f64; 3]; 3]) {
     (mean, cov)
 }
 
+/// Cone unions over many VPLs that share a normal (walls of a box) stay
+/// finite: `θ_d + θ_b − θ_a` rounding to (or just below) 0 once gave 0/0 in
+/// the half angle, NaN cones and NaN node importances (found by the
+/// substitute-tree tests). Both trees that carry cones are checked.
+#[test]
+fn cones_over_vpls_sharing_normals_are_finite() {
+    for seed in [9, 10, 11] {
+        let mut rng = StdRng::seed_from_u64(seed);
+        let prims = vpl_walls(&mut rng, 3000);
+        let perfect = perfect::build(&prims).unwrap();
+        let sst = substitute::build(&prims).unwrap();
+        for (what, cones) in [("perfect", &perfect.cones), ("substitute", &sst.tree.cones)] {
+            for (i, c) in cones.iter().enumerate() {
+                let words = [c.axis[0], c.axis[1], c.axis[2], c.cos_o, c.sin_o, c.cos_e];
+                assert!(
+                    words.iter().all(|w| w.is_finite()),
+                    "seed {seed}: {what} tree node {i}: {c:?}"
+                );
+            }
+        }
+    }
+}
+
 /// Coplanar VPLs facing one way: the root's substitute has exactly the
 /// weighted moments (f64 reference; tolerance: f32 rounding of ~12 merge
 /// levels, 1e-5 of the extent for the mean and 1e-4 of the extent² for
