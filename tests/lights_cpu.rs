@@ -13,9 +13,11 @@
 //!   lights with `pmf > 0` (a `None` sample contributes 0), checked on
 //!   `65,536` stratified `u` to 6 standard errors.
 
+mod light_scenes;
 mod stats;
 
 use glam::Vec3;
+use light_scenes::vpl_walls;
 use mdas::lights::bvh::{self, Cost, LightBvh, INTERNAL_BIT, MAX_DEPTH};
 use mdas::lights::cut::{Importance, LightTree, MAX_CUT};
 use mdas::lights::importance::{node_importance, ONE_MINUS_EPSILON};
@@ -1151,39 +1153,6 @@ fn cone_kinds_skip_lights_facing_away() {
 }
 
 // ---------------------------------------------------------------- substitute trees
-
-/// VPLs on three walls of a box (x = −5 facing +x, y = −5 facing +y, z = 5
-/// facing −z); every fifth is lifted off its wall by up to 0.3 and tilted,
-/// every ninth is dark.
-fn vpl_walls(rng: &mut StdRng, n: usize) -> Vec<LightPrim> {
-    (0..n)
-        .map(|i| {
-            let (a, b) = (
-                rng.random_range(-5.0..5.0f32),
-                rng.random_range(-5.0..5.0f32),
-            );
-            let lift = if i % 5 == 4 {
-                rng.random_range(0.0..0.3)
-            } else {
-                0.0
-            };
-            let (p, mut nrm) = match i % 3 {
-                0 => (Vec3::new(-5.0 + lift, a, b), Vec3::X),
-                1 => (Vec3::new(a, -5.0 + lift, b), Vec3::Y),
-                _ => (Vec3::new(a, b, 5.0 - lift), Vec3::NEG_Z),
-            };
-            if lift > 0.0 {
-                nrm = (nrm + random_unit(rng) * 0.5).normalize();
-            }
-            let e = if i % 9 == 8 {
-                Vec3::ZERO
-            } else {
-                Vec3::new(rng.random(), rng.random(), rng.random()) * 2.0
-            };
-            LightPrim::vpl(p, nrm, e)
-        })
-        .collect()
-}
 
 /// The f64 intensity-weighted mean and covariance of `prims` (weights: the
 /// tree's scalar intensity).

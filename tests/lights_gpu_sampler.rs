@@ -12,9 +12,11 @@
 //! picks and of the probes must agree to a relative 1e-5.
 
 mod common;
+mod light_scenes;
 
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
+use light_scenes::vpl_walls;
 use mdas::gpu::buffer::STORAGE;
 use mdas::gpu::shader::{storage_entry, Wgsl};
 use mdas::gpu::{Gpu, Profiler};
@@ -136,36 +138,6 @@ fn setup(seed: u64, n: usize) -> Setup {
     let mut rng = StdRng::seed_from_u64(seed);
     let prims = scene(&mut rng, n);
     setup_prims(rng, prims)
-}
-
-/// VPLs on three walls of a box (x = −5 facing +x, y = −5 facing +y, z = 5
-/// facing −z), every fifth lifted off its wall by up to 0.3 and tilted: the
-/// substitute tree has suitable nodes on the walls and unsuitable ones
-/// across them.
-fn vpl_walls(rng: &mut StdRng, n: usize) -> Vec<LightPrim> {
-    (0..n)
-        .map(|i| {
-            let (a, b) = (
-                rng.random_range(-5.0..5.0f32),
-                rng.random_range(-5.0..5.0f32),
-            );
-            let lift = if i % 5 == 4 {
-                rng.random_range(0.0..0.3)
-            } else {
-                0.0
-            };
-            let (p, mut nrm) = match i % 3 {
-                0 => (Vec3::new(-5.0 + lift, a, b), Vec3::X),
-                1 => (Vec3::new(a, -5.0 + lift, b), Vec3::Y),
-                _ => (Vec3::new(a, b, 5.0 - lift), Vec3::NEG_Z),
-            };
-            if lift > 0.0 {
-                nrm = (nrm + unit(rng) * 0.5).normalize();
-            }
-            let e = Vec3::new(rng.random(), rng.random(), rng.random()) * 2.0;
-            LightPrim::vpl(p, nrm, e)
-        })
-        .collect()
 }
 
 fn setup_prims(mut rng: StdRng, prims: Vec<LightPrim>) -> Setup {

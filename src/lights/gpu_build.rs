@@ -635,40 +635,47 @@ impl GpuLightTree {
                     }
                 })?;
             }
+            // One dispatch per level, each with its own parameter entry
+            // (from `first` on), in one profiler phase.
+            let per_level = |profiler: &mut Profiler,
+                             phase: &str,
+                             pipeline: &wgpu::ComputePipeline,
+                             levels: &[u32],
+                             first: usize|
+             -> Result<()> {
+                if levels.is_empty() {
+                    return Ok(());
+                }
+                let groups: Vec<_> = (first..first + levels.len()).map(group).collect();
+                profiler.phase(phase, |encoder, timestamps| {
+                    let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                        label: Some(phase),
+                        timestamp_writes: timestamps,
+                    });
+                    pass.set_pipeline(pipeline);
+                    for (&level, g) in levels.iter().zip(&groups) {
+                        let (gx, gy) = gpu.dispatch_dims((1u32 << level).div_ceil(WG));
+                        pass.set_bind_group(0, g, &[]);
+                        pass.dispatch_workgroups(gx, gy, 1);
+                    }
+                })
+            };
             let first = 1 + steps.len();
-            let cone_groups: Vec<_> = (first..first + cone_levels.len()).map(group).collect();
-            if !cone_levels.is_empty() {
-                profiler.phase(PHASES[5], |encoder, timestamps| {
-                    let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                        label: Some(PHASES[5]),
-                        timestamp_writes: timestamps,
-                    });
-                    pass.set_pipeline(&self.cone_pipeline);
-                    for (&level, g) in cone_levels.iter().zip(&cone_groups) {
-                        let (gx, gy) = gpu.dispatch_dims((1u32 << level).div_ceil(WG));
-                        pass.set_bind_group(0, g, &[]);
-                        pass.dispatch_workgroups(gx, gy, 1);
-                    }
-                })?;
-            }
+            per_level(
+                profiler,
+                PHASES[5],
+                &self.cone_pipeline,
+                &cone_levels,
+                first,
+            )?;
             let first = first + cone_levels.len();
-            let substitute_groups: Vec<_> = (first..first + substitute_levels.len())
-                .map(group)
-                .collect();
-            if !substitute_levels.is_empty() {
-                profiler.phase(PHASES[8], |encoder, timestamps| {
-                    let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                        label: Some(PHASES[8]),
-                        timestamp_writes: timestamps,
-                    });
-                    pass.set_pipeline(&self.substitute_pipeline);
-                    for (&level, g) in substitute_levels.iter().zip(&substitute_groups) {
-                        let (gx, gy) = gpu.dispatch_dims((1u32 << level).div_ceil(WG));
-                        pass.set_bind_group(0, g, &[]);
-                        pass.dispatch_workgroups(gx, gy, 1);
-                    }
-                })?;
-            }
+            per_level(
+                profiler,
+                PHASES[8],
+                &self.substitute_pipeline,
+                &substitute_levels,
+                first,
+            )?;
             Ok(())
         })
     }
