@@ -39,6 +39,7 @@ test: vulkan
 	$(CARGO) test --no-fail-fast
 	$(CARGO) run --profile test --example custom_integrand -- target/examples-out/custom_integrand
 	$(CARGO) run --profile test --example compare_scene -- scenes/cornell.toml target/examples-out/compare_scene 0.125 256
+	$(CARGO) run --profile test --example light_sampler
 
 bench: vulkan
 	$(CARGO) bench

@@ -459,3 +459,152 @@ impl GpuSamplerData {
             .part(wgsl_file!("lights/sample.wgsl"))
     }
 }
+
+/// One query of [`BatchSampler`] (`SampleQuery` in
+/// `wgsl/lights/sample_batch.wgsl`): a shading point, its unit normal
+/// facing the outgoing direction (zero: no normal), `u ∈ [0, 1)` and the
+/// cut-sharing block whose cut it samples (the kinds with cuts; a new
+/// [`GpuSamplerData`]'s cuts are all [root] until a cut pre-pass or
+/// [`GpuSamplerData::write_cuts`] fills them).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct SampleQuery {
+    pub p: [f32; 3],
+    pub u: f32,
+    pub n: [f32; 3],
+    pub block: u32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+struct SampleAnswer {
+    light: u32,
+    pmf_m: f32,
+    pmf_e: i32,
+    _pad: u32,
+}
+
+/// What the GPU sampler picked for one [`SampleQuery`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum GpuPick {
+    /// No light can contribute (or no lights).
+    None,
+    /// A light and the probability of picking it.
+    Light { light: u32, pmf: f64 },
+    /// `sst`: the substitute of tree node `node` and the probability of
+    /// stopping there.
+    Substitute { node: u32, pmf: f64 },
+}
+
+/// Runs the WGSL light samplers (`light_sample` of
+/// `wgsl/lights/sample.wgsl`) on a batch of queries: the GPU side of a
+/// sampler as a library call, to check a CPU sampler against it or to
+/// study a sampler's choices (`examples/light_sampler.rs`).
+pub struct BatchSampler {
+    layout0: wgpu::BindGroupLayout,
+    layout1: wgpu::BindGroupLayout,
+    pipeline: wgpu::ComputePipeline,
+}
+
+impl BatchSampler {
+    /// Compiles the kernel (one for every sampler kind: the kind is a
+    /// uniform of [`GpuSamplerData`]).
+    pub fn new(gpu: &Gpu) -> Result<BatchSampler> {
+        let layout = |label, entries: &[wgpu::BindGroupLayoutEntry]| {
+            gpu.device
+                .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                    label: Some(label),
+                    entries,
+                })
+        };
+        let layout0 = layout(
+            "lights.batch.group0",
+            &[storage_entry(0, true), storage_entry(1, false)],
+        );
+        let layout1 = layout("lights.batch.group1", &GpuSamplerData::layout_entries());
+        let source = GpuSamplerData::wgsl().part(wgsl_file!("lights/sample_batch.wgsl"));
+        let pipeline = gpu.compute_pipeline(
+            "lights.batch",
+            &source,
+            "sample_batch",
+            &[&layout0, &layout1],
+        )?;
+        Ok(BatchSampler {
+            layout0,
+            layout1,
+            pipeline,
+        })
+    }
+
+    /// One sample of `data`'s sampler per query, in query order.
+    pub fn sample(
+        &self,
+        gpu: &Gpu,
+        data: &GpuSamplerData,
+        queries: &[SampleQuery],
+    ) -> Result<Vec<GpuPick>> {
+        if queries.is_empty() {
+            return Ok(Vec::new());
+        }
+        let blocks = data.cuts.size() / 4 / data.params.cut_size.max(1) as u64;
+        if data.kind.uses_cut() {
+            if let Some(q) = queries.iter().find(|q| q.block as u64 >= blocks) {
+                bail!(
+                    "query block {} beyond the sampler's {blocks} cut blocks",
+                    q.block
+                );
+            }
+        }
+        let answers = gpu.scoped("sampling a batch of lights", || {
+            let qbuf = gpu.buffer_from("lights.batch.queries", queries, STORAGE)?;
+            let abuf = gpu.buffer_zeroed(
+                "lights.batch.answers",
+                (queries.len() * size_of::<SampleAnswer>()) as u64,
+                STORAGE,
+            )?;
+            let group0 = crate::gpu::shader::bind_buffers(
+                gpu,
+                "lights.batch.group0",
+                &self.layout0,
+                &[&qbuf, &abuf],
+            );
+            let group1 = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("lights.batch.group1"),
+                layout: &self.layout1,
+                entries: &data.bind_group_entries(),
+            });
+            let mut encoder = gpu.device.create_command_encoder(&Default::default());
+            {
+                let mut pass = encoder.begin_compute_pass(&Default::default());
+                pass.set_pipeline(&self.pipeline);
+                pass.set_bind_group(0, &group0, &[]);
+                pass.set_bind_group(1, &group1, &[]);
+                let (gx, gy) = gpu.dispatch_dims((queries.len() as u32).div_ceil(64));
+                pass.dispatch_workgroups(gx, gy, 1);
+            }
+            gpu.queue.submit([encoder.finish()]);
+            gpu.read_buffer::<SampleAnswer>(&abuf, queries.len())
+        })?;
+        Ok(answers
+            .iter()
+            .map(|a| {
+                let pmf = a.pmf_m as f64 * 2f64.powi(a.pmf_e);
+                if a.light == NO_LIGHT {
+                    GpuPick::None
+                } else if data.kind.uses_substitute_tree()
+                    && a.light & substitute::SUBSTITUTE_BIT != 0
+                {
+                    GpuPick::Substitute {
+                        node: a.light & !substitute::SUBSTITUTE_BIT,
+                        pmf,
+                    }
+                } else {
+                    GpuPick::Light {
+                        light: a.light,
+                        pmf,
+                    }
+                }
+            })
+            .collect())
+    }
+}
