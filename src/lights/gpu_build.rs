@@ -563,6 +563,22 @@ impl GpuLightTree {
             })
         };
 
+        // A stable radix sort of (codes, ids) on `bits` bits, in place.
+        let sort = |profiler: &mut Profiler, phase: &str, bits: u32| -> Result<()> {
+            let mut sorted = Ok(());
+            profiler.phase(phase, |encoder, timestamps| {
+                sorted = self.sorter.sort(
+                    gpu,
+                    encoder,
+                    timestamps,
+                    &self.sorted_codes,
+                    &self.sorted_ids,
+                    count,
+                    bits,
+                );
+            })?;
+            sorted
+        };
         gpu.scoped("building the light tree", || {
             single(
                 profiler,
@@ -580,19 +596,7 @@ impl GpuLightTree {
                     light_groups,
                     None,
                 )?;
-                let mut sorted = Ok(());
-                profiler.phase(PHASES[7], |encoder, timestamps| {
-                    sorted = self.sorter.sort(
-                        gpu,
-                        encoder,
-                        timestamps,
-                        &self.sorted_codes,
-                        &self.sorted_ids,
-                        count,
-                        substitute::NORMAL_BITS,
-                    );
-                })?;
-                sorted?;
+                sort(profiler, PHASES[7], substitute::NORMAL_BITS)?;
             }
             let morton = if self.substitutes.is_some() {
                 &self.morton_sorted_pipeline
@@ -600,19 +604,7 @@ impl GpuLightTree {
                 &self.morton_pipeline
             };
             single(profiler, PHASES[1], morton, light_groups, None)?;
-            let mut sorted = Ok(());
-            profiler.phase(PHASES[2], |encoder, timestamps| {
-                sorted = self.sorter.sort(
-                    gpu,
-                    encoder,
-                    timestamps,
-                    &self.sorted_codes,
-                    &self.sorted_ids,
-                    count,
-                    CODE_BITS,
-                );
-            })?;
-            sorted?;
+            sort(profiler, PHASES[2], CODE_BITS)?;
             single(
                 profiler,
                 PHASES[3],
