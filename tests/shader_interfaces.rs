@@ -48,6 +48,7 @@ use mdas::integrator::mdas::{
     adapt, config::Config, error, evaluate, gpu_params, initial, plan, reconstruct, scan, stats,
 };
 use mdas::lights::gpu_build::{BuildParams, GpuLightTree};
+use mdas::lights::gpu_sampler::{BatchSampler, GpuSamplerData, SampleAnswer, SampleQuery};
 use mdas::lights::vpl::{VplGenerator, VplParams};
 use mdas::lights::{alias::AliasEntry, gpu_sampler::LightParams, LightPrim, TreeNode};
 use mdas::wgsl_file;
@@ -207,6 +208,11 @@ fn kernels() -> Vec<Kernel> {
     }
     let vpl = [VplGenerator::layout_entries(), GpuScene::layout_entries()];
     all.push(kernel("vpl", &VplGenerator::source(), &vpl));
+    let batch = [
+        BatchSampler::layout_entries(),
+        GpuSamplerData::layout_entries(),
+    ];
+    all.push(kernel("light_batch", &BatchSampler::source(), &batch));
     all
 }
 
@@ -446,6 +452,10 @@ fn mirrors() -> BTreeMap<(&'static str, &'static str), Layout> {
         ((lights, "LightParams"), host!(LightParams {
             count, kind, levels, leaf_count, node_count, cut_size, block_size, blocks_per_row,
             alias_count, interleave, frame, time, vpl_clamp2, sst_nu_min, sst_sigma_max2, _pad,
+        })),
+        (("lights/sample_batch.wgsl", "SampleQuery"), host!(SampleQuery { p, u, n, block })),
+        (("lights/sample_batch.wgsl", "SampleAnswer"), host!(SampleAnswer {
+            light, pmf_m, pmf_e, _pad,
         })),
         (("lights/substitute.wgsl", "Substitute"), host!(Substitute {
             mean, nu, normal, cov_xy, cov_diag, cov_xz, emission, cov_yz,

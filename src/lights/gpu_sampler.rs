@@ -475,13 +475,16 @@ pub struct SampleQuery {
     pub block: u32,
 }
 
+/// The kernel's raw answer to one query (`SampleAnswer` in
+/// `wgsl/lights/sample_batch.wgsl`), which [`BatchSampler::sample`] turns
+/// into a [`GpuPick`]: `light` as `LightPick.light`, pmf = `pmf_m·2^pmf_e`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
-struct SampleAnswer {
-    light: u32,
-    pmf_m: f32,
-    pmf_e: i32,
-    _pad: u32,
+pub struct SampleAnswer {
+    pub light: u32,
+    pub pmf_m: f32,
+    pub pmf_e: i32,
+    pub _pad: u32,
 }
 
 /// What the GPU sampler picked for one [`SampleQuery`].
@@ -507,6 +510,16 @@ pub struct BatchSampler {
 }
 
 impl BatchSampler {
+    /// The kernel's WGSL: the samplers' and `lights/sample_batch.wgsl`.
+    pub fn source() -> Wgsl {
+        GpuSamplerData::wgsl().part(wgsl_file!("lights/sample_batch.wgsl"))
+    }
+
+    /// Group 0 of the kernel: the queries (read) and the answers.
+    pub fn layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
+        vec![storage_entry(0, true), storage_entry(1, false)]
+    }
+
     /// Compiles the kernel (one for every sampler kind: the kind is a
     /// uniform of [`GpuSamplerData`]).
     pub fn new(gpu: &Gpu) -> Result<BatchSampler> {
@@ -517,15 +530,11 @@ impl BatchSampler {
                     entries,
                 })
         };
-        let layout0 = layout(
-            "lights.batch.group0",
-            &[storage_entry(0, true), storage_entry(1, false)],
-        );
+        let layout0 = layout("lights.batch.group0", &Self::layout_entries());
         let layout1 = layout("lights.batch.group1", &GpuSamplerData::layout_entries());
-        let source = GpuSamplerData::wgsl().part(wgsl_file!("lights/sample_batch.wgsl"));
         let pipeline = gpu.compute_pipeline(
             "lights.batch",
-            &source,
+            &Self::source(),
             "sample_batch",
             &[&layout0, &layout1],
         )?;
