@@ -328,8 +328,9 @@ pub struct Reference {
     /// The cache entry (EXR); its record is [`reference_record_path`].
     pub path: PathBuf,
     pub cache: CacheUse,
-    /// The scene's [`IntegrandSpec::light_warnings`] (an integrand that
-    /// sees no light renders a black reference).
+    /// The scene file's warnings ([`SceneFile::warnings`]) and its
+    /// [`IntegrandSpec::light_warnings`] (an integrand that sees no light
+    /// renders a black reference).
     pub warnings: Vec<String>,
 }
 
@@ -421,7 +422,8 @@ pub fn reference_with(
     let scene = SceneFile::load(scene_path)?;
     // An override the scene cannot take fails here, cached entry or not.
     let applied = overrides.apply(&scene.integrand, scene_path)?;
-    let warnings = applied.light_warnings(&scene.scene);
+    let mut warnings = scene.warnings.clone();
+    warnings.extend(applied.light_warnings(&scene.scene));
     let extra = overrides.cache_key(&scene.integrand)?;
     let path = reference_cache_path_keyed(cache_dir, scene_path, &scene.inputs, spec, &extra)?;
     if path.is_dir() {

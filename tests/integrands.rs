@@ -895,3 +895,28 @@ fn tilted_emitter_over_tilted_receiver_matches_lambert() {
         );
     }
 }
+
+/// An OBJ scene with its own MTL materials (`scenes/tests/obj_materials.toml`)
+/// renders lit by its emissive group alone: finite, with red pixels (the
+/// block's `Kd 0.8 0.1 0.1` face toward the camera, lit by the lamp in
+/// front of it) and grey ones (the `Kd 0.7` floor, and the lamp's `Ke`
+/// where the camera sees its underside).
+#[test]
+fn obj_scene_is_lit_by_its_mtl_emissive_group() {
+    let s = scene_file::load(Path::new("scenes/tests/obj_materials.toml")).unwrap();
+    let gpu = gpu();
+    let f = app::integrand_for(gpu, &s, s.scene.film).unwrap();
+    let r = Halton::new(16, 1).render(gpu, f.as_ref()).unwrap();
+    assert_eq!(r.nonfinite, 0);
+    let red = r
+        .image
+        .iter()
+        .filter(|p| p[0] > 0.01 && p[0] > 4.0 * p[1])
+        .count();
+    let grey = r
+        .image
+        .iter()
+        .filter(|p| p[1] > 0.01 && (p[0] - p[1]).abs() < 0.2 * p[1])
+        .count();
+    assert!(red > 0 && grey > 0, "red {red}, grey {grey} pixels");
+}

@@ -241,6 +241,130 @@ fn obj_mesh_loads_relative_to_the_scene_file_with_motion() {
         .abs_diff_eq(Quat::from_rotation_y(std::f32::consts::PI), 1e-6));
 }
 
+/// An OBJ without a scene `material` brings its own (issue 19 item 4):
+/// one mesh per object or group and material, in file order, named
+/// `SHAPE/GROUP`; MTL `Kd` → albedo, `Ke` → emission (the lamp group is an
+/// area light); a texture map is a warning naming it; the MTL file is an
+/// input of the scene (cache key). With `material` the OBJ is one mesh of
+/// it, as before.
+#[test]
+fn obj_materials_come_from_its_mtl_unless_overridden() {
+    let s = scene_file::load(&scene_path("tests/obj_materials.toml")).unwrap();
+    let names: Vec<&str> = s.scene.meshes.iter().map(|m| m.name.as_str()).collect();
+    assert_eq!(
+        names,
+        ["room/floor", "room/block", "room/block", "room/lamp"]
+    );
+    let material = |m: &Mesh| &s.scene.materials[m.material as usize];
+    let mats: Vec<&str> = s
+        .scene
+        .meshes
+        .iter()
+        .map(|m| material(m).name.as_str())
+        .collect();
+    assert_eq!(mats, ["room/white", "room/red", "room/white", "room/lamp"]);
+    assert_eq!(s.scene.materials.len(), 3, "each OBJ material once");
+    let m = |i: usize| material(&s.scene.meshes[i]);
+    assert_eq!(m(0).albedo, Vec3::splat(0.7));
+    assert_eq!(m(1).albedo, Vec3::new(0.8, 0.1, 0.1));
+    assert_eq!((m(3).albedo, m(3).emission), (Vec3::ZERO, Vec3::splat(5.0)));
+    assert_eq!(m(0).emission, Vec3::ZERO);
+    // Each part keeps only its own vertices, and the lamp faces down.
+    assert_eq!(
+        s.scene
+            .meshes
+            .iter()
+            .map(|m| m.positions.len())
+            .collect::<Vec<_>>(),
+        [4, 4, 4, 4]
+    );
+    assert!(normals(&s.scene.meshes[3]).iter().all(|n| n.y < 0.0));
+    assert!(normals(&s.scene.meshes[1]).iter().all(|n| n.z < 0.0));
+    assert!(normals(&s.scene.meshes[2]).iter().all(|n| n.z > 0.0));
+    assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
+    assert!(
+        s.warnings[0].contains("material 'red' names textures (bricks.png)"),
+        "{:?}",
+        s.warnings
+    );
+    let inputs: Vec<String> = s
+        .inputs
+        .iter()
+        .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(inputs, ["two_materials.obj", "two_materials.mtl"]);
+    // The emissive group makes the default integrand an area-light one
+    // with something to see.
+    assert!(matches!(s.integrand, IntegrandSpec::AreaLight));
+    assert!(s.integrand.light_warnings(&s.scene).is_empty());
+
+    // With a material: one mesh, the MTL unread.
+    let dir = scene_path("tests");
+    let text = format!(
+        "{BASE}[[shape]]\ntype = \"mesh\"\nmaterial = \"white\"\nfile = \"{}\"\n",
+        dir.join("two_materials.obj").display()
+    );
+    let one = ok("obj-override", &text);
+    assert_eq!(one.scene.meshes.len(), 1);
+    assert_eq!(one.scene.meshes[0].indices.len(), 8);
+    assert_eq!(one.scene.materials.len(), 1);
+    assert!(one.warnings.is_empty());
+    assert_eq!(one.inputs.len(), 1);
+}
+
+/// What an OBJ's materials cannot give is an error at the `file` key: faces
+/// before any `usemtl`, a `usemtl` naming no material (with its line), a
+/// missing material library, an albedo out of [0, 1]. A shape other than
+/// `mesh` still needs `material`.
+#[test]
+fn obj_material_errors_are_named_at_the_file_key() {
+    let (path, _) = load_text("obj-mtl-errors", "");
+    let dir = path.parent().unwrap().to_path_buf();
+    let write = |name: &str, text: &str| std::fs::write(dir.join(name), text).unwrap();
+    write(
+        "good.mtl",
+        "newmtl a\nKd 0.5 0.5 0.5\nnewmtl bright\nKd 1.5 0 0\n",
+    );
+    let quad = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n";
+    let scene = |obj: &str| format!("{BASE}[[shape]]\ntype = \"mesh\"\nfile = \"{obj}\"\n");
+    for (obj, text, want) in [
+        (
+            "nomtl.obj",
+            format!("mtllib good.mtl\n{quad}f 1 2 3 4\n"),
+            "has faces without a material (no usemtl)".to_string(),
+        ),
+        (
+            "unknown.obj",
+            format!("mtllib good.mtl\n{quad}usemtl nope\nf 1 2 3 4\n"),
+            "line 6: usemtl 'nope' names no material of its material library".to_string(),
+        ),
+        (
+            "nolib.obj",
+            format!("mtllib missing.mtl\n{quad}usemtl a\nf 1 2 3 4\n"),
+            format!(
+                "cannot read material library '{}'",
+                dir.join("missing.mtl").display()
+            ),
+        ),
+        (
+            "bright.obj",
+            format!("mtllib good.mtl\n{quad}usemtl bright\nf 1 2 3 4\n"),
+            "material 'bright': Kd must be in [0, 1]".to_string(),
+        ),
+    ] {
+        write(obj, &text);
+        let m = error_at("obj-mtl-errors", &scene(obj), 14, 8);
+        assert!(m.contains(&want), "{obj}: {m}");
+    }
+    let m = error_at(
+        "quad-no-material",
+        &format!("{BASE}[[shape]]\ntype = \"quad\"\ncorners = [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]]\n"),
+        13,
+        8,
+    );
+    assert!(m.contains("a quad shape needs 'material'"), "{m}");
+}
+
 #[test]
 fn message_format_names_file_line_column() {
     let text = format!("{BASE}[[material]]\nname = \"red\"\nalbdo = [1, 0, 0]\n");

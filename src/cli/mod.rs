@@ -35,7 +35,7 @@ pub(crate) use std::path::{Path, PathBuf};
                   stdout one JSON document (every subcommand); --quiet drops bars and notes.\n\n\
                   Environment: MDAS_ADAPTER=<substring> picks an adapter by name; WGPU_BACKEND \
                   restricts backends (e.g. vulkan).\n\n\
-                  Input limits: a scene file ≤ 16 MiB and an OBJ ≤ 1 GiB (regular files); a film \
+                  Input limits: a scene file ≤ 16 MiB, an OBJ ≤ 1 GiB and an MTL ≤ 64 MiB (regular files); a film \
                   side ≤ 16384 and ≤ 2^26 pixels; a shape ≤ 2^25 triangles, at most 16 sharing \
                   one centre; ≤ 2^24 light-set lights; coordinates within ±1e9; an EXR read ≤ 2^28 \
                   pixels. Outputs land whole or not at all (an interrupt removes partial ones)."
@@ -420,9 +420,15 @@ pub(crate) fn check_not_input(output: &Path, inputs: &[&Path]) -> Result<()> {
     Ok(())
 }
 
-/// Prints the scene's warnings: an integrand that can see no light.
+/// Prints the scene's warnings: what loading ignored (textures of OBJ
+/// materials) and an integrand that can see no light.
 pub(crate) fn warn_unlit(scene: &SceneFile) {
-    for w in scene.integrand.light_warnings(&scene.scene) {
+    for w in scene
+        .warnings
+        .iter()
+        .cloned()
+        .chain(scene.integrand.light_warnings(&scene.scene))
+    {
         eprintln!("warning: {w}");
     }
 }

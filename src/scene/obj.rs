@@ -1,25 +1,161 @@
 //! Wavefront OBJ meshes for `[[shape]] type = "mesh"`, read with tobj.
 //!
-//! Only vertex positions and faces are used: polygons are fan-triangulated
-//! (tobj), points and lines are ignored, all objects and groups of the file
-//! are merged into one mesh, and `mtllib` / `usemtl` are ignored (the
-//! scene file assigns the material). Face winding is kept as written, so
-//! the OBJ's counter-clockwise faces keep their normals.
+//! Vertex positions and faces are used: polygons are fan-triangulated
+//! (tobj), points and lines are ignored, and face winding is kept as
+//! written, so the OBJ's counter-clockwise faces keep their normals (and
+//! emit on that side). Vertex normals (`vn`) and texture coordinates are
+//! not used.
+//!
+//! * [`load_obj`]: the whole file as one mesh (a shape whose scene-file
+//!   `material` overrides the OBJ's).
+//! * [`load_obj_parts`]: one part per object or group and material, in
+//!   file order, with the materials of its `mtllib` files (MTL `Kd` →
+//!   albedo, `Ke` → emission; textures are reported, not used).
 
 use super::shapes::TriMesh;
 use glam::Vec3;
-use std::path::Path;
+use std::path::{Path, PathBuf};
+
+/// The largest MTL file read.
+pub const MAX_MTL_BYTES: u64 = 1 << 26;
+
+/// One material of an OBJ's material library.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ObjMaterial {
+    pub name: String,
+    /// `Kd`, if given.
+    pub diffuse: Option<Vec3>,
+    /// `Ke`, if given.
+    pub emission: Option<Vec3>,
+    /// The texture maps it names (`map_Kd` and the others), ignored.
+    pub textures: Vec<String>,
+}
+
+/// One object or group of an OBJ with one material.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ObjPart {
+    /// The object or group name (tobj's model name; may repeat when an
+    /// object changes material).
+    pub name: String,
+    pub mesh: TriMesh,
+    /// Index into [`ObjFile::materials`]; `None` for faces without a
+    /// `usemtl`.
+    pub material: Option<usize>,
+}
+
+/// An OBJ read with its materials.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ObjFile {
+    pub parts: Vec<ObjPart>,
+    pub materials: Vec<ObjMaterial>,
+    /// The MTL files read (what a cached render also depends on).
+    pub mtl_files: Vec<PathBuf>,
+}
 
 /// The largest OBJ file read (a 10M-triangle mesh is about 500 MB).
 pub const MAX_OBJ_BYTES: u64 = 1 << 30;
 
-/// Read and triangulate an OBJ file. The error is a sentence naming the
-/// file, for the scene loader to place at the `file` key.
+/// Read and triangulate an OBJ file as one mesh (materials ignored). The
+/// error is a sentence naming the file, for the scene loader to place at
+/// the `file` key.
 pub fn load_obj(path: &Path) -> Result<TriMesh, String> {
-    let cannot_read =
-        |e: &dyn std::fmt::Display| format!("cannot read mesh file '{}': {e}", path.display());
-    let bytes = super::read_input(path, MAX_OBJ_BYTES).map_err(|e| cannot_read(&e))?;
+    let bytes = read_obj(path)?;
     parse_obj(&bytes).map_err(|e| format!("mesh file '{}': {e}", path.display()))
+}
+
+fn read_obj(path: &Path) -> Result<Vec<u8>, String> {
+    super::read_input(path, MAX_OBJ_BYTES)
+        .map_err(|e| format!("cannot read mesh file '{}': {e}", path.display()))
+}
+
+/// Read an OBJ file with the materials of its `mtllib` files (paths
+/// relative to the OBJ's directory). Errors: as [`load_obj`]'s, and an
+/// unreadable or invalid material library, or a `usemtl` that names no
+/// material of it (with its line).
+pub fn load_obj_parts(path: &Path) -> Result<ObjFile, String> {
+    let in_file = |e: String| format!("mesh file '{}': {e}", path.display());
+    let bytes = read_obj(path)?;
+    let dir = path.parent().unwrap_or(Path::new("")).to_path_buf();
+    let mtl_files = std::cell::RefCell::new(Vec::new());
+    let mtl_error = std::cell::RefCell::new(None);
+    let loader = |name: &Path| -> tobj::MTLLoadResult {
+        let file = dir.join(name);
+        mtl_files.borrow_mut().push(file.clone());
+        let read = super::read_input(&file, MAX_MTL_BYTES)
+            .map_err(|e| format!("cannot read material library '{}': {e}", file.display()))
+            .and_then(|b| {
+                std::panic::catch_unwind(|| tobj::load_mtl_buf(&mut &b[..]))
+                    .map_err(|_| "the MTL parser failed".to_string())?
+                    .map_err(|e| format!("invalid material library '{}': {e}", file.display()))
+            });
+        read.map_err(|e| {
+            mtl_error.borrow_mut().get_or_insert(e);
+            tobj::LoadError::OpenFileFailed
+        })
+    };
+    let (models, materials) = parse_models(&bytes, loader).map_err(in_file)?;
+    if let Some(e) = mtl_error.into_inner() {
+        return Err(in_file(e));
+    }
+    let materials: Vec<ObjMaterial> = materials
+        .map_err(|e| in_file(format!("invalid material library: {e}")))?
+        .into_iter()
+        .map(|m| {
+            let textures = [
+                &m.ambient_texture,
+                &m.diffuse_texture,
+                &m.specular_texture,
+                &m.normal_texture,
+                &m.shininess_texture,
+                &m.dissolve_texture,
+            ]
+            .into_iter()
+            .flatten()
+            .cloned()
+            .collect();
+            ObjMaterial {
+                name: m.name,
+                diffuse: m.diffuse.map(Vec3::from),
+                emission: m.emissive.map(Vec3::from),
+                textures,
+            }
+        })
+        .collect();
+    // tobj leaves a `usemtl` of an unknown name without a material: say so.
+    if let Ok(text) = std::str::from_utf8(&bytes) {
+        for (n, line) in text.lines().enumerate() {
+            let mut fields = line.split_whitespace();
+            if fields.next() == Some("usemtl") {
+                let name = line.trim_start()["usemtl".len()..].trim();
+                if !materials.iter().any(|m| m.name == name) {
+                    return Err(in_file(format!(
+                        "line {}: usemtl '{name}' names no material of its material library",
+                        n + 1
+                    )));
+                }
+            }
+        }
+    }
+    let mut parts = Vec::with_capacity(models.len());
+    for model in &models {
+        let mut mesh = TriMesh::default();
+        append_model(&mut mesh, model).map_err(in_file)?;
+        if !mesh.indices.is_empty() {
+            parts.push(ObjPart {
+                name: model.name.clone(),
+                mesh,
+                material: model.mesh.material_id,
+            });
+        }
+    }
+    if parts.is_empty() {
+        return Err(in_file("it contains no faces".into()));
+    }
+    Ok(ObjFile {
+        parts,
+        materials,
+        mtl_files: mtl_files.into_inner(),
+    })
 }
 
 /// Checks the `v` and `f` records line by line, so that the common errors
@@ -75,8 +211,17 @@ fn check_lines(text: &str) -> Result<(), String> {
     Ok(())
 }
 
-/// Parse OBJ text (see [`load_obj`]).
-pub fn parse_obj(bytes: &[u8]) -> Result<TriMesh, String> {
+/// What tobj returns: the models and the material library's result.
+type Models = (
+    Vec<tobj::Model>,
+    Result<Vec<tobj::Material>, tobj::LoadError>,
+);
+
+/// The line checks, then tobj (a panic inside it comes back as an error).
+fn parse_models<ML>(bytes: &[u8], material_loader: ML) -> Result<Models, String>
+where
+    ML: Fn(&Path) -> tobj::MTLLoadResult,
+{
     if let Ok(text) = std::str::from_utf8(bytes) {
         check_lines(text)?;
     }
@@ -88,48 +233,55 @@ pub fn parse_obj(bytes: &[u8]) -> Result<TriMesh, String> {
     };
     // tobj is not fuzzed against every input; a panic in it must still
     // come back as an error value.
-    let loaded = std::panic::catch_unwind(|| {
-        tobj::load_obj_buf(&mut &bytes[..], &options, |_| {
-            Ok((Vec::new(), Default::default()))
-        })
-    })
+    let loaded = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        tobj::load_obj_buf(&mut &bytes[..], &options, material_loader)
+    }))
     .map_err(|_| "the OBJ parser failed on this file".to_string())?;
-    let (models, _materials) = loaded.map_err(|e| format!("invalid OBJ: {e}"))?;
+    loaded.map_err(|e| format!("invalid OBJ: {e}"))
+}
 
-    let mut mesh = TriMesh::default();
-    for model in &models {
-        let m = &model.mesh;
-        let base = mesh.positions.len();
-        if m.positions.len() % 3 != 0 || m.indices.len() % 3 != 0 {
+/// Appends one tobj model's finite vertices and in-range faces.
+fn append_model(mesh: &mut TriMesh, model: &tobj::Model) -> Result<(), String> {
+    let m = &model.mesh;
+    let base = mesh.positions.len();
+    if m.positions.len() % 3 != 0 || m.indices.len() % 3 != 0 {
+        return Err(format!(
+            "object '{}' has malformed position or face data",
+            model.name
+        ));
+    }
+    for p in m.positions.chunks_exact(3) {
+        let p = Vec3::new(p[0], p[1], p[2]);
+        if !p.is_finite() {
             return Err(format!(
-                "object '{}' has malformed position or face data",
+                "object '{}' has a non-finite vertex {p}",
                 model.name
             ));
         }
-        for p in m.positions.chunks_exact(3) {
-            let p = Vec3::new(p[0], p[1], p[2]);
-            if !p.is_finite() {
-                return Err(format!(
-                    "object '{}' has a non-finite vertex {p}",
-                    model.name
-                ));
-            }
-            mesh.positions.push(p);
+        mesh.positions.push(p);
+    }
+    let count = m.positions.len() / 3;
+    for t in m.indices.chunks_exact(3) {
+        if t.iter().any(|&i| i as usize >= count) {
+            return Err(format!(
+                "object '{}' has a face index out of range",
+                model.name
+            ));
         }
-        let count = m.positions.len() / 3;
-        for t in m.indices.chunks_exact(3) {
-            if t.iter().any(|&i| i as usize >= count) {
-                return Err(format!(
-                    "object '{}' has a face index out of range",
-                    model.name
-                ));
-            }
-            let offset = |i: u32| {
-                u32::try_from(base + i as usize).map_err(|_| "too many vertices".to_string())
-            };
-            mesh.indices
-                .push([offset(t[0])?, offset(t[1])?, offset(t[2])?]);
-        }
+        let offset =
+            |i: u32| u32::try_from(base + i as usize).map_err(|_| "too many vertices".to_string());
+        mesh.indices
+            .push([offset(t[0])?, offset(t[1])?, offset(t[2])?]);
+    }
+    Ok(())
+}
+
+/// Parse OBJ text as one mesh (see [`load_obj`]).
+pub fn parse_obj(bytes: &[u8]) -> Result<TriMesh, String> {
+    let (models, _materials) = parse_models(bytes, |_| Ok((Vec::new(), Default::default())))?;
+    let mut mesh = TriMesh::default();
+    for model in &models {
+        append_model(&mut mesh, model)?;
     }
     if mesh.indices.is_empty() {
         return Err("it contains no faces".into());

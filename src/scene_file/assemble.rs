@@ -4,6 +4,7 @@
 use super::ctx::{Ctx, Result};
 use super::lights::{LightOut, Surfaces};
 use super::raw::*;
+use super::shapes::ShapeOutputs;
 use super::values::*;
 use super::*;
 use crate::film::Film;
@@ -35,9 +36,19 @@ impl Ctx<'_> {
         }
 
         let mut meshes = Vec::with_capacity(raw.shape.len());
+        let mut out = ShapeOutputs {
+            materials,
+            inputs: Vec::new(),
+            warnings: Vec::new(),
+        };
         for (n, s) in raw.shape.iter().enumerate() {
-            meshes.push(self.shape(s, n, &by_name)?);
+            meshes.extend(self.shape(s, n, &by_name, &mut out)?);
         }
+        let ShapeOutputs {
+            mut materials,
+            inputs,
+            warnings,
+        } = out;
 
         let mut lights = Vec::new();
         for (n, l) in raw.light.iter().enumerate() {
@@ -102,21 +113,12 @@ impl Ctx<'_> {
             },
             integrand,
             mdas,
-            inputs: self.mesh_files(&raw),
+            inputs,
+            warnings,
         })
     }
 
     /// The OBJ files of the `mesh` shapes (already loaded, so they exist).
-    fn mesh_files(&self, raw: &RawScene) -> Vec<std::path::PathBuf> {
-        let dir = self.file.parent().unwrap_or(std::path::Path::new(""));
-        raw.shape
-            .iter()
-            .map(|s| s.get_ref())
-            .filter(|s| s.kind.get_ref() == "mesh")
-            .filter_map(|s| s.file.as_ref().map(|f| dir.join(f.get_ref())))
-            .collect()
-    }
-
     pub(super) fn film(&self, f: &RawFilm) -> Result<Film> {
         let side = |v: &S<i64>, key: &str| {
             let x = *v.get_ref();

@@ -70,9 +70,13 @@ pub struct SceneFile {
     pub integrand: IntegrandSpec,
     /// `[mdas]` (missing keys from `MdasParams::for_film`).
     pub mdas: MdasParams,
-    /// The files the scene loaded besides itself (its OBJ meshes), in
-    /// order: what a cached render of it depends on.
+    /// The files the scene loaded besides itself (its OBJ meshes and
+    /// their MTL material libraries), in order: what a cached render of it
+    /// depends on.
     pub inputs: Vec<std::path::PathBuf>,
+    /// What loading ignored and the user should know (textures named by
+    /// an OBJ's materials); the CLI prints them.
+    pub warnings: Vec<String>,
 }
 
 impl SceneFile {

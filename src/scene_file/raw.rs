@@ -85,7 +85,8 @@ pub(super) struct RawShape {
     #[serde(rename = "type")]
     pub(super) kind: S<String>,
     pub(super) name: Option<S<String>>,
-    pub(super) material: S<String>,
+    /// Required except for `mesh`, where it overrides the OBJ's materials.
+    pub(super) material: Option<S<String>>,
     pub(super) transform: Option<S<RawTransform>>,
     pub(super) motion: Option<S<Vec<S<RawKeyframe>>>>,
     pub(super) corners: Option<S<Vec<V3>>>,

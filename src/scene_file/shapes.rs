@@ -5,10 +5,48 @@ use super::ctx::{Ctx, Result};
 use super::raw::*;
 use super::values::*;
 use super::*;
+use crate::scene::obj;
 use crate::scene::shapes::{self, TriMesh};
-use crate::scene::{Keyframe, Mesh};
+use crate::scene::{Keyframe, Material, Mesh};
 use glam::{Affine3A, Quat, Vec2, Vec3};
 use std::collections::HashMap;
+
+/// The albedo of an MTL material without `Kd` (Blender's and most
+/// exporters' default diffuse colour).
+pub const OBJ_DEFAULT_ALBEDO: f32 = 0.8;
+
+/// What loading shapes adds besides meshes: the scene's materials (OBJ
+/// materials are appended), the files read (OBJ and MTL) and warnings.
+pub(super) struct ShapeOutputs {
+    pub(super) materials: Vec<Material>,
+    pub(super) inputs: Vec<std::path::PathBuf>,
+    pub(super) warnings: Vec<String>,
+}
+
+/// Splits a merged mesh into its parts (first triangles in `parts`,
+/// ascending), each with only the vertices it uses, named `SHAPE/PART`.
+fn split_parts(
+    mesh: TriMesh,
+    parts: &[(String, usize, u32)],
+    shape: &str,
+    motion: &[Keyframe],
+) -> Vec<Mesh> {
+    let mut out = Vec::with_capacity(parts.len());
+    for (k, (name, first, material)) in parts.iter().enumerate() {
+        let end = parts.get(k + 1).map_or(mesh.indices.len(), |p| p.1);
+        let tris = &mesh.indices[*first..end];
+        let lo = tris.iter().flatten().copied().min().unwrap_or(0);
+        let hi = tris.iter().flatten().copied().max().map_or(0, |m| m + 1);
+        out.push(Mesh {
+            name: format!("{shape}/{name}"),
+            positions: mesh.positions[lo as usize..hi as usize].to_vec(),
+            indices: tris.iter().map(|t| t.map(|i| i - lo)).collect(),
+            material: *material,
+            motion: motion.to_vec(),
+        });
+    }
+    out
+}
 
 impl Ctx<'_> {
     /// Four planar corners of a quad, in order around it.
@@ -46,35 +84,52 @@ impl Ctx<'_> {
         Ok(c)
     }
 
+    /// One `[[shape]]` as meshes: one mesh, or for an OBJ without a
+    /// `material` key one mesh per object or group and material of the
+    /// file, its MTL materials appended to `out.materials` (named
+    /// `SHAPE/MATERIAL`).
     pub(super) fn shape(
         &self,
         s: &S<RawShape>,
         n: usize,
-        materials: &HashMap<&str, u32>,
-    ) -> Result<Mesh> {
+        by_name: &HashMap<&str, u32>,
+        out: &mut ShapeOutputs,
+    ) -> Result<Vec<Mesh>> {
         let r = s.get_ref();
         let keys = r.type_keys();
         let t = self.check_type("shape", &r.kind, &keys, &SHAPE_TYPES)?;
         let kind = SHAPE_TYPES[t].0;
-        let material = match materials.get(r.material.get_ref().as_str()) {
-            Some(&m) => m,
+        let material = match &r.material {
+            None if kind == "mesh" => None,
             None => {
-                let mut known: Vec<&str> = materials.keys().copied().collect();
-                known.sort_unstable();
-                return Err(self.error(
-                    r.material.span(),
-                    format!(
-                        "unknown material '{}' (defined: {})",
-                        r.material.get_ref(),
-                        if known.is_empty() {
-                            "none".into()
-                        } else {
-                            quoted_list(&known)
-                        }
-                    ),
-                ));
+                return Err(self.error(r.kind.span(), format!("a {kind} shape needs 'material'")))
             }
+            Some(m) => Some(match by_name.get(m.get_ref().as_str()) {
+                Some(&m) => m,
+                None => {
+                    let mut known: Vec<&str> = by_name.keys().copied().collect();
+                    known.sort_unstable();
+                    return Err(self.error(
+                        m.span(),
+                        format!(
+                            "unknown material '{}' (defined: {})",
+                            m.get_ref(),
+                            if known.is_empty() {
+                                "none".into()
+                            } else {
+                                quoted_list(&known)
+                            }
+                        ),
+                    ));
+                }
+            }),
         };
+        let name = r
+            .name
+            .as_ref()
+            .map_or_else(|| format!("shape{n}"), |v| v.get_ref().clone());
+        // An OBJ's parts: (name, first triangle, material) in the merged mesh.
+        let mut parts: Vec<(String, usize, u32)> = Vec::new();
         // Where "this geometry is degenerate" points.
         let geometry_span = keys.first().map_or(r.kind.span(), |(_, span)| span.clone());
         let center = r.center.as_ref().map_or(Vec3::ZERO, |c| c.get_ref().0);
@@ -138,7 +193,14 @@ impl Ctx<'_> {
                 let file = self.need(&r.file, "file", &r.kind, "shape")?;
                 let dir = self.file.parent().unwrap_or(Path::new(""));
                 let path = dir.join(file.get_ref());
-                crate::scene::obj::load_obj(&path).map_err(|e| self.error(file.span(), e))?
+                out.inputs.push(path.clone());
+                if material.is_some() {
+                    obj::load_obj(&path).map_err(|e| self.error(file.span(), e))?
+                } else {
+                    let obj = obj::load_obj_parts(&path).map_err(|e| self.error(file.span(), e))?;
+                    out.inputs.extend(obj.mtl_files.iter().cloned());
+                    self.obj_parts(&obj, &path, file, &name, &mut parts, out)?
+                }
             }
             "lathe" => {
                 let profile_v = self.need(&r.profile, "profile", &r.kind, "shape")?;
@@ -296,17 +358,86 @@ impl Ctx<'_> {
             Some(m) => self.motion(m)?,
             None => Vec::new(),
         };
+        let Some(material) = material else {
+            return Ok(split_parts(mesh, &parts, &name, &motion));
+        };
         let TriMesh { positions, indices } = mesh;
-        Ok(Mesh {
-            name: r
-                .name
-                .as_ref()
-                .map_or_else(|| format!("shape{n}"), |v| v.get_ref().clone()),
+        Ok(vec![Mesh {
+            name,
             positions,
             indices,
             material,
             motion,
-        })
+        }])
+    }
+
+    /// The parts of an OBJ read with its materials, merged into one mesh
+    /// (`parts` gets each part's first triangle and scene material); the
+    /// OBJ materials the parts use become scene materials.
+    fn obj_parts(
+        &self,
+        obj: &obj::ObjFile,
+        path: &Path,
+        file: &S<String>,
+        shape: &str,
+        parts: &mut Vec<(String, usize, u32)>,
+        out: &mut ShapeOutputs,
+    ) -> Result<TriMesh> {
+        let in_file =
+            |e: String| self.error(file.span(), format!("mesh file '{}': {e}", path.display()));
+        let mut scene_material: Vec<Option<u32>> = vec![None; obj.materials.len()];
+        let mut mesh = TriMesh::default();
+        for part in &obj.parts {
+            let Some(m) = part.material else {
+                return Err(in_file(format!(
+                    "object '{}' has faces without a material (no usemtl): give the shape a 'material' or the faces a usemtl",
+                    part.name
+                )));
+            };
+            let index = match scene_material[m] {
+                Some(i) => i,
+                None => {
+                    let om = &obj.materials[m];
+                    let albedo = om.diffuse.unwrap_or(Vec3::splat(OBJ_DEFAULT_ALBEDO));
+                    if !(albedo.min_element() >= 0.0 && albedo.max_element() <= 1.0) {
+                        return Err(in_file(format!(
+                            "material '{}': Kd must be in [0, 1] in every channel, found {albedo}",
+                            om.name
+                        )));
+                    }
+                    let emission = om.emission.unwrap_or(Vec3::ZERO);
+                    if !(emission.min_element() >= 0.0 && emission.max_element() <= MAX_EMISSION) {
+                        return Err(in_file(format!(
+                            "material '{}': Ke must be in [0, {MAX_EMISSION:e}] in every channel, found {emission}",
+                            om.name
+                        )));
+                    }
+                    if !om.textures.is_empty() {
+                        out.warnings.push(format!(
+                            "mesh file '{}': material '{}' names textures ({}), which mdas ignores",
+                            path.display(),
+                            om.name,
+                            om.textures.join(", ")
+                        ));
+                    }
+                    let i = (out.materials.len()) as u32;
+                    out.materials.push(Material {
+                        name: format!("{shape}/{}", om.name),
+                        albedo,
+                        emission,
+                        checker: None,
+                    });
+                    scene_material[m] = Some(i);
+                    i
+                }
+            };
+            parts.push((part.name.clone(), mesh.indices.len(), index));
+            let base = mesh.positions.len() as u32;
+            mesh.positions.extend_from_slice(&part.mesh.positions);
+            mesh.indices
+                .extend(part.mesh.indices.iter().map(|t| t.map(|i| i + base)));
+        }
+        Ok(mesh)
     }
 
     /// scale, then rotate about +y, then translate.
