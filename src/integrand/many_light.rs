@@ -69,7 +69,6 @@ pub struct ManyLight {
     scene: Arc<GpuScene>,
     film: Film,
     kind: SamplerKind,
-    light_count: u32,
     /// The frame's lights: the scene's, then the VPLs.
     prims: Vec<LightPrim>,
     triangles: bool,
@@ -211,7 +210,6 @@ impl ManyLight {
             scene: gpu_scene,
             film,
             kind,
-            light_count: n,
             prims,
             triangles,
             sampler,
@@ -289,7 +287,7 @@ impl ManyLight {
     }
 
     pub fn light_count(&self) -> u32 {
-        self.light_count
+        self.prims.len() as u32
     }
 
     /// The frame's light list as the sampler sees it: the scene's lights at
