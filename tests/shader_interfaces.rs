@@ -48,7 +48,10 @@ use mdas::integrator::mdas::{
     adapt, config::Config, error, evaluate, gpu_params, initial, plan, reconstruct, scan, stats,
 };
 use mdas::lights::gpu_build::{BuildParams, GpuLightTree};
+use mdas::lights::gpu_lgh::{GpuLgh, LghBuildParams};
 use mdas::lights::gpu_sampler::{BatchSampler, GpuSamplerData, SampleAnswer, SampleQuery};
+use mdas::lights::lgh::GridLight;
+use mdas::lights::sampler::SamplerKind;
 use mdas::lights::vpl::{VplGenerator, VplParams};
 use mdas::lights::{alias::AliasEntry, gpu_sampler::LightParams, LightPrim, TreeNode};
 use mdas::wgsl_file;
@@ -113,13 +116,21 @@ fn integrands() -> Vec<Integrand> {
     for triangles in [false, true] {
         let name = format!("many_light[triangles={triangles}]");
         let dims = if triangles { 5 } else { 3 };
-        let wgsl = many_light::source(triangles, false);
+        let wgsl = many_light::source(triangles, SamplerKind::Tree);
         all.push(one(&name, dims, wgsl, many_light::layout_entries()));
     }
     // sst: dimensions 3–5 hold a substitute's Gaussian position.
-    let wgsl = many_light::source(true, true);
+    let wgsl = many_light::source(true, SamplerKind::Sst);
     all.push(one(
         "many_light[sst]",
+        6,
+        wgsl,
+        many_light::layout_entries(),
+    ));
+    // lgh: dimension 2 stratifies the shadow picks, 3–5 jitter them.
+    let wgsl = many_light::source(false, SamplerKind::Lgh);
+    all.push(one(
+        "many_light[lgh]",
         6,
         wgsl,
         many_light::layout_entries(),
@@ -208,6 +219,8 @@ fn kernels() -> Vec<Kernel> {
     }
     let vpl = [VplGenerator::layout_entries(), GpuScene::layout_entries()];
     all.push(kernel("vpl", &VplGenerator::source(), &vpl));
+    let lgh = [GpuLgh::layout_entries()];
+    all.push(kernel("lgh_build", &GpuLgh::source(), &lgh));
     let batch = [
         BatchSampler::layout_entries(),
         GpuSamplerData::layout_entries(),
@@ -452,6 +465,8 @@ fn mirrors() -> BTreeMap<(&'static str, &'static str), Layout> {
         ((lights, "LightParams"), host!(LightParams {
             count, kind, levels, leaf_count, node_count, cut_size, block_size, blocks_per_row,
             alias_count, interleave, frame, time, vpl_clamp2, sst_nu_min, sst_sigma_max2, _pad,
+            lgh_lo, lgh_levels, lgh_h1, lgh_inv_h1, lgh_alpha, lgh_level0, lgh_shadows,
+            lgh_cells_offset, lgh_sorted_offset, _pad1,
         })),
         (("lights/sample_batch.wgsl", "SampleQuery"), host!(SampleQuery { p, u, n, block })),
         (("lights/sample_batch.wgsl", "SampleAnswer"), host!(SampleAnswer {
@@ -462,6 +477,12 @@ fn mirrors() -> BTreeMap<(&'static str, &'static str), Layout> {
         })),
         (("lights/tree_bindings.wgsl", "BuildParams"), host!(BuildParams {
             n, leaf_count, zero, src_level, levels_up, cones, _pad,
+        })),
+        (("lights/lgh_light.wgsl", "GridLight"), host!(GridLight {
+            e, w, p, iso, q, vertex, n, level,
+        })),
+        (("lights/lgh_build.wgsl", "LghBuildParams"), host!(LghBuildParams {
+            lo, levels, h1, inv_h1, n, level, cells_offset, sorted_offset, groups_x, clear_len,
         })),
         (("lights/vpl.wgsl", "VplParams"), host!(VplParams {
             paths, bounces, seed, source_count, center, radius, time, _pad,

@@ -8,7 +8,11 @@
 // I·cosθ_v/max(d², clamp²) (VPL, a cosine lobe about its normal; a
 // substitute is a VPL at a drawn position with its node's summed intensity
 // and merged normal, and pmf the probability of stopping at its node).
-// Constants from Rust: ML_TRIANGLES, ML_SUBSTITUTES. The frame time and number are
+// With the lgh sampler (ML_LGH = 1) an evaluation sums over the grid
+// lights instead (ml_lgh, lights/lgh.wgsl): u[0] is the stratification
+// offset of the S shadow-sample picks, u[1..4] the jitter of the first
+// shadow sample in its box, the others' jitter a Kronecker (R3) shift of it.
+// Constants from Rust: ML_TRIANGLES, ML_SUBSTITUTES, ML_LGH. The frame time and number are
 // uniforms (light_params.time, light_params.frame): a new frame compiles
 // no new shader.
 
@@ -88,6 +92,44 @@ fn ml_direct(s: Surface, px: vec2<u32>, u: vec4<f32>, time: f32) -> vec3<f32> {
     return s.rho * INV_PI * ldexp(c / pick.pmf_m, vec3<i32>(-pick.pmf_e)) * light_interleave_scale();
 }
 
+// R3 sequence steps (Roberts 2018: powers of 1/φ₃, the plastic number's
+// 3D analogue) that shift shadow sample k's jitter by k·step mod 1.
+const LGH_JITTER_STEP: vec3<f32> = vec3<f32>(0.8191725, 0.6710436, 0.5497005);
+
+// Radiance reflected at s from the grid hierarchy (src/lights/lgh.rs):
+//   ρ/π · (F/S) · Σ_k (f_k/‖f_k‖) · V(x, y_k),
+// y_k the picked centre jittered uniformly in ±√3·σ; ρ/π · U when S = 0.
+fn ml_lgh(s: Surface, u: vec4<f32>, time: f32) -> vec3<f32> {
+    if (all(s.rho == vec3<f32>(0.0))) {
+        return vec3<f32>(0.0);
+    }
+    let origin = offset_origin(s.x, s.n);
+    lgh_sum(origin, s.n);
+    if (!(lgh_total > 0.0)) {
+        return vec3<f32>(0.0);
+    }
+    let count = light_params.lgh_shadows;
+    if (count == 0u) {
+        return s.rho * INV_PI * lgh_u;
+    }
+    lgh_pick(origin, s.n, u.x);
+    var sum = vec3<f32>(0.0);
+    for (var k = 0u; k < count; k++) {
+        let j = fract(u.yzw + f32(k) * LGH_JITTER_STEP);
+        let y = lgh_pick_pos[k] + (2.0 * j - 1.0) * (sqrt(3.0) * lgh_pick_sigma[k]);
+        let to_light = y - origin;
+        let dist2 = dot(to_light, to_light);
+        if (!(dist2 > 0.0)) {
+            continue;
+        }
+        let dist = sqrt(dist2);
+        if (!scene_occluded(origin, to_light / dist, dist * (1.0 - RAY_EPSILON), time)) {
+            sum += lgh_pick_chroma[k];
+        }
+    }
+    return s.rho * INV_PI * (lgh_total / f32(count)) * sum;
+}
+
 fn integrand(p: ptr<function, IntegrandPoint>) -> vec3<f32> {
     let time = ml_time();
     let ray = camera_ray((*p).film, vec2<f32>(0.5));
@@ -97,6 +139,10 @@ fn integrand(p: ptr<function, IntegrandPoint>) -> vec3<f32> {
     }
     let s = surface_at(hit, ray.dir, time);
     var u = vec4<f32>((*p).u[0], 0.5, 0.5, 0.5);
+    if (ML_LGH == 1u) {
+        let v = vec4<f32>((*p).u[0], (*p).u[1], (*p).u[2], (*p).u[3]);
+        return s.emitted + ml_lgh(s, v, time);
+    }
     if (ML_SUBSTITUTES == 1u) {
         u = vec4<f32>((*p).u[0], (*p).u[1], (*p).u[2], (*p).u[3]);
     } else if (ML_TRIANGLES == 1u) {

@@ -123,6 +123,11 @@ impl<'g> Profiler<'g> {
         Ok(())
     }
 
+    /// Adds a phase that ran on the host (wall clock, `ms`).
+    pub fn wall_phase(&mut self, name: &str, ms: f64) {
+        self.wall.add(name, ms);
+    }
+
     /// Starts a batch of phases recorded into one command buffer and
     /// submitted together ([`Batch::submit`]), so the GPU runs them back
     /// to back with no host round trip between them.

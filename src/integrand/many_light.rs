@@ -52,6 +52,7 @@ use crate::gpu::profiler::PhaseTimes;
 use crate::gpu::shader::{storage_entry, Wgsl};
 use crate::gpu::{Gpu, Profiler};
 use crate::lights::gpu_build::GpuLightTree;
+use crate::lights::gpu_lgh::GpuLgh;
 use crate::lights::gpu_sampler::{CutLayout, GpuSamplerData, TreeSource, FIRST_BINDING};
 use crate::lights::sampler::SamplerKind;
 use crate::lights::scene_lights::light_prims;
@@ -78,17 +79,22 @@ pub struct ManyLight {
     setup: PhaseTimes,
     /// Keeps the GPU-built tree's buffers alive (bound in `bind_group`).
     _tree: Option<GpuLightTree>,
+    /// `lgh`: the loop iterations of one evaluation.
+    loop_iterations: u32,
 }
 
-/// The integrand's WGSL, with or without emissive triangles (dimensions
-/// 3–4) and substitutes (`sst`: dimensions 3–5). The sampler kind, the frame time and the frame number are
-/// uniforms (`LightParams`), so one source serves every kind and frame.
-/// Device-free, see [`super::path::source`].
-pub fn source(triangles: bool, substitutes: bool) -> Wgsl {
+/// The integrand's WGSL for sampler `kind`, with or without emissive
+/// triangles (dimensions 3–4); `sst` uses dimensions 3–5 for substitutes,
+/// `lgh` sums over its grid lights (dimensions 2–5, [`ManyLight::dims`]).
+/// Every other kind shares one source: the kind, the frame time and the
+/// frame number are uniforms (`LightParams`). Device-free, see
+/// [`super::path::source`].
+pub fn source(triangles: bool, kind: SamplerKind) -> Wgsl {
     scene_wgsl()
         .include(&GpuSamplerData::wgsl())
         .constant("ML_TRIANGLES", triangles as u32)
-        .constant("ML_SUBSTITUTES", substitutes as u32)
+        .constant("ML_SUBSTITUTES", (kind == SamplerKind::Sst) as u32)
+        .constant("ML_LGH", (kind == SamplerKind::Lgh) as u32)
         .part(wgsl_file!("many_light.wgsl"))
 }
 
@@ -150,9 +156,18 @@ impl ManyLight {
         }
         let n = u32::try_from(prims.len()).context("more than 2^32 lights")?;
 
+        let mut loop_iterations = 0;
         let (mut sampler, tree) = gpu.scoped("many_light set-up", || {
             let mut tree = None;
-            let sampler = if kind.uses_perfect_tree() && n > 0 {
+            let sampler = if kind == SamplerKind::Lgh {
+                // The hierarchy is sized on the host and built on the GPU
+                // from the sampler's copy of the lights.
+                let h = GpuLgh::new(gpu, &prims, &spec.lgh)?;
+                let s = GpuSamplerData::new(gpu, kind, &prims, Some(TreeSource::Lgh(&h)), cuts)?;
+                h.build(gpu, &s.prims, &mut profiler)?;
+                loop_iterations = h.loop_iterations().min(u32::MAX as u64) as u32;
+                s
+            } else if kind.uses_perfect_tree() && n > 0 {
                 // The tree is built from the sampler's own copy of the
                 // lights (one upload), into the buffers the sampler binds.
                 let mut t = if kind.uses_substitute_tree() {
@@ -217,6 +232,7 @@ impl ManyLight {
             bind_group,
             setup: PhaseTimes::default(),
             _tree: tree,
+            loop_iterations,
         };
         if kind.uses_cut() && n > 0 {
             this.select_cuts(gpu, cuts, &mut profiler)?;
@@ -309,7 +325,7 @@ impl Integrand for ManyLight {
     }
 
     fn dims(&self) -> u32 {
-        if self.kind == SamplerKind::Sst {
+        if matches!(self.kind, SamplerKind::Sst | SamplerKind::Lgh) {
             6
         } else if self.triangles {
             5
@@ -322,8 +338,12 @@ impl Integrand for ManyLight {
         self.film
     }
 
+    fn loop_iterations(&self) -> u32 {
+        self.loop_iterations
+    }
+
     fn wgsl(&self) -> Wgsl {
-        source(self.triangles, self.kind == SamplerKind::Sst)
+        source(self.triangles, self.kind)
     }
 
     fn layout(&self) -> Option<&wgpu::BindGroupLayout> {

@@ -134,6 +134,15 @@ pub trait Integrand {
     /// and everything it needs (shared parts are de-duplicated by name).
     fn wgsl(&self) -> Wgsl;
 
+    /// An upper bound on the shader loop iterations one evaluation runs,
+    /// for integrators that evaluate several samples per invocation
+    /// (lavapipe silently ends an invocation's loops after 65,535
+    /// iterations in all, DESIGN.md); 0, the default: a few rays' worth,
+    /// small enough for any integrator.
+    fn loop_iterations(&self) -> u32 {
+        0
+    }
+
     /// Layout of bind group 1, which holds the integrand's own resources
     /// (scene, lights); `None` (the default) when it has none.
     fn layout(&self) -> Option<&wgpu::BindGroupLayout> {

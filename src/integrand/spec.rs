@@ -3,6 +3,7 @@
 //! it). The table is parsed by [`crate::scene_file`]; the limits it checks
 //! come from the integrand modules (e.g. [`super::path::max_bounces_limit`]).
 
+use crate::lights::lgh::LghParams;
 use crate::lights::sampler::SamplerKind;
 use crate::lights::substitute::SubstituteParams;
 use crate::lights::vpl::VplSpec;
@@ -172,6 +173,9 @@ pub struct ManyLightSpec {
     pub vpl: VplSpec,
     /// `sst`'s suitability thresholds (`sst_nu_min`, `sst_sigma_max`).
     pub sst: SubstituteParams,
+    /// `lgh`'s levels, α, level 0 and shadow samples (`lgh_levels`,
+    /// `lgh_alpha`, `lgh_level0`, `lgh_shadows`).
+    pub lgh: LghParams,
 }
 
 impl Default for ManyLightSpec {
@@ -185,6 +189,7 @@ impl Default for ManyLightSpec {
             frame: 0,
             vpl: VplSpec::default(),
             sst: SubstituteParams::default(),
+            lgh: LghParams::default(),
         }
     }
 }

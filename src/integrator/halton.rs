@@ -34,6 +34,11 @@ use std::collections::HashMap;
 /// Samples one invocation evaluates per dispatch: bounds per-invocation
 /// loop counts (each sample traces a couple of rays).
 const SAMPLES_PER_INVOCATION: u32 = 8;
+/// Loop iterations one invocation may run (lavapipe's cap is 65,535):
+/// an integrand that states its [`Integrand::loop_iterations`] gets
+/// `LOOP_BUDGET / iterations` samples per invocation (at least 1, at most
+/// [`SAMPLES_PER_INVOCATION`]).
+pub const LOOP_BUDGET: u32 = 60_000;
 /// Target invocations per dispatch (pixels × slots).
 const TARGET_INVOCATIONS: u64 = 1 << 20;
 /// Chunks between progress reports (each report waits for the GPU).
@@ -189,7 +194,11 @@ impl Integrator for Halton {
         // evenly over them: 9 spp as 5 + 4, not 8 + 1 (on lavapipe a slot
         // of one sample cost as much as a full one: 9 spp took 1.6× the
         // time of 8).
-        let max_slots = self.spp.div_ceil(SAMPLES_PER_INVOCATION) as u64;
+        let per_invocation = match integrand.loop_iterations() {
+            0 => SAMPLES_PER_INVOCATION,
+            n => (LOOP_BUDGET / n).clamp(1, SAMPLES_PER_INVOCATION),
+        };
+        let max_slots = self.spp.div_ceil(per_invocation) as u64;
         let spi = self.spp.div_ceil(max_slots as u32);
         let slots = (TARGET_INVOCATIONS / pixels).clamp(1, max_slots) as u32;
         let per_chunk = slots * spi;

@@ -46,6 +46,11 @@ pub type UnbalancedSampler = TreeSampler<LightBvh>;
 /// Zero lights give a sampler that never returns a light. `sst` uses the
 /// default [`SubstituteParams`]; its samples that stop at a substitute
 /// are `None` here (a substitute is not a light).
+///
+/// # Panics
+///
+/// For `lgh`, which picks no single light ([`SamplerKind::picks_lights`];
+/// its CPU oracle is [`super::lgh`]).
 pub fn new_sampler(
     kind: SamplerKind,
     prims: &[LightPrim],
@@ -61,6 +66,10 @@ pub fn new_sampler(
             None => Box::new(TreeSampler::new(t, importance)),
         }
     }
+    assert!(
+        kind.picks_lights(),
+        "'{kind}' picks no single light: its CPU oracle is lights::lgh"
+    );
     if prims.is_empty() {
         return Box::new(UniformSampler { count: 0 });
     }
@@ -84,5 +93,6 @@ pub fn new_sampler(
             tree: substitute::build(prims).unwrap(),
             params: (kind == SamplerKind::Sst).then(SubstituteParams::default),
         }),
+        SamplerKind::Lgh => unreachable!("asserted above"),
     }
 }

@@ -21,11 +21,13 @@
 use super::alias::{AliasEntry, PowerSampler};
 use super::bvh::{self, LightBvh, INTERNAL_BIT};
 use super::cut::MAX_CUT;
+use super::gpu_lgh::GpuLgh;
 use super::importance::NEAR_CLAMP;
+use super::lgh::{self, GridLight};
 use super::perfect::{self, PerfectTree};
 use super::sampler::SamplerKind;
 use super::substitute::{self, Substitute, SubstituteParams, SubstituteTree};
-use super::{gpu_build, LightCone, LightPrim, TreeNode, NO_LIGHT};
+use super::{gpu_build, LightCone, LightPrim, TreeNode, KIND_VPL, NO_LIGHT};
 use crate::gpu::buffer::STORAGE;
 use crate::gpu::shader::{storage_entry, uniform_entry, Wgsl};
 use crate::gpu::Gpu;
@@ -70,6 +72,20 @@ pub struct LightParams {
     pub sst_nu_min: f32,
     pub sst_sigma_max2: f32,
     pub _pad: u32,
+    /// `lgh` ([`super::lgh`]): the grid's `lo`, L, h_1, 1/h_1, α, whether
+    /// level 0 is used, the shadow samples S, and where the level-1 cell
+    /// ranges and the sorted light ids start in `light_index` (after the
+    /// vertex index of every level).
+    pub lgh_lo: [f32; 3],
+    pub lgh_levels: u32,
+    pub lgh_h1: f32,
+    pub lgh_inv_h1: f32,
+    pub lgh_alpha: f32,
+    pub lgh_level0: u32,
+    pub lgh_shadows: u32,
+    pub lgh_cells_offset: u32,
+    pub lgh_sorted_offset: u32,
+    pub _pad1: u32,
 }
 
 impl LightParams {
@@ -140,6 +156,9 @@ pub enum TreeSource<'a> {
     Substitute(&'a SubstituteTree),
     /// The unbalanced BVH.
     Bvh(&'a LightBvh),
+    /// The lighting grid hierarchy (`lgh`), built on the GPU into its own
+    /// buffers; its parameters fill the `lgh_*` fields.
+    Lgh(&'a GpuLgh),
 }
 
 /// The buffers of bindings 16–23 for one sampler kind.
@@ -149,6 +168,8 @@ pub struct GpuSamplerData {
     pub nodes: wgpu::Buffer,
     pub cones: wgpu::Buffer,
     pub substitutes: wgpu::Buffer,
+    /// `lgh`: the grid lights (binding 24).
+    pub lgh_lights: wgpu::Buffer,
     pub prims: wgpu::Buffer,
     pub index: wgpu::Buffer,
     pub alias: wgpu::Buffer,
@@ -194,6 +215,7 @@ impl GpuSamplerData {
         let mut nodes = None;
         let mut cones = None;
         let mut substitutes = None;
+        let mut lgh_lights = None;
         let upload_cones = |c: &[LightCone]| -> Result<Option<wgpu::Buffer>> {
             Ok(if kind.uses_cones() {
                 Some(gpu.buffer_from(&label("cones"), c, STORAGE)?)
@@ -313,7 +335,24 @@ impl GpuSamplerData {
                         TreeSource::Bvh(_) => {
                             bail!("sampler '{kind}' needs a perfect tree, got a BVH")
                         }
+                        TreeSource::Lgh(_) => {
+                            bail!("sampler '{kind}' needs a perfect tree, got a grid hierarchy")
+                        }
                     }
+                }
+                SamplerKind::Lgh => {
+                    let Some(TreeSource::Lgh(h)) = tree else {
+                        bail!("sampler 'lgh' needs its grid hierarchy (GpuLgh)");
+                    };
+                    if h.light_count() != n {
+                        bail!(
+                            "grid hierarchy over {} lights for {n} lights",
+                            h.light_count()
+                        );
+                    }
+                    h.set_light_params(&mut params);
+                    index = Some(h.index.clone());
+                    lgh_lights = Some(h.lights.clone());
                 }
                 SamplerKind::Unbalanced
                 | SamplerKind::UnbalancedNoCut
@@ -366,6 +405,10 @@ impl GpuSamplerData {
                 || gpu.buffer_from::<Substitute>(&label("unused"), &[], STORAGE),
                 Ok,
             )?,
+            lgh_lights: lgh_lights.map_or_else(
+                || gpu.buffer_from::<GridLight>(&label("unused"), &[], STORAGE),
+                Ok,
+            )?,
             prims: gpu.buffer_from(&label("prims"), prims, STORAGE)?,
             index: index.map_or_else(
                 || gpu.buffer_from::<u32>(&label("unused"), &[], STORAGE),
@@ -416,6 +459,7 @@ impl GpuSamplerData {
         e.push(uniform_entry(FIRST_BINDING + 5));
         e.push(storage_entry(FIRST_BINDING + 6, true));
         e.push(storage_entry(FIRST_BINDING + 7, true));
+        e.push(storage_entry(FIRST_BINDING + 8, true));
         e
     }
 
@@ -430,6 +474,7 @@ impl GpuSamplerData {
             &self.uniform,
             &self.cones,
             &self.substitutes,
+            &self.lgh_lights,
         ]
         .into_iter()
         .enumerate()
@@ -455,8 +500,12 @@ impl GpuSamplerData {
             let name = format!("LIGHT_KIND_{}", k.name().to_uppercase());
             w = w.constant(&name, k.index());
         }
-        w.part(wgsl_file!("lights/bindings.wgsl"))
+        w.constant("LGH_KIND_VPL", KIND_VPL)
+            .constant("LGH_MAX_SHADOWS", lgh::MAX_SHADOW_SAMPLES)
+            .part(wgsl_file!("lights/lgh_light.wgsl"))
+            .part(wgsl_file!("lights/bindings.wgsl"))
             .part(wgsl_file!("lights/sample.wgsl"))
+            .part(wgsl_file!("lights/lgh.wgsl"))
     }
 }
 

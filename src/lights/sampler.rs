@@ -16,6 +16,7 @@
 //! | `unbalanced_nocone` | a cone-free SAH BVH with a greedy cut | §4 |
 //! | `sst` | [`SstSampler`](super::substitute::SstSampler): a perfect tree sorted with normal codes, `tree_cone` descent from the root, stopping at the first suitable substitute (biased) | Tatzgern et al. 2020 |
 //! | `sst_nosub` | the same with substitution off: a leaf-only (unbiased) tree sampler | Tatzgern et al. 2020 |
+//! | `lgh` | no picker: the lighting grid hierarchy ([`super::lgh`]) sums over grid lights and picks S shadow samples (biased) | Lin & Yuksel 2019 |
 //!
 //! A sampler's pmf is an f64 product of the f32 probabilities the
 //! sampling decisions use, so `sample(s, u).pmf == pmf(s, light)` exactly.
@@ -55,10 +56,29 @@ pub enum SamplerKind {
     UnbalancedNoCone,
     Sst,
     SstNoSub,
+    Lgh,
 }
 
 impl SamplerKind {
-    pub const ALL: [SamplerKind; 10] = [
+    /// Every kind: the pickers, then `lgh`.
+    pub const ALL: [SamplerKind; 11] = [
+        SamplerKind::Uniform,
+        SamplerKind::Power,
+        SamplerKind::TreeNoCut,
+        SamplerKind::Tree,
+        SamplerKind::TreeCone,
+        SamplerKind::Unbalanced,
+        SamplerKind::UnbalancedNoCut,
+        SamplerKind::UnbalancedNoCone,
+        SamplerKind::Sst,
+        SamplerKind::SstNoSub,
+        SamplerKind::Lgh,
+    ];
+
+    /// The kinds that pick one light per sample with a probability (the
+    /// [`LightSampler`] contract): all but `lgh`, which sums over grid
+    /// lights ([`super::lgh`]).
+    pub const PICKERS: [SamplerKind; 10] = [
         SamplerKind::Uniform,
         SamplerKind::Power,
         SamplerKind::TreeNoCut,
@@ -83,6 +103,7 @@ impl SamplerKind {
             SamplerKind::UnbalancedNoCone => "unbalanced_nocone",
             SamplerKind::Sst => "sst",
             SamplerKind::SstNoSub => "sst_nosub",
+            SamplerKind::Lgh => "lgh",
         }
     }
 
@@ -94,6 +115,11 @@ impl SamplerKind {
     /// The value of `light_params.kind` in WGSL (the index in [`Self::ALL`]).
     pub fn index(self) -> u32 {
         Self::ALL.iter().position(|&k| k == self).unwrap() as u32
+    }
+
+    /// Whether the kind picks one light per sample ([`Self::PICKERS`]).
+    pub fn picks_lights(self) -> bool {
+        self != SamplerKind::Lgh
     }
 
     /// Whether the kind samples from per-block cuts.
@@ -126,11 +152,12 @@ impl SamplerKind {
         matches!(self, SamplerKind::Sst | SamplerKind::SstNoSub)
     }
 
-    /// Whether a sample may be a substitute instead of a light: the one
-    /// biased kind. Its [`LightSampler`] view returns only the samples that
-    /// stop at a light, so its light pmfs sum to less than one.
+    /// Whether the kind's estimate is biased: `sst` (a sample may be a
+    /// substitute instead of a light; its [`LightSampler`] view returns only
+    /// the samples that stop at a light, so its light pmfs sum to less than
+    /// one) and `lgh` (grid lights stand in for the lights).
     pub fn is_biased(self) -> bool {
-        self == SamplerKind::Sst
+        matches!(self, SamplerKind::Sst | SamplerKind::Lgh)
     }
 
     /// Whether the kind samples the unbalanced BVH.

@@ -7,6 +7,7 @@ use super::raw::*;
 use super::values::{Num, S};
 use super::*;
 use crate::integrand::ManyLightSpec;
+use crate::lights::lgh::{self, LghParams};
 use crate::lights::sampler::SamplerKind;
 use crate::lights::substitute::SubstituteParams;
 use crate::lights::vpl::{self, VplSpec};
@@ -87,6 +88,7 @@ impl Ctx<'_> {
                     frame: self.u32(&r.frame, "frame", 0, d.frame)?,
                     vpl: self.vpl(r)?,
                     sst: self.sst(r)?,
+                    lgh: self.lgh(r)?,
                 })
             }
             _ => unreachable!("INTEGRAND_TYPES and this match list the same types"),
@@ -126,6 +128,36 @@ impl Ctx<'_> {
                 "a finite distance ≥ 0",
                 d.sigma_max,
             )?,
+        })
+    }
+
+    /// The lighting-grid keys of a `many_light` `[integrand]`.
+    fn lgh(&self, r: &RawIntegrand) -> Result<LghParams> {
+        let d = LghParams::default();
+        let alpha = match &r.lgh_alpha {
+            None => d.alpha,
+            Some(v) => {
+                let x = self.positive(v, "lgh_alpha")?;
+                if x > lgh::MAX_ALPHA {
+                    return Err(self.error(
+                        v.span(),
+                        format!("lgh_alpha must be at most {}, found {x}", lgh::MAX_ALPHA),
+                    ));
+                }
+                x
+            }
+        };
+        Ok(LghParams {
+            levels: self.opt_int(&r.lgh_levels, "lgh_levels", 1..=lgh::MAX_LEVELS as i64, 0)?
+                as u32,
+            alpha,
+            level0: r.lgh_level0.as_ref().map_or(d.level0, |v| *v.get_ref()),
+            shadow_samples: self.opt_int(
+                &r.lgh_shadows,
+                "lgh_shadows",
+                0..=lgh::MAX_SHADOW_SAMPLES as i64,
+                d.shadow_samples as i64,
+            )? as u32,
         })
     }
 

@@ -239,12 +239,17 @@ pub(super) struct RawIntegrand {
     pub(super) vpl_clamp: Option<S<Num>>,
     pub(super) sst_nu_min: Option<S<Num>>,
     pub(super) sst_sigma_max: Option<S<Num>>,
+    pub(super) lgh_levels: Option<S<i64>>,
+    pub(super) lgh_alpha: Option<S<Num>>,
+    pub(super) lgh_level0: Option<S<bool>>,
+    pub(super) lgh_shadows: Option<S<i64>>,
 }
 
 impl RawIntegrand {
     pub(super) fn type_keys(&self) -> Vec<(&'static str, Range<usize>)> {
         present_keys!(self; max_bounces, radius, sampler, cut_size, block, interleave, time, frame,
-            vpls, vpl_bounces, vpl_seed, vpl_clamp, sst_nu_min, sst_sigma_max)
+            vpls, vpl_bounces, vpl_seed, vpl_clamp, sst_nu_min, sst_sigma_max, lgh_levels,
+            lgh_alpha, lgh_level0, lgh_shadows)
     }
 }
 
@@ -269,6 +274,10 @@ pub(super) const INTEGRAND_TYPES: [(&str, &[&str]); 6] = [
             "vpl_clamp",
             "sst_nu_min",
             "sst_sigma_max",
+            "lgh_levels",
+            "lgh_alpha",
+            "lgh_level0",
+            "lgh_shadows",
         ],
     ),
 ];

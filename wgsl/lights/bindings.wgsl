@@ -21,6 +21,10 @@
 //                  others: unused
 // 23 light_substitutes  sst, sst_nosub: the substitute distribution of every
 //                  node, indexed like light_nodes; others: unused
+// 24 lgh_lights    lgh: the grid lights (lights/lgh.wgsl); others: unused.
+//                  For lgh, light_index holds the vertex index of every
+//                  level, then (start, end) of every level-1 cell, then the
+//                  light ids sorted by cell (src/lights/lgh.rs).
 
 // AliasEntry { q, alias } of src/lights/alias.rs (`alias` is a WGSL keyword).
 struct AliasEntry {
@@ -56,6 +60,19 @@ struct LightParams {
     sst_nu_min: f32,
     sst_sigma_max2: f32,
     _pad0: u32,
+    // lgh (src/lights/lgh.rs): the grid's lo, L, h_1, 1/h_1, α, level 0 on
+    // (1) or off, shadow samples S, and where the level-1 cell ranges and
+    // the sorted light ids start in light_index (after the vertex index).
+    lgh_lo: vec3<f32>,
+    lgh_levels: u32,
+    lgh_h1: f32,
+    lgh_inv_h1: f32,
+    lgh_alpha: f32,
+    lgh_level0: u32,
+    lgh_shadows: u32,
+    lgh_cells_offset: u32,
+    lgh_sorted_offset: u32,
+    _pad1: u32,
 }
 
 @group(1) @binding(16) var<storage, read> light_nodes: array<TreeNode>;
@@ -66,6 +83,7 @@ struct LightParams {
 @group(1) @binding(21) var<uniform> light_params: LightParams;
 @group(1) @binding(22) var<storage, read> light_cones: array<LightCone>;
 @group(1) @binding(23) var<storage, read> light_substitutes: array<Substitute>;
+@group(1) @binding(24) var<storage, read> lgh_lights: array<GridLight>;
 
 // The part [start, end) of the block's cut this pixel samples: the whole cut
 // unless interleaved sampling is on (light_cut_base sets it).

@@ -399,6 +399,11 @@ fn light_sample(s_p: vec3<f32>, s_n: vec3<f32>, cut_base: u32, u: f32) -> LightP
             let pmf = light_pmf_from(bitcast<f32>(light_index[light]));
             return LightPick(light, pmf.m, pmf.e);
         }
+        case LIGHT_KIND_LGH: {
+            // The grid hierarchy sums over lights (lights/lgh.wgsl): it
+            // picks no single light.
+            return light_no_pick();
+        }
         default: {
             return light_sample_tree(s_p, s_n, cut_base, u);
         }
@@ -499,6 +504,9 @@ fn light_pmf(s_p: vec3<f32>, s_n: vec3<f32>, cut_base: u32, light: u32) -> Light
                 return LightPmf(0.0, 0);
             }
             return light_pmf_from(bitcast<f32>(light_index[light]));
+        }
+        case LIGHT_KIND_LGH: {
+            return LightPmf(0.0, 0);
         }
         case LIGHT_KIND_UNBALANCED, LIGHT_KIND_UNBALANCED_NOCUT, LIGHT_KIND_UNBALANCED_NOCONE: {
             return light_pmf_bvh(s_p, s_n, cut_base, light);
