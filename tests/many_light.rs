@@ -873,16 +873,14 @@ mod lgh {
                 ..LghParams::default()
             };
             let m = means(&integrand_lgh(&scene, params), 8, 4, 300);
-            for c in 0..3 {
+            for (c, exact) in exact.iter().enumerate() {
                 let (m, se) = mean_se(&m, c);
                 eprintln!(
-                    "lgh level 0, S = {shadows}, channel {c}: mean {m:.6} exact {:.6} (se {se:.2e})",
-                    exact[c]
+                    "lgh level 0, S = {shadows}, channel {c}: mean {m:.6} exact {exact:.6} (se {se:.2e})"
                 );
                 assert!(
-                    (m - exact[c]).abs() <= 5.0 * se + 1e-4 * exact[c],
-                    "S = {shadows} channel {c}: mean {m} vs exact {} (se {se})",
-                    exact[c]
+                    (m - exact).abs() <= 5.0 * se + 1e-4 * exact,
+                    "S = {shadows} channel {c}: mean {m} vs exact {exact} (se {se})"
                 );
             }
         }
@@ -919,8 +917,9 @@ mod lgh {
     /// Default LGH (α = 1, from S_1, S = 4 shadow samples): the mean of
     /// K = 8 renders at 16 spp equals the model's image mean (the oracle's
     /// grid lights and candidates, 4×4 midpoint rule per pixel) within 5
-    /// standard errors plus 0.2 % (the quadrature of a model that is only
-    /// piecewise smooth: measured differences are ~1e-4), the GPU's
+    /// standard errors plus 0.05 % (the quadrature of a model that is only
+    /// piecewise smooth, and the GPU's shading-point offset: measured
+    /// differences are 6e-5, the same as the exact test's), the GPU's
     /// shadow picks, jitter and ratio estimator being unbiased for it.
     /// The model's own bias against the exact sum is printed.
     #[test]
@@ -976,7 +975,7 @@ mod lgh {
                 100.0 * (model[ch] / exact[ch] - 1.0)
             );
             assert!(
-                (mean - model[ch]).abs() <= 5.0 * se + 2e-3 * model[ch],
+                (mean - model[ch]).abs() <= 5.0 * se + 5e-4 * model[ch],
                 "channel {ch}: mean {mean} vs model {} (se {se})",
                 model[ch]
             );

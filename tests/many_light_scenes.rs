@@ -7,6 +7,7 @@
 use glam::{Quat, Vec3};
 use mdas::integrand::IntegrandSpec;
 use mdas::integrand::ManyLightSpec;
+use mdas::lights::lgh::LghParams;
 use mdas::lights::sampler::SamplerKind;
 use mdas::lights::scene_lights::{light_count, light_counts, light_prims, LightCounts};
 use mdas::lights::substitute::SubstituteParams;
@@ -465,6 +466,12 @@ fn many_light_integrand_parses_with_defaults() {
                 nu_min: 0.5,
                 sigma_max: 0.1
             },
+            lgh: LghParams {
+                levels: 0,
+                alpha: 1.0,
+                level0: false,
+                shadow_samples: 4
+            },
         }
     );
     for sampler in SamplerKind::ALL {
@@ -483,6 +490,7 @@ fn many_light_integrand_parses_with_defaults() {
                 frame: 7,
                 vpl: VplSpec::default(),
                 sst: SubstituteParams::default(),
+                lgh: LghParams::default(),
             })
         );
     }
@@ -522,6 +530,30 @@ fn many_light_integrand_parses_with_defaults() {
     );
 }
 
+/// The lighting-grid keys reach the spec.
+#[test]
+fn lgh_keys_parse() {
+    let s = ok(
+        "ml-lgh",
+        &format!("{BASE}[integrand]\ntype = \"many_light\"\nsampler = \"lgh\"\nlgh_levels = 5\nlgh_alpha = 2.5\nlgh_level0 = true\nlgh_shadows = 16\n"),
+    );
+    let IntegrandSpec::ManyLight(spec) = s.integrand else {
+        panic!("many_light")
+    };
+    assert_eq!(
+        (spec.sampler, spec.lgh),
+        (
+            SamplerKind::Lgh,
+            LghParams {
+                levels: 5,
+                alpha: 2.5,
+                level0: true,
+                shadow_samples: 16
+            }
+        )
+    );
+}
+
 /// The substitute-tree threshold scene: three tessellated spheres and a
 /// point light whose 40,000 VPLs land on curved and flat surfaces.
 #[test]
@@ -540,7 +572,7 @@ fn bad_many_light_input_is_an_error_at_its_position() {
     let integrand = |body: &str| format!("{BASE}[integrand]\ntype = \"many_light\"\n{body}");
     let m = error_at("sampler", &integrand("sampler = \"bvh\"\n"), 14, 11);
     assert!(
-        m.contains("unknown sampler 'bvh', expected one of 'uniform', 'power', 'tree_nocut', 'tree', 'tree_cone', 'unbalanced', 'unbalanced_nocut', 'unbalanced_nocone', 'sst', 'sst_nosub'"),
+        m.contains("unknown sampler 'bvh', expected one of 'uniform', 'power', 'tree_nocut', 'tree', 'tree_cone', 'unbalanced', 'unbalanced_nocut', 'unbalanced_nocone', 'sst', 'sst_nosub', 'lgh'"),
         "{m}"
     );
     let m = error_at("vpls", &integrand("vpls = -1\n"), 14, 8);
@@ -571,6 +603,14 @@ fn bad_many_light_input_is_an_error_at_its_position() {
         m.contains("sst_sigma_max must be a finite distance ≥ 0, found -1"),
         "{m}"
     );
+    let m = error_at("lghl", &integrand("lgh_levels = 11\n"), 14, 14);
+    assert!(m.contains("lgh_levels must be at most 10, found 11"), "{m}");
+    let m = error_at("lgha", &integrand("lgh_alpha = 0\n"), 14, 13);
+    assert!(m.contains("lgh_alpha must be > 0, found 0"), "{m}");
+    let m = error_at("lgha2", &integrand("lgh_alpha = 5000\n"), 14, 13);
+    assert!(m.contains("lgh_alpha must be at most 1024, found 5000"), "{m}");
+    let m = error_at("lghs", &integrand("lgh_shadows = 17\n"), 14, 15);
+    assert!(m.contains("lgh_shadows must be at most 16, found 17"), "{m}");
     let m = error_at("cut0", &integrand("cut_size = 0\n"), 14, 12);
     assert!(m.contains("cut_size must be at least 1, found 0"), "{m}");
     let m = error_at("cut65", &integrand("cut_size = 65\n"), 14, 12);

@@ -775,6 +775,7 @@ fn many_light_scenes_parse_their_integrand_and_light_sets() {
             frame: 0,
             vpl: Default::default(),
             sst: Default::default(),
+            lgh: Default::default(),
         })
     );
     assert!(s.scene.point_light_sets.is_empty());

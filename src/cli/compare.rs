@@ -23,7 +23,7 @@ pub(crate) struct CompareArgs {
     pub(crate) sampler: Option<SamplerKind>,
     /// Compare these light samplers (comma-separated: uniform, power,
     /// tree_nocut, tree, tree_cone, unbalanced, unbalanced_nocut,
-    /// unbalanced_nocone, sst, sst_nosub) under Halton at
+    /// unbalanced_nocone, sst, sst_nosub, lgh) under Halton at
     /// equal time; MDAS with `tree` sets the target (or --time-ms). The
     /// scene's integrand must be many_light.
     #[arg(long, value_name = "NAMES", value_delimiter = ',')]
