@@ -843,8 +843,9 @@ fn tilted_emitter_over_tilted_receiver_matches_lambert() {
         "type = \"area_light\"".to_string(),
         "type = \"path\"\nmax_bounces = 1".to_string(),
     ];
-    // Every sampler that picks lights (lgh takes points and VPLs only).
-    for kind in mdas::lights::sampler::SamplerKind::PICKERS {
+    // Every sampler (lgh: the triangle is no grid light, so it samples the
+    // emitter directly and is unbiased here).
+    for kind in mdas::lights::sampler::SamplerKind::ALL {
         configs.push(format!(
             "type = \"many_light\"\nsampler = \"{}\"",
             kind.name()
@@ -852,7 +853,7 @@ fn tilted_emitter_over_tilted_receiver_matches_lambert() {
     }
     assert_eq!(
         configs.len(),
-        2 + mdas::lights::sampler::SamplerKind::PICKERS.len()
+        2 + mdas::lights::sampler::SamplerKind::ALL.len()
     );
     const K: u32 = 8;
     const T: f64 = 8.1;

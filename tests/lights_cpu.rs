@@ -1831,8 +1831,8 @@ mod lgh_oracle {
 
     /// Hard cases: no lights; all lights at one point (one cell, zero
     /// extent); dark lights; VPLs on a plane (a zero-variance axis);
-    /// shading points on a light and on a grid vertex; emissive triangles
-    /// refused with a message.
+    /// shading points on a light and on a grid vertex; an emissive triangle
+    /// (not a grid light).
     #[test]
     fn hard_cases() {
         // No lights: one level, no grid light, no candidate.
@@ -1919,9 +1919,15 @@ mod lgh_oracle {
             }
         }
 
-        // Triangles are not grid lights.
-        let tri = LightPrim::triangle(Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::ONE);
-        let err = lgh::build(&[tri], 0).unwrap_err().to_string();
-        assert!(err.contains("point lights and VPLs"), "{err}");
+        // Triangles are not grid lights: they sort after every cell and
+        // leave the grid as it is without them.
+        let tri = LightPrim::triangle(Vec3::splat(50.0), Vec3::X, Vec3::Y, Vec3::ONE);
+        let with: Vec<LightPrim> = std::iter::once(tri).chain(plane.iter().copied()).collect();
+        let a = lgh::build(&with, 0).unwrap();
+        let b = lgh::build(&plane, 0).unwrap();
+        assert_eq!((a.grid, &a.lights, &a.index), (b.grid, &b.lights, &b.index));
+        assert_eq!(a.sorted.last(), Some(&0));
+        let shifted: Vec<u32> = b.sorted.iter().map(|i| i + 1).collect();
+        assert_eq!(&a.sorted[..plane.len()], &shifted[..]);
     }
 }

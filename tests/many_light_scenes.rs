@@ -608,9 +608,15 @@ fn bad_many_light_input_is_an_error_at_its_position() {
     let m = error_at("lgha", &integrand("lgh_alpha = 0\n"), 14, 13);
     assert!(m.contains("lgh_alpha must be > 0, found 0"), "{m}");
     let m = error_at("lgha2", &integrand("lgh_alpha = 5000\n"), 14, 13);
-    assert!(m.contains("lgh_alpha must be at most 1024, found 5000"), "{m}");
+    assert!(
+        m.contains("lgh_alpha must be at most 1024, found 5000"),
+        "{m}"
+    );
     let m = error_at("lghs", &integrand("lgh_shadows = 17\n"), 14, 15);
-    assert!(m.contains("lgh_shadows must be at most 16, found 17"), "{m}");
+    assert!(
+        m.contains("lgh_shadows must be at most 16, found 17"),
+        "{m}"
+    );
     let m = error_at("cut0", &integrand("cut_size = 0\n"), 14, 12);
     assert!(m.contains("cut_size must be at least 1, found 0"), "{m}");
     let m = error_at("cut65", &integrand("cut_size = 65\n"), 14, 12);

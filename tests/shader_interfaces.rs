@@ -127,14 +127,13 @@ fn integrands() -> Vec<Integrand> {
         wgsl,
         many_light::layout_entries(),
     ));
-    // lgh: dimension 2 stratifies the shadow picks, 3–5 jitter them.
-    let wgsl = many_light::source(false, SamplerKind::Lgh);
-    all.push(one(
-        "many_light[lgh]",
-        6,
-        wgsl,
-        many_light::layout_entries(),
-    ));
+    // lgh: dimension 2 stratifies the shadow picks, 3–5 jitter them, 6–8
+    // sample an emissive triangle.
+    for (triangles, dims) in [(false, 6), (true, 9)] {
+        let wgsl = many_light::source(triangles, SamplerKind::Lgh);
+        let name = format!("many_light[lgh, triangles={triangles}]");
+        all.push(one(&name, dims, wgsl, many_light::layout_entries()));
+    }
     for case in 0..=6 {
         let wgsl = common::test_integrand_source(case);
         let group1 = common::test_integrand_layout_entries();
@@ -466,7 +465,7 @@ fn mirrors() -> BTreeMap<(&'static str, &'static str), Layout> {
             count, kind, levels, leaf_count, node_count, cut_size, block_size, blocks_per_row,
             alias_count, interleave, frame, time, vpl_clamp2, sst_nu_min, sst_sigma_max2, _pad,
             lgh_lo, lgh_levels, lgh_h1, lgh_inv_h1, lgh_alpha, lgh_level0, lgh_shadows,
-            lgh_cells_offset, lgh_sorted_offset, _pad1,
+            lgh_cells_offset, lgh_sorted_offset, lgh_triangles,
         })),
         (("lights/sample_batch.wgsl", "SampleQuery"), host!(SampleQuery { p, u, n, block })),
         (("lights/sample_batch.wgsl", "SampleAnswer"), host!(SampleAnswer {

@@ -11,7 +11,9 @@
 // With the lgh sampler (ML_LGH = 1) an evaluation sums over the grid
 // lights instead (ml_lgh, lights/lgh.wgsl): u[0] is the stratification
 // offset of the S shadow-sample picks, u[1..4] the jitter of the first
-// shadow sample in its box, the others' jitter a Kronecker (R3) shift of it.
+// shadow sample in its box, the others' jitter a Kronecker (R3) shift of
+// it; with emissive triangles (not grid lights) u[4] picks one uniformly
+// and u[5..7] a point on it.
 // Constants from Rust: ML_TRIANGLES, ML_SUBSTITUTES, ML_LGH. The frame time and number are
 // uniforms (light_params.time, light_params.frame): a new frame compiles
 // no new shader.
@@ -47,12 +49,20 @@ fn ml_direct(s: Surface, px: vec2<u32>, u: vec4<f32>, time: f32) -> vec3<f32> {
     } else {
         l = light_prims[pick.light];
     }
+    let c = ml_light(s, l, u.yz, time);
+    // c / pmf with pmf = m·2^e: divide by the mantissa, then scale.
+    return s.rho * INV_PI * ldexp(c / pick.pmf_m, vec3<i32>(-pick.pmf_e)) * light_interleave_scale();
+}
+
+// C(y)·cosθ_x·V(x, y) of light l at s (a triangle sampled uniformly with
+// u2): the estimate before ρ/π and the pmf.
+fn ml_light(s: Surface, l: LightPrim, u2: vec2<f32>, time: f32) -> vec3<f32> {
     let origin = offset_origin(s.x, s.n);
     var y = l.p0;
     var area = 0.0;
     var ng = vec3<f32>(0.0);
     if (l.kind == KIND_TRIANGLE) {
-        let b = sample_uniform_triangle(u.yz);
+        let b = sample_uniform_triangle(u2);
         y = l.p0 * b.x + l.p1 * b.y + l.p2 * (1.0 - b.x - b.y);
         let c = cross(l.p1 - l.p0, l.p2 - l.p0);
         area = 0.5 * length(c);
@@ -88,8 +98,7 @@ fn ml_direct(s: Surface, px: vec2<u32>, u: vec4<f32>, time: f32) -> vec3<f32> {
     if (scene_occluded(origin, wi, dist * (1.0 - RAY_EPSILON), time)) {
         return vec3<f32>(0.0);
     }
-    // c / pmf with pmf = m·2^e: divide by the mantissa, then scale.
-    return s.rho * INV_PI * ldexp(c / pick.pmf_m, vec3<i32>(-pick.pmf_e)) * light_interleave_scale();
+    return c;
 }
 
 // R3 sequence steps (Roberts 2018: powers of 1/φ₃, the plastic number's
@@ -99,18 +108,27 @@ const LGH_JITTER_STEP: vec3<f32> = vec3<f32>(0.8191725, 0.6710436, 0.5497005);
 // Radiance reflected at s from the grid hierarchy (src/lights/lgh.rs):
 //   ρ/π · (F/S) · Σ_k (f_k/‖f_k‖) · V(x, y_k),
 // y_k the picked centre jittered uniformly in ±√3·σ; ρ/π · U when S = 0.
-fn ml_lgh(s: Surface, u: vec4<f32>, time: f32) -> vec3<f32> {
+fn ml_lgh(s: Surface, u: vec4<f32>, u_tri: vec3<f32>, time: f32) -> vec3<f32> {
     if (all(s.rho == vec3<f32>(0.0))) {
         return vec3<f32>(0.0);
+    }
+    // Emissive triangles are not grid lights: one of them, picked
+    // uniformly, is sampled as the other kinds sample a light.
+    var tri = vec3<f32>(0.0);
+    let t = light_params.lgh_triangles;
+    if (t > 0u) {
+        let j = min(u32(floor(u_tri.x * f32(t))), t - 1u);
+        let id = light_index[light_params.lgh_sorted_offset + light_params.count - t + j];
+        tri = s.rho * INV_PI * f32(t) * ml_light(s, light_prims[id], u_tri.yz, time);
     }
     let origin = offset_origin(s.x, s.n);
     lgh_sum(origin, s.n);
     if (!(lgh_total > 0.0)) {
-        return vec3<f32>(0.0);
+        return tri;
     }
     let count = light_params.lgh_shadows;
     if (count == 0u) {
-        return s.rho * INV_PI * lgh_u;
+        return tri + s.rho * INV_PI * lgh_u;
     }
     lgh_pick(origin, s.n, u.x);
     var sum = vec3<f32>(0.0);
@@ -127,7 +145,7 @@ fn ml_lgh(s: Surface, u: vec4<f32>, time: f32) -> vec3<f32> {
             sum += lgh_pick_chroma[k];
         }
     }
-    return s.rho * INV_PI * (lgh_total / f32(count)) * sum;
+    return tri + s.rho * INV_PI * (lgh_total / f32(count)) * sum;
 }
 
 fn integrand(p: ptr<function, IntegrandPoint>) -> vec3<f32> {
@@ -141,7 +159,11 @@ fn integrand(p: ptr<function, IntegrandPoint>) -> vec3<f32> {
     var u = vec4<f32>((*p).u[0], 0.5, 0.5, 0.5);
     if (ML_LGH == 1u) {
         let v = vec4<f32>((*p).u[0], (*p).u[1], (*p).u[2], (*p).u[3]);
-        return s.emitted + ml_lgh(s, v, time);
+        var w = vec3<f32>(0.5);
+        if (ML_TRIANGLES == 1u) {
+            w = vec3<f32>((*p).u[4], (*p).u[5], (*p).u[6]);
+        }
+        return s.emitted + ml_lgh(s, v, w, time);
     }
     if (ML_SUBSTITUTES == 1u) {
         u = vec4<f32>((*p).u[0], (*p).u[1], (*p).u[2], (*p).u[3]);

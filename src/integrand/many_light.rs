@@ -7,7 +7,10 @@
 //! 3–4, present only when the scene has emissive triangles, are a uniform
 //! point on the selected triangle; with the `sst` sampler, 3–5 are the
 //! Gaussian position of a selected substitute ([`crate::lights::substitute`]),
-//! so MDAS adapts over them too. The estimator is
+//! so MDAS adapts over them too. The `lgh` sampler sums over grid lights
+//! instead ([`crate::lights::lgh`]): 2 stratifies its shadow picks, 3–5
+//! jitter them, and with emissive triangles (not grid lights) 6 picks one
+//! triangle uniformly and 7–8 a point on it. The estimator is
 //! L_e(x) + ρ(x)/π · C(y) · cosθ_x · V(x, y) / pmf(light), with
 //! C = I/d² for a point light, C = L_e·cosθ_y·area/d² for a triangle
 //! (one-sided: 0 behind it) and C = I_0·cosθ_v/max(d², clamp²) for a VPL
@@ -85,7 +88,8 @@ pub struct ManyLight {
 
 /// The integrand's WGSL for sampler `kind`, with or without emissive
 /// triangles (dimensions 3–4); `sst` uses dimensions 3–5 for substitutes,
-/// `lgh` sums over its grid lights (dimensions 2–5, [`ManyLight::dims`]).
+/// `lgh` sums over its grid lights (dimensions 2–5, and 6–8 for a
+/// triangle, [`ManyLight::dims`]).
 /// Every other kind shares one source: the kind, the frame time and the
 /// frame number are uniforms (`LightParams`). Device-free, see
 /// [`super::path::source`].
@@ -325,7 +329,13 @@ impl Integrand for ManyLight {
     }
 
     fn dims(&self) -> u32 {
-        if matches!(self.kind, SamplerKind::Sst | SamplerKind::Lgh) {
+        if self.kind == SamplerKind::Lgh {
+            if self.triangles {
+                9
+            } else {
+                6
+            }
+        } else if self.kind == SamplerKind::Sst {
             6
         } else if self.triangles {
             5

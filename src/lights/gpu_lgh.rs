@@ -17,7 +17,7 @@
 
 use super::gpu_sampler::LightParams;
 use super::lgh::{self, GridLight, LghGrid, LghParams};
-use super::{gpu_build, LightPrim, KIND_VPL};
+use super::{gpu_build, LightPrim, KIND_TRIANGLE};
 use crate::gpu::buffer::STORAGE;
 use crate::gpu::radix_sort::RadixSort;
 use crate::gpu::shader::{storage_entry, uniform_entry, Wgsl};
@@ -83,6 +83,8 @@ pub struct GpuLgh {
     level1_pipeline: wgpu::ComputePipeline,
     level_pipeline: wgpu::ComputePipeline,
     light_count: u32,
+    /// Emissive triangles among the lights (not grid lights).
+    triangles: u32,
     /// Loop iterations of one shading walk ([`Self::loop_iterations`]).
     walk: u64,
     /// Host time of the grid computation, ms.
@@ -92,9 +94,7 @@ pub struct GpuLgh {
 /// The WGSL the build kernels and shading share: the light structs and
 /// `lights/lgh_light.wgsl`.
 pub fn light_wgsl() -> Wgsl {
-    gpu_build::prim_wgsl()
-        .constant("LGH_KIND_VPL", KIND_VPL)
-        .part(wgsl_file!("lights/lgh_light.wgsl"))
+    gpu_build::prim_wgsl().part(wgsl_file!("lights/lgh_light.wgsl"))
 }
 
 impl GpuLgh {
@@ -196,6 +196,7 @@ impl GpuLgh {
             level_pipeline: pipeline("lgh_level")?,
             layout,
             light_count: n,
+            triangles: prims.iter().filter(|l| l.kind == KIND_TRIANGLE).count() as u32,
             walk,
             grid_ms,
         })
@@ -207,7 +208,7 @@ impl GpuLgh {
     fn loop_bounds(grid: &LghGrid, prims: &[LightPrim], params: &LghParams) -> (u64, u64) {
         let c = grid.cells();
         let mut count = std::collections::HashMap::<u32, u64>::new();
-        for l in prims {
+        for l in prims.iter().filter(|l| l.kind != KIND_TRIANGLE) {
             let (cell, _) = grid.cell_of(1, Vec3::from(l.p0));
             *count
                 .entry(cell[0] + c * (cell[1] + c * cell[2]))
@@ -257,6 +258,7 @@ impl GpuLgh {
         p.lgh_shadows = self.params.shadow_samples;
         p.lgh_cells_offset = self.cells_offset();
         p.lgh_sorted_offset = self.sorted_offset();
+        p.lgh_triangles = self.triangles;
     }
 
     /// Builds the hierarchy from `prims` (the lights [`Self::new`] was
@@ -342,10 +344,10 @@ impl GpuLgh {
                 }
             })?;
             let mut sorted = Ok(());
+            // One bit more than the cells need: triangles sort past them.
+            let bits = 3 * (g.levels - 1) + 1;
             batch.phase(PHASES[2], |e, t| {
-                sorted = self
-                    .sorter
-                    .sort(gpu, e, t, &self.keys, &self.ids, n, 3 * (g.levels - 1));
+                sorted = self.sorter.sort(gpu, e, t, &self.keys, &self.ids, n, bits);
             })?;
             sorted?;
             batch.encoder().copy_buffer_to_buffer(

@@ -27,7 +27,7 @@ use super::lgh::{self, GridLight};
 use super::perfect::{self, PerfectTree};
 use super::sampler::SamplerKind;
 use super::substitute::{self, Substitute, SubstituteParams, SubstituteTree};
-use super::{gpu_build, LightCone, LightPrim, TreeNode, KIND_VPL, NO_LIGHT};
+use super::{gpu_build, LightCone, LightPrim, TreeNode, NO_LIGHT};
 use crate::gpu::buffer::STORAGE;
 use crate::gpu::shader::{storage_entry, uniform_entry, Wgsl};
 use crate::gpu::Gpu;
@@ -85,7 +85,8 @@ pub struct LightParams {
     pub lgh_shadows: u32,
     pub lgh_cells_offset: u32,
     pub lgh_sorted_offset: u32,
-    pub _pad1: u32,
+    /// `lgh`: the emissive triangles T (the last T sorted ids).
+    pub lgh_triangles: u32,
 }
 
 impl LightParams {
@@ -500,8 +501,7 @@ impl GpuSamplerData {
             let name = format!("LIGHT_KIND_{}", k.name().to_uppercase());
             w = w.constant(&name, k.index());
         }
-        w.constant("LGH_KIND_VPL", KIND_VPL)
-            .constant("LGH_MAX_SHADOWS", lgh::MAX_SHADOW_SAMPLES)
+        w.constant("LGH_MAX_SHADOWS", lgh::MAX_SHADOW_SAMPLES)
             .part(wgsl_file!("lights/lgh_light.wgsl"))
             .part(wgsl_file!("lights/bindings.wgsl"))
             .part(wgsl_file!("lights/sample.wgsl"))

@@ -11,7 +11,9 @@
 //!
 //! `L` levels of grid lights `S_1 … S_L` over the bounding box of the
 //! lights' positions (`lo`, longest edge `h_top`; `h_top = 1` when all
-//! lights coincide). Level ℓ has cell size `h_ℓ = h_top / 2^(L−ℓ)` and
+//! lights coincide). Points and VPLs are grid lights; emissive triangles
+//! are not (the integrand samples one of them directly, as the paper
+//! computes direct light apart from its VPLs). Level ℓ has cell size `h_ℓ = h_top / 2^(L−ℓ)` and
 //! `R_ℓ = 2^(L−ℓ) + 1` vertices per axis from `lo`; the top level `S_L`
 //! is one cell with 8 vertices. `S_0` are the original lights (cell size
 //! `h_0 = h_1 / 2`). Scaling by powers of two is exact in f32, so CPU and
@@ -224,25 +226,23 @@ impl LghGrid {
         l
     }
 
-    /// The grid over `prims` (points and VPLs only) with `levels` levels
-    /// (0: [`Self::auto_levels`]).
+    /// The grid over the points and VPLs of `prims` (emissive triangles are
+    /// not grid lights) with `levels` levels (0: [`Self::auto_levels`] of
+    /// their count).
     pub fn new(prims: &[LightPrim], levels: u32) -> Result<LghGrid> {
-        if prims.iter().any(|l| l.kind == KIND_TRIANGLE) {
-            bail!(
-                "the lgh sampler takes point lights and VPLs only; this scene has emissive \
-                 triangles (use a tree sampler, or light the scene with a light set or VPLs)"
-            );
-        }
         if levels > MAX_LEVELS {
             bail!("lgh_levels = {levels} exceeds {MAX_LEVELS}");
         }
+        let grid_lights = prims.iter().filter(|l| l.kind != KIND_TRIANGLE);
         let levels = if levels == 0 {
-            Self::auto_levels(prims.len())
+            Self::auto_levels(grid_lights.clone().count())
         } else {
             levels
         };
         let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
-        for l in prims {
+        let mut any = false;
+        for l in grid_lights {
+            any = true;
             let p = Vec3::from(l.p0);
             if !p.is_finite() {
                 bail!("a light position is not finite: {p}");
@@ -250,7 +250,7 @@ impl LghGrid {
             lo = lo.min(p);
             hi = hi.max(p);
         }
-        if prims.is_empty() {
+        if !any {
             lo = Vec3::ZERO;
             hi = Vec3::ZERO;
         }
@@ -414,7 +414,8 @@ pub struct Lgh {
     pub index: Vec<u32>,
     /// Per level-1 cell (linear, x fastest): [start, end) in `sorted`.
     pub cells: Vec<[u32; 2]>,
-    /// Light ids sorted by (level-1 cell, id); dark lights included.
+    /// Light ids sorted by (level-1 cell, id), dark lights included, then
+    /// the emissive triangles by id (they are in no cell).
     pub sorted: Vec<u32>,
 }
 
@@ -434,6 +435,9 @@ pub fn build(prims: &[LightPrim], levels: u32) -> Result<Lgh> {
     let grid = LghGrid::new(prims, levels)?;
     let c = grid.cells();
     let cell_key = |l: &LightPrim| {
+        if l.kind == KIND_TRIANGLE {
+            return c * c * c;
+        }
         let (cell, _) = grid.cell_of(1, Vec3::from(l.p0));
         cell[0] + c * (cell[1] + c * cell[2])
     };
@@ -442,6 +446,9 @@ pub fn build(prims: &[LightPrim], levels: u32) -> Result<Lgh> {
     let mut cells = vec![[0u32; 2]; (c as usize).pow(3)];
     for (s, &i) in sorted.iter().enumerate() {
         let k = cell_key(&prims[i as usize]) as usize;
+        if k == cells.len() {
+            break;
+        }
         if cells[k][1] == 0 {
             cells[k][0] = s as u32;
         }

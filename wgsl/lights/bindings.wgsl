@@ -72,7 +72,8 @@ struct LightParams {
     lgh_shadows: u32,
     lgh_cells_offset: u32,
     lgh_sorted_offset: u32,
-    _pad1: u32,
+    // lgh: emissive triangles T, the last T sorted ids (not grid lights).
+    lgh_triangles: u32,
 }
 
 @group(1) @binding(16) var<storage, read> light_nodes: array<TreeNode>;

@@ -35,7 +35,7 @@ fn lgh_emitter_eval(em: LghEmitter, x: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
 
 // An original point light or VPL (Emitter::light).
 fn lgh_light_emitter(l: LightPrim, clamp2: f32) -> LghEmitter {
-    let vpl = l.kind == LGH_KIND_VPL;
+    let vpl = l.kind == KIND_VPL;
     return LghEmitter(
         l.p0,
         vec3<f32>(0.0),

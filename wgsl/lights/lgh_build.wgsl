@@ -6,7 +6,7 @@
 // fixed order (no float atomics); the only atomic is the compaction
 // counter, which decides where a grid light is stored, never its value.
 // Needs lights/light_prim.wgsl and lights/lgh_light.wgsl; constants from
-// Rust: WG, LGH_KIND_VPL.
+// Rust: WG.
 
 struct LghBuildParams {
     lo: vec3<f32>,
@@ -50,10 +50,15 @@ fn lgh_keys(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_ind
     if (i >= params.n) {
         return;
     }
-    let c = lgh_cell_of(params.lo, params.inv_h1, lgh_res(params.levels, 1u), prims[i].p0).cell;
     let k = cells_per_axis();
-    keys[i] = c.x + k * (c.y + k * c.z);
     ids[i] = i;
+    if (prims[i].kind == KIND_TRIANGLE) {
+        // Not a grid light: past every cell.
+        keys[i] = k * k * k;
+        return;
+    }
+    let c = lgh_cell_of(params.lo, params.inv_h1, lgh_res(params.levels, 1u), prims[i].p0).cell;
+    keys[i] = c.x + k * (c.y + k * c.z);
 }
 
 // Every vertex without a grid light, every cell empty.
@@ -75,6 +80,10 @@ fn lgh_cells(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_in
         return;
     }
     let k = keys[i];
+    let c = cells_per_axis();
+    if (k >= c * c * c) {
+        return;
+    }
     if (i == 0u || keys[i - 1u] != k) {
         index[params.cells_offset + 2u * k] = i;
     }

@@ -2,8 +2,8 @@
 // live on (src/lights/lgh.rs is the CPU oracle and documents every rule;
 // these functions are its GridLight / LghGrid methods, the same f32
 // operations in the same order). Shared by the build (lgh_build.wgsl) and
-// the shading (lgh.wgsl). Needs LightPrim, luminance (light_prim.wgsl) and
-// the constant LGH_KIND_VPL.
+// the shading (lgh.wgsl). Needs LightPrim, luminance and KIND_VPL
+// (light_prim.wgsl).
 
 struct GridLight {
     // Σ w·I (RGB) and W = Σ ω, ω = w·‖I‖.
@@ -85,7 +85,7 @@ fn grid_light_add_light(acc: ptr<function, GridLight>, w: f32, l: LightPrim, v: 
     (*acc).w = (*acc).w + omega;
     (*acc).p = (*acc).p + omega * d;
     (*acc).q = (*acc).q + omega * (d * d);
-    if (l.kind == LGH_KIND_VPL) {
+    if (l.kind == KIND_VPL) {
         (*acc).n = (*acc).n + omega * l.p1;
     } else {
         (*acc).iso = (*acc).iso + omega;
