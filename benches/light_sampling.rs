@@ -11,7 +11,9 @@
 //! one warm-up render, then `RUNS` timed renders; the figure is the median
 //! total GPU time (timestamps where the adapter has them). The difference
 //! to `uniform` on the same scene is the selection's own cost: the rays
-//! are the same in number. Output: one table row per (scene, sampler).
+//! are the same in number (except for `lgh`, which sums over its grid
+//! lights and casts S shadow rays: it runs with S = 0, 1, 4 and 16).
+//! Output: one table row per (scene, sampler).
 //!
 //! For the scenes with VPLs it also prints `sst`'s mean stop depth (the
 //! substitute-tree paper's Fig. 5 measure: 15 for SST against 20 for
@@ -68,10 +70,23 @@ fn main() -> anyhow::Result<()> {
         let gpu_scene = Arc::new(GpuScene::new(gpu, scene, film)?);
         let mut uniform_ns = None;
         let mut depths = Vec::new();
-        for kind in SamplerKind::ALL {
-            let spec = ManyLightSpec {
+        // Every picker, then the grid hierarchy with 0 (unshadowed), 1, 4
+        // and 16 shadow rays per sample.
+        let variants = SamplerKind::PICKERS
+            .into_iter()
+            .map(|k| (k, None))
+            .chain([0, 1, 4, 16].map(|s| (SamplerKind::Lgh, Some(s))));
+        for (kind, shadows) in variants {
+            let mut spec = ManyLightSpec {
                 sampler: kind,
                 ..spec.clone()
+            };
+            if let Some(s) = shadows {
+                spec.lgh.shadow_samples = s;
+            }
+            let name = match shadows {
+                Some(s) => format!("{kind} (S = {s})"),
+                None => kind.to_string(),
             };
             let integrand = ManyLight::new(gpu, scene, gpu_scene.clone(), film, &spec)?;
             let setup = integrand.setup_times();
@@ -92,7 +107,7 @@ fn main() -> anyhow::Result<()> {
                 depths.push(stop_depth(integrand.lights(), &spec));
             }
             println!(
-                "| `{}` | {}×{} | {} | {kind} | {vpls:.2} / {:.2} / {:.2} | {ms:.1} | {ns:.0} | {:+.0} ns |",
+                "| `{}` | {}×{} | {} | {name} | {vpls:.2} / {:.2} / {:.2} | {ms:.1} | {ns:.0} | {:+.0} ns |",
                 Path::new(file).file_stem().unwrap().to_string_lossy(),
                 film.width,
                 film.height,

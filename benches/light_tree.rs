@@ -9,7 +9,9 @@
 //! submitted and timed by the profiler). After criterion's figure the bench prints the
 //! median of every phase over all builds (GPU timestamps where the adapter
 //! has them, else wall clock around a device sync). Lights: half points,
-//! half small triangles, uniform in a cube. Run: `cargo bench --bench light_tree`.
+//! half small triangles, uniform in a cube. Then the lighting grid
+//! hierarchy's build for the same sizes (`bench_lgh`). Run: `cargo bench
+//! --bench light_tree`.
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use glam::Vec3;
@@ -42,9 +44,10 @@ fn lights(n: usize) -> Vec<LightPrim> {
         .collect()
 }
 
+/// The median (NaN when criterion's filter skipped the measurement).
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(|a, b| a.partial_cmp(b).unwrap());
-    v[v.len() / 2]
+    v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
 }
 
 fn bench(c: &mut Criterion) {
@@ -112,5 +115,80 @@ fn bench(c: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, bench);
+/// The lighting grid hierarchy's GPU build (`lights::gpu_lgh`; the LGH
+/// paper's Table 2 row "Hierarchy Construction": 7.0 / 9.2 / 12.1 / 32.0 ms
+/// for 1K / 10K / 100K / 1M VPLs on an RTX 2080) with the default level
+/// count. Lights: half points, half VPLs (random normals), uniform in a
+/// cube.
+fn bench_lgh(c: &mut Criterion) {
+    use mdas::lights::gpu_lgh::{GpuLgh, PHASES};
+    use mdas::lights::lgh::LghParams;
+    let gpu = Gpu::shared().expect("benches need a wgpu adapter");
+    let mut rows = Vec::new();
+    for (size, n) in [
+        ("1k", 1_000usize),
+        ("10k", 10_000),
+        ("100k", 100_000),
+        ("1M", 1 << 20),
+    ] {
+        let prims: Vec<LightPrim> = lights(n)
+            .into_iter()
+            .map(|l| match l.kind {
+                mdas::lights::KIND_TRIANGLE => {
+                    let n = Vec3::from(l.p1) - Vec3::from(l.p0);
+                    LightPrim::vpl(Vec3::from(l.p0), n.normalize_or(Vec3::Y), Vec3::ONE)
+                }
+                _ => l,
+            })
+            .collect();
+        let buffer = gpu
+            .buffer_from("bench.lights", &prims, wgpu::BufferUsages::STORAGE)
+            .unwrap();
+        let lgh = GpuLgh::new(gpu, &prims, &LghParams::default()).unwrap();
+        let build = || {
+            let mut profiler = mdas::gpu::Profiler::new(gpu);
+            lgh.build(gpu, &buffer, &mut profiler).unwrap();
+            profiler.finish().unwrap()
+        };
+        build(); // warm-up
+        let mut times = Vec::new();
+        let mut group = c.benchmark_group(format!("lgh_build_{size}"));
+        group
+            .sample_size(10)
+            .warm_up_time(Duration::from_millis(1))
+            .measurement_time(Duration::from_secs(2));
+        group.bench_function("build", |b| {
+            b.iter_custom(|iters| {
+                let start = std::time::Instant::now();
+                for _ in 0..iters {
+                    times.push(build());
+                }
+                start.elapsed()
+            })
+        });
+        group.finish();
+        let phase = |name: &str| median(times.iter().map(|t| t.get(name).unwrap_or(0.0)).collect());
+        let total = median(times.iter().map(|t| t.total()).collect());
+        let grid_lights = lgh.read(gpu).unwrap().1;
+        rows.push((
+            size,
+            lgh.grid.levels,
+            grid_lights,
+            PHASES.map(phase),
+            total,
+            times.len(),
+        ));
+    }
+    eprintln!("\nlighting grid hierarchy build, median ms per phase (lgh.grid on the host):");
+    eprintln!("| lights | levels | grid lights | grid | keys | sort | cells | level 1 | levels ≥ 2 | total | builds |");
+    eprintln!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    for (size, levels, count, p, total, builds) in rows {
+        eprintln!(
+            "| {size} | {levels} | {count} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {total:.3} | {builds} |",
+            p[0], p[1], p[2], p[3], p[4], p[5]
+        );
+    }
+}
+
+criterion_group!(benches, bench, bench_lgh);
 criterion_main!(benches);
