@@ -1657,7 +1657,7 @@ mod lgh_oracle {
             for l in &prims {
                 let i = Vec3::from(l.emission).as_dvec3();
                 let w = luminance(Vec3::from(l.emission)) as f64;
-                if !(w > 0.0) {
+                if w <= 0.0 {
                     continue;
                 }
                 let p = Vec3::from(l.p0).as_dvec3();
