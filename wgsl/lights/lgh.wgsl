@@ -7,11 +7,14 @@
 
 struct LghEmitter {
     pos: vec3<f32>,
-    sigma: vec3<f32>,
     e: vec3<f32>,
     iso: f32,
     n: vec3<f32>,
     clamp2: f32,
+    // The centre's offset from its vertex m = P/W and Q/W: the variance is
+    // Q/W − m², computed only for a picked grid light (0 for a light).
+    m: vec3<f32>,
+    qw: vec3<f32>,
 }
 
 // I(ω)·cosθ_x / max(d², clamp²) at x with unit normal n (Emitter::eval).
@@ -38,19 +41,25 @@ fn lgh_light_emitter(l: LightPrim, clamp2: f32) -> LghEmitter {
     let vpl = l.kind == KIND_VPL;
     return LghEmitter(
         l.p0,
-        vec3<f32>(0.0),
         l.emission,
         select(1.0, 0.0, vpl),
         select(vec3<f32>(0.0), l.p1, vpl),
         select(0.0, clamp2, vpl),
+        vec3<f32>(0.0),
+        vec3<f32>(0.0),
     );
 }
 
-// A grid light, its vertex at v (GridLight::emitter).
+// A grid light, its vertex at v (GridLight::emitter, σ deferred).
 fn lgh_grid_emitter(g: GridLight, v: vec3<f32>, clamp2: f32) -> LghEmitter {
-    let m = g.p / g.w;
-    let var_ = max(g.q / g.w - m * m, vec3<f32>(0.0));
-    return LghEmitter(v + m, sqrt(var_), g.e, g.iso / g.w, g.n / g.w, clamp2);
+    let inv = 1.0 / g.w;
+    let m = g.p * inv;
+    return LghEmitter(v + m, g.e, g.iso * inv, g.n * inv, clamp2, m, g.q * inv);
+}
+
+// The standard deviation of an emitter's centre per axis.
+fn lgh_sigma(em: LghEmitter) -> vec3<f32> {
+    return sqrt(max(em.qw - em.m * em.m, vec3<f32>(0.0)));
 }
 
 // B_ℓ(d) (LghGrid::blend); `first` is the finest level used.
@@ -100,14 +109,20 @@ fn lgh_visit(first: u32, level: u32, em: LghEmitter, x: vec3<f32>, n: vec3<f32>,
     lgh_cum += lum;
     let chroma = f / lum;
     let s = light_params.lgh_shadows;
-    while (lgh_picked < s && lgh_targets[lgh_picked] < lgh_cum) {
-        lgh_pick_pos[lgh_picked] = em.pos;
-        lgh_pick_sigma[lgh_picked] = em.sigma;
-        lgh_pick_chroma[lgh_picked] = chroma;
-        lgh_picked += 1u;
+    if (lgh_picked < s && lgh_targets[lgh_picked] < lgh_cum) {
+        let sigma = lgh_sigma(em);
+        while (lgh_picked < s && lgh_targets[lgh_picked] < lgh_cum) {
+            lgh_pick_pos[lgh_picked] = em.pos;
+            lgh_pick_sigma[lgh_picked] = sigma;
+            lgh_pick_chroma[lgh_picked] = chroma;
+            lgh_picked += 1u;
+        }
+    }
+    if (lgh_picked >= s) {
+        return;
     }
     lgh_last_pos = em.pos;
-    lgh_last_sigma = em.sigma;
+    lgh_last_sigma = lgh_sigma(em);
     lgh_last_chroma = chroma;
 }
 
@@ -130,6 +145,9 @@ fn lgh_walk(x: vec3<f32>, n: vec3<f32>, picking: bool) {
                     let at = light_params.lgh_cells_offset + 2u * (xi + c * (y + c * z));
                     let end = light_index[at + 1u];
                     for (var s = light_index[at]; s < end; s++) {
+                        if (picking && lgh_picked >= light_params.lgh_shadows) {
+                            return;
+                        }
                         let id = light_index[light_params.lgh_sorted_offset + s];
                         lgh_visit(first, 0u, lgh_light_emitter(light_prims[id], clamp2), x, n, picking);
                     }
@@ -150,12 +168,28 @@ fn lgh_walk(x: vec3<f32>, n: vec3<f32>, picking: bool) {
         }
         let offset = lgh_index_offset(levels, level);
         let h = lgh_h(light_params.lgh_h1, level);
+        // A grid light lies within its vertex's 8 cells, |centre − v| ≤ √3·h:
+        // vertices farther than 2r + √3·h (B = 0 beyond 2r) or nearer than
+        // r/2 − √3·h (B = 0 within r/2) are skipped unread (1.7321 > √3
+        // covers the rounding of the distances).
+        let rb = alpha * h;
+        let outer = select(2.0 * rb + 1.7321 * h, 3.0e38, level == levels);
+        let inner = select(0.5 * rb - 1.7321 * h, -1.0, level == first);
         for (var z = a.z; z <= b.z; z++) {
             for (var y = a.y; y <= b.y; y++) {
                 for (var xi = a.x; xi <= b.x; xi++) {
+                    let v = lgh_vertex_pos(lo, h, vec3<u32>(xi, y, z));
+                    let dv = length(v - x);
+                    if (dv >= outer || dv < inner) {
+                        continue;
+                    }
+                    if (picking && lgh_picked >= light_params.lgh_shadows) {
+                        // Every shadow sample picked: the rest of the walk
+                        // cannot change them.
+                        return;
+                    }
                     let slot = light_index[offset + xi + r * (y + r * z)];
                     if (slot != LGH_EMPTY) {
-                        let v = lgh_vertex_pos(lo, h, vec3<u32>(xi, y, z));
                         lgh_visit(first, level, lgh_grid_emitter(lgh_lights[slot], v, clamp2), x, n, picking);
                     }
                 }
