@@ -9,7 +9,9 @@
 #      and at full film size with a REF_SPP_FULL reference;
 #   4. the light samplers at equal time on vpl_atrium (100,000 VPLs made
 #      per frame), stochastic substitute trees among them (issue 13), at
-#      1/4 and full scale, and `sst`'s bias over seeds.
+#      1/4 and full scale, and `sst`'s bias over seeds;
+#   5. the lighting grid hierarchy (issue 14): equal time on lights_1m, its
+#      bias over seeds, its GPU build and its cost per sample.
 # With a baseline binary (another build of mdas that has `bench`), steps 1
 # and 2 also run it, right after the same step of this build.
 #
@@ -71,10 +73,25 @@ for scene in cornell_pt pool; do
     step "compare-$scene-full" "$BIN" compare "scenes/$scene.toml" --scale "$FULL_SCALE" \
         --ref-spp "$REF_SPP_FULL" --repeats "$REPEATS" --out "$OUT/compare-$scene-full"
 done
-SAMPLERS=power,tree_nocut,tree,tree_cone,unbalanced,sst,sst_nosub
+SAMPLERS=power,tree_nocut,tree,tree_cone,unbalanced,sst,sst_nosub,lgh
 step "samplers-vpl_atrium" "$BIN" compare scenes/vpl_atrium.toml --samplers "$SAMPLERS" \
     --scale "$QUARTER_SCALE" --ref-spp "$REF_SPP" --repeats "$REPEATS" --out "$OUT/samplers-vpl_atrium"
 step "samplers-vpl_atrium-full" "$BIN" compare scenes/vpl_atrium.toml --samplers "$SAMPLERS" \
     --scale "$FULL_SCALE" --ref-spp "$REF_SPP_FULL" --repeats "$REPEATS" --out "$OUT/samplers-vpl_atrium-full"
 step "sst-bias-vpl_atrium" "$BIN" compare scenes/vpl_atrium.toml --sampler sst --seeds 8 --spp 16 \
     --scale "$QUARTER_SCALE" --ref-spp "$REF_SPP" --repeats "$REPEATS" --out "$OUT/sst-bias-vpl_atrium"
+# The lighting grid hierarchy (issue 14): equal time against the trees on
+# lights_1m, its bias over seeds on both scenes (MDAS needs 128 spp on the
+# atrium: lgh with its skylight has 9 dimensions), and its build for 1k–1M
+# lights with the per-sample cost at S = 0, 1, 4, 16 (the two criterion
+# benches; their tables go to stderr).
+step "samplers-lights_1m" "$BIN" compare scenes/lights_1m.toml --samplers tree,tree_cone,lgh \
+    --scale "$QUARTER_SCALE" --ref-spp "$REF_SPP" --repeats "$REPEATS" --out "$OUT/samplers-lights_1m"
+step "lgh-bias-vpl_atrium" "$BIN" compare scenes/vpl_atrium.toml --sampler lgh --seeds 8 --spp 128 \
+    --scale "$QUARTER_SCALE" --ref-spp "$REF_SPP" --repeats "$REPEATS" --out "$OUT/lgh-bias-vpl_atrium"
+step "lgh-bias-lights_1m" "$BIN" compare scenes/lights_1m.toml --sampler lgh --seeds 8 --spp 16 \
+    --scale "$QUARTER_SCALE" --ref-spp "$REF_SPP" --repeats "$REPEATS" --out "$OUT/lgh-bias-lights_1m"
+if [ "${QUICK:-0}" != 1 ]; then
+    cargo bench --bench light_tree -- lgh 2>&1 | tee "$OUT/lgh-build.txt"
+    MDAS_BENCH_SCALE=$FULL_SCALE cargo bench --bench light_sampling 2>&1 | tee "$OUT/light-sampling.txt"
+fi

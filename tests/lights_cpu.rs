@@ -1703,8 +1703,9 @@ mod lgh_oracle {
 
     /// One light (a point or a VPL): every level's grid lights sit at the
     /// light, so the blended sum U equals the light's own contribution
-    /// at any shading point, for any α and finest level (relative 1e-5:
-    /// the centres are the light's position up to f32 rounding).
+    /// at any shading point, for any α and finest level, without the
+    /// paper's distance clamp (relative 1e-5: the centres are the light's
+    /// position up to f32 rounding).
     #[test]
     fn one_light_is_exact_at_every_level() {
         let mut rng = StdRng::seed_from_u64(42);
@@ -1744,6 +1745,7 @@ mod lgh_oracle {
                         alpha: rng.random_range(0.3..3.0),
                         level0: rng.random(),
                         shadow_samples: 4,
+                        clamp: 0.0,
                     };
                     let u: Vec3 = h
                         .candidates(&[l], &params, 0.0, x, n)
@@ -1861,8 +1863,13 @@ mod lgh_oracle {
             .iter()
             .map(|l| Emitter::light(l, 0.0).eval(x, n))
             .sum();
+        // Without the paper's clamp (it moves grid lights' 1/d²).
+        let unclamped = LghParams {
+            clamp: 0.0,
+            ..LghParams::default()
+        };
         let u: Vec3 = h
-            .candidates(&prims, &LghParams::default(), 0.0, x, n)
+            .candidates(&prims, &unclamped, 0.0, x, n)
             .iter()
             .map(|c| c.f)
             .sum();
@@ -1871,7 +1878,7 @@ mod lgh_oracle {
             "{u} vs {exact}"
         );
         assert!(h.lights.iter().all(|g| {
-            let e = g.emitter(Vec3::ZERO, 0.0);
+            let e = g.emitter(Vec3::ZERO, 0.0, 0.0);
             e.sigma.is_finite() && e.sigma.max_element() < 1e-3
         }));
 
@@ -1894,7 +1901,7 @@ mod lgh_oracle {
                 for y in 0..r {
                     for x in 0..r {
                         if let Some(g) = h.light_at(level, [x, y, z]) {
-                            let e = g.emitter(h.grid.vertex_pos(level, [x, y, z]), 0.0);
+                            let e = g.emitter(h.grid.vertex_pos(level, [x, y, z]), 0.0, 0.0);
                             assert!(e.sigma.is_finite() && e.pos.is_finite());
                             assert!(e.sigma.y <= 1e-4 * h.grid.h(level), "σ_y {}", e.sigma.y);
                             assert!((e.pos.y - 0.5).abs() < 1e-5);

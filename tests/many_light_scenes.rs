@@ -470,7 +470,8 @@ fn many_light_integrand_parses_with_defaults() {
                 levels: 0,
                 alpha: 1.0,
                 level0: false,
-                shadow_samples: 4
+                shadow_samples: 4,
+                clamp: 0.01
             },
         }
     );
@@ -535,7 +536,7 @@ fn many_light_integrand_parses_with_defaults() {
 fn lgh_keys_parse() {
     let s = ok(
         "ml-lgh",
-        &format!("{BASE}[integrand]\ntype = \"many_light\"\nsampler = \"lgh\"\nlgh_levels = 5\nlgh_alpha = 2.5\nlgh_level0 = true\nlgh_shadows = 16\n"),
+        &format!("{BASE}[integrand]\ntype = \"many_light\"\nsampler = \"lgh\"\nlgh_levels = 5\nlgh_alpha = 2.5\nlgh_level0 = true\nlgh_shadows = 16\nlgh_clamp = 0.05\n"),
     );
     let IntegrandSpec::ManyLight(spec) = s.integrand else {
         panic!("many_light")
@@ -548,7 +549,8 @@ fn lgh_keys_parse() {
                 levels: 5,
                 alpha: 2.5,
                 level0: true,
-                shadow_samples: 16
+                shadow_samples: 16,
+                clamp: 0.05
             }
         )
     );
@@ -610,6 +612,11 @@ fn bad_many_light_input_is_an_error_at_its_position() {
     let m = error_at("lgha2", &integrand("lgh_alpha = 5000\n"), 14, 13);
     assert!(
         m.contains("lgh_alpha must be at most 1024, found 5000"),
+        "{m}"
+    );
+    let m = error_at("lghc", &integrand("lgh_clamp = -1\n"), 14, 13);
+    assert!(
+        m.contains("lgh_clamp must be a finite fraction ≥ 0, found -1"),
         "{m}"
     );
     let m = error_at("lghs", &integrand("lgh_shadows = 17\n"), 14, 15);

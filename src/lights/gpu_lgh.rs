@@ -268,6 +268,7 @@ impl GpuLgh {
         p.lgh_cells_offset = self.cells_offset();
         p.lgh_sorted_offset = self.sorted_offset();
         p.lgh_triangles = self.triangles;
+        p.lgh_soft2 = self.grid.soft2(self.params.clamp);
     }
 
     /// Builds the hierarchy from `prims` (the lights [`Self::new`] was

@@ -87,6 +87,11 @@ pub struct LightParams {
     pub lgh_sorted_offset: u32,
     /// `lgh`: the emissive triangles T (the last T sorted ids).
     pub lgh_triangles: u32,
+    /// `lgh`: the grid lights' additive distance clamp (c·R)².
+    pub lgh_soft2: f32,
+    pub _pad1: u32,
+    pub _pad2: u32,
+    pub _pad3: u32,
 }
 
 impl LightParams {

@@ -53,9 +53,10 @@
 //! A grid light emits `I(ω) = e·(iso/W + max(0, (N/W)·ω))`: exact for one
 //! point light or one VPL, and for VPLs sharing a normal. Its
 //! contribution at shading point x with normal n is
-//! `f = B_ℓ(d)·I(ω)·cosθ_x / max(d², clamp²)` (`clamp` = the VPL clamp;
-//! the paper's demo adds `(0.01·R)²`), the original lights of `S_0` use
-//! the integrand's own light model. The blending functions (the paper's
+//! `f = B_ℓ(d)·I(ω)·cosθ_x / (max(d², clamp²) + (c·R)²)` (`clamp` = the
+//! VPL clamp; `c·R` the paper's clamp, `c` = `lgh_clamp`, 0.01 by default
+//! as in its demo, R the radius of the lights' bounding cube); the
+//! original lights of `S_0` use the integrand's own light model. The blending functions (the paper's
 //! demo; a partition of unity over the levels used for any d), with
 //! `r_ℓ = α·h_ℓ`:
 //!
@@ -114,6 +115,11 @@ pub struct LghParams {
     pub level0: bool,
     /// Shadow samples per evaluation (0: unshadowed).
     pub shadow_samples: u32,
+    /// The paper's distance clamp of grid lights, as a fraction c of the
+    /// radius R of the lights' bounding cube: `1/(d² + (c·R)²)` (its demo:
+    /// 0.01 of the scene radius). Original lights (level 0) keep the
+    /// integrand's own model.
+    pub clamp: f32,
 }
 
 impl Default for LghParams {
@@ -123,6 +129,7 @@ impl Default for LghParams {
             alpha: 1.0,
             level0: false,
             shadow_samples: 4,
+            clamp: 0.01,
         }
     }
 }
@@ -165,6 +172,8 @@ pub struct Emitter {
     pub n: Vec3,
     /// `clamp²` of the distance (0: none).
     pub clamp2: f32,
+    /// The grid lights' additive clamp `(c·R)²` (0 for an original light).
+    pub soft2: f32,
 }
 
 impl Emitter {
@@ -178,11 +187,12 @@ impl Emitter {
             iso: if vpl { 0.0 } else { 1.0 },
             n: if vpl { Vec3::from(l.p1) } else { Vec3::ZERO },
             clamp2: if vpl { clamp2 } else { 0.0 },
+            soft2: 0.0,
         }
     }
 
-    /// `I(ω)·cosθ_x / max(d², clamp²)` at `x` with unit normal `n` (no
-    /// blending weight): the WGSL `lgh_emitter_eval`.
+    /// `I(ω)·cosθ_x / (max(d², clamp²) + soft²)` at `x` with unit normal
+    /// `n` (no blending weight): the WGSL `lgh_emitter_eval`.
     pub fn eval(&self, x: Vec3, n: Vec3) -> Vec3 {
         let to = self.pos - x;
         let d2 = to.dot(to);
@@ -198,7 +208,7 @@ impl Emitter {
         if !positive(lobe) {
             return Vec3::ZERO;
         }
-        self.e * (lobe * cos_x / d2.max(self.clamp2))
+        self.e * (lobe * cos_x / (d2.max(self.clamp2) + self.soft2))
     }
 }
 
@@ -329,6 +339,13 @@ impl LghGrid {
         a(1, t.x) * a(2, t.y) * a(4, t.z)
     }
 
+    /// The grid lights' additive distance clamp `(c·R)²`, R = √3/2·h_top
+    /// the radius of the lights' bounding cube.
+    pub fn soft2(&self, clamp: f32) -> f32 {
+        let r = clamp * 0.866_025_4 * self.h(self.levels);
+        r * r
+    }
+
     /// The blending weight of level ℓ at distance `d` (module docs);
     /// `first` is the finest level used.
     pub fn blend(&self, alpha: f32, first: u32, level: u32, d: f32) -> f32 {
@@ -387,8 +404,9 @@ impl GridLight {
         v + Vec3::from(self.p) / self.w
     }
 
-    /// The grid light as shading sees it, its vertex at `v`.
-    pub fn emitter(&self, v: Vec3, clamp2: f32) -> Emitter {
+    /// The grid light as shading sees it, its vertex at `v`, with the
+    /// VPL clamp² and the grid's additive clamp² ([`LghGrid::soft2`]).
+    pub fn emitter(&self, v: Vec3, clamp2: f32, soft2: f32) -> Emitter {
         let m = Vec3::from(self.p) / self.w;
         let var = (Vec3::from(self.q) / self.w - m * m).max(Vec3::ZERO);
         Emitter {
@@ -398,6 +416,7 @@ impl GridLight {
             iso: self.iso / self.w,
             n: Vec3::from(self.n) / self.w,
             clamp2,
+            soft2,
         }
     }
 }
@@ -570,6 +589,7 @@ impl Lgh {
     ) -> Vec<Candidate> {
         let g = &self.grid;
         let first = if params.level0 { 0 } else { 1 };
+        let soft2 = g.soft2(params.clamp);
         let mut out = Vec::new();
         let mut visit = |level: u32, id: u32, e: Emitter| {
             let d = (e.pos - x).length();
@@ -626,7 +646,8 @@ impl Lgh {
                 let at = g.index_offset(level) + g.vertex_index(level, v) as u64;
                 let slot = self.index[at as usize];
                 if slot != EMPTY {
-                    let e = self.lights[slot as usize].emitter(g.vertex_pos(level, v), clamp2);
+                    let e =
+                        self.lights[slot as usize].emitter(g.vertex_pos(level, v), clamp2, soft2);
                     visit(level, slot, e);
                 }
             });

@@ -158,6 +158,19 @@ impl Ctx<'_> {
                 0..=lgh::MAX_SHADOW_SAMPLES as i64,
                 d.shadow_samples as i64,
             )? as u32,
+            clamp: match &r.lgh_clamp {
+                None => d.clamp,
+                Some(v) => {
+                    let x = v.get_ref().0;
+                    if !(x >= 0.0 && x.is_finite()) {
+                        return Err(self.error(
+                            v.span(),
+                            format!("lgh_clamp must be a finite fraction ≥ 0, found {x}"),
+                        ));
+                    }
+                    x
+                }
+            },
         })
     }
 

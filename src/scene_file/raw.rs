@@ -243,13 +243,14 @@ pub(super) struct RawIntegrand {
     pub(super) lgh_alpha: Option<S<Num>>,
     pub(super) lgh_level0: Option<S<bool>>,
     pub(super) lgh_shadows: Option<S<i64>>,
+    pub(super) lgh_clamp: Option<S<Num>>,
 }
 
 impl RawIntegrand {
     pub(super) fn type_keys(&self) -> Vec<(&'static str, Range<usize>)> {
         present_keys!(self; max_bounces, radius, sampler, cut_size, block, interleave, time, frame,
             vpls, vpl_bounces, vpl_seed, vpl_clamp, sst_nu_min, sst_sigma_max, lgh_levels,
-            lgh_alpha, lgh_level0, lgh_shadows)
+            lgh_alpha, lgh_level0, lgh_shadows, lgh_clamp)
     }
 }
 
@@ -278,6 +279,7 @@ pub(super) const INTEGRAND_TYPES: [(&str, &[&str]); 6] = [
             "lgh_alpha",
             "lgh_level0",
             "lgh_shadows",
+            "lgh_clamp",
         ],
     ),
 ];

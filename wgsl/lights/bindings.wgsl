@@ -74,6 +74,11 @@ struct LightParams {
     lgh_sorted_offset: u32,
     // lgh: emissive triangles T, the last T sorted ids (not grid lights).
     lgh_triangles: u32,
+    // lgh: the grid lights' additive distance clamp (c·R)².
+    lgh_soft2: f32,
+    _pad1: u32,
+    _pad2: u32,
+    _pad3: u32,
 }
 
 @group(1) @binding(16) var<storage, read> light_nodes: array<TreeNode>;

@@ -11,13 +11,16 @@ struct LghEmitter {
     iso: f32,
     n: vec3<f32>,
     clamp2: f32,
+    // The grid lights' additive clamp (c·R)² (0 for a light).
+    soft2: f32,
     // The centre's offset from its vertex m = P/W and Q/W: the variance is
     // Q/W − m², computed only for a picked grid light (0 for a light).
     m: vec3<f32>,
     qw: vec3<f32>,
 }
 
-// I(ω)·cosθ_x / max(d², clamp²) at x with unit normal n (Emitter::eval).
+// I(ω)·cosθ_x / (max(d², clamp²) + soft²) at x with unit normal n
+// (Emitter::eval).
 fn lgh_emitter_eval(em: LghEmitter, x: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
     let to = em.pos - x;
     let d2 = dot(to, to);
@@ -33,7 +36,7 @@ fn lgh_emitter_eval(em: LghEmitter, x: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
     if (!(lobe > 0.0)) {
         return vec3<f32>(0.0);
     }
-    return em.e * (lobe * cos_x / max(d2, em.clamp2));
+    return em.e * (lobe * cos_x / (max(d2, em.clamp2) + em.soft2));
 }
 
 // An original point light or VPL (Emitter::light).
@@ -45,6 +48,7 @@ fn lgh_light_emitter(l: LightPrim, clamp2: f32) -> LghEmitter {
         select(1.0, 0.0, vpl),
         select(vec3<f32>(0.0), l.p1, vpl),
         select(0.0, clamp2, vpl),
+        0.0,
         vec3<f32>(0.0),
         vec3<f32>(0.0),
     );
@@ -54,7 +58,7 @@ fn lgh_light_emitter(l: LightPrim, clamp2: f32) -> LghEmitter {
 fn lgh_grid_emitter(g: GridLight, v: vec3<f32>, clamp2: f32) -> LghEmitter {
     let inv = 1.0 / g.w;
     let m = g.p * inv;
-    return LghEmitter(v + m, g.e, g.iso * inv, g.n * inv, clamp2, m, g.q * inv);
+    return LghEmitter(v + m, g.e, g.iso * inv, g.n * inv, clamp2, light_params.lgh_soft2, m, g.q * inv);
 }
 
 // The standard deviation of an emitter's centre per axis.
