@@ -332,6 +332,9 @@ pub struct Reference {
     /// [`IntegrandSpec::light_warnings`] (an integrand that sees no light
     /// renders a black reference).
     pub warnings: Vec<String>,
+    /// Set when the scene's own light sampler is biased and the reference
+    /// used `tree` instead ([`reference`]).
+    pub sampler_note: Option<String>,
 }
 
 /// How a reference was obtained.
@@ -388,8 +391,11 @@ fn read_cache_entry(path: &Path, film: Film) -> Result<Vec<[f32; 3]>> {
 /// ([`CacheUse::Hit`]); an unusable one is rendered again and replaced
 /// ([`CacheUse::Rebuilt`] says why).
 /// References use the scene file's own `[integrand]` table (`mdas compare`
-/// always does, whatever `--sampler` its compared renders use: every light
-/// sampler estimates the same image).
+/// always does, whatever `--sampler` its compared renders use: every
+/// unbiased light sampler estimates the same image) — except a biased
+/// light sampler (`sst`, `lgh`: [`SamplerKind::is_biased`]), which would
+/// hide its own bias: without a `--sampler` override such a scene's
+/// reference uses `tree` ([`Reference::sampler_note`] says so).
 pub fn reference(
     gpu: &Gpu,
     scene_path: &Path,
@@ -407,6 +413,25 @@ pub fn reference(
     )
 }
 
+/// The overrides a reference of an integrand `spec` renders with: the
+/// given ones, or, when they leave the sampler alone and the scene's own
+/// light sampler is biased, `tree`, with the note that says so.
+pub fn reference_overrides(
+    spec: &IntegrandSpec,
+    overrides: IntegrandOverrides,
+) -> (IntegrandOverrides, Option<String>) {
+    match (overrides.sampler, spec) {
+        (None, IntegrandSpec::ManyLight(m)) if m.sampler.is_biased() => (
+            IntegrandOverrides::sampler(SamplerKind::Tree),
+            Some(format!(
+                "the scene's light sampler '{}' is biased: its reference uses 'tree'",
+                m.sampler
+            )),
+        ),
+        _ => (overrides, None),
+    }
+}
+
 /// [`reference`] rendered with `[integrand]` overrides (`mdas reference
 /// --sampler`). An override that changes the scene's table is part of the
 /// cache key, so such a reference never replaces (or is mistaken for) the
@@ -420,6 +445,7 @@ pub fn reference_with(
     progress: Option<crate::integrator::halton::Progress>,
 ) -> Result<Reference> {
     let scene = SceneFile::load(scene_path)?;
+    let (overrides, sampler_note) = reference_overrides(&scene.integrand, overrides);
     // An override the scene cannot take fails here, cached entry or not.
     let applied = overrides.apply(&scene.integrand, scene_path)?;
     let mut warnings = scene.warnings.clone();
@@ -443,6 +469,7 @@ pub fn reference_with(
                     path,
                     cache: CacheUse::Hit,
                     warnings,
+                    sampler_note,
                 })
             }
             Err(e) => cache = CacheUse::Rebuilt(format!("{e:#}")),
@@ -497,6 +524,7 @@ pub fn reference_with(
         path,
         cache,
         warnings,
+        sampler_note,
     })
 }
 
@@ -533,6 +561,34 @@ mod tests {
         assert_eq!(mdas_params_at_scale(p, 1.0 / 16.0).extra_image_bits, 4);
         assert_eq!(mdas_params_at_scale(p, 1.0 / 1024.0).extra_image_bits, 0);
         assert_eq!(mdas_params_at_scale(p, 2.0).extra_image_bits, 8);
+    }
+
+    #[test]
+    fn references_of_biased_samplers_use_tree() {
+        use crate::integrand::ManyLightSpec;
+        let ml = |sampler| {
+            IntegrandSpec::ManyLight(ManyLightSpec {
+                sampler,
+                ..ManyLightSpec::default()
+            })
+        };
+        for kind in SamplerKind::ALL {
+            let (o, note) = reference_overrides(&ml(kind), IntegrandOverrides::default());
+            if kind.is_biased() {
+                assert_eq!(o.sampler, Some(SamplerKind::Tree), "{kind}");
+                assert!(note.unwrap().contains(kind.name()));
+            } else {
+                assert_eq!((o.sampler, note), (None, None), "{kind}");
+            }
+            // An explicit --sampler is kept, biased or not.
+            let (o, note) = reference_overrides(&ml(kind), IntegrandOverrides::sampler(kind));
+            assert_eq!((o.sampler, note), (Some(kind), None));
+        }
+        let other = IntegrandSpec::PathTracing { max_bounces: 1 };
+        assert_eq!(
+            reference_overrides(&other, IntegrandOverrides::default()).0,
+            IntegrandOverrides::default()
+        );
     }
 
     #[test]

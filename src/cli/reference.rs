@@ -80,6 +80,7 @@ pub(crate) fn run(args: ReferenceArgs, ui: Ui) -> Result<()> {
         path,
         cache: cache_use,
         warnings,
+        sampler_note,
     } = app::reference_with(
         gpu,
         &scene,
@@ -89,7 +90,7 @@ pub(crate) fn run(args: ReferenceArgs, ui: Ui) -> Result<()> {
         Some(Box::new(move |done, _| b.set_position(done as u64))),
     )?;
     bar.finish_and_clear();
-    for w in &warnings {
+    for w in warnings.iter().chain(&sampler_note) {
         eprintln!("warning: {w}");
     }
     if let app::CacheUse::Rebuilt(why) = &cache_use {

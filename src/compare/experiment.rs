@@ -361,6 +361,9 @@ pub(crate) fn load_reference(
         Some(Box::new(move |done, _| b2.set_position(done as u64))),
     )?;
     b.finish_and_clear();
+    if let Some(note) = &reference.sampler_note {
+        eprintln!("note: {note}");
+    }
     if let app::CacheUse::Rebuilt(why) = &reference.cache {
         eprintln!(
             "warning: the cached reference {} was unusable ({why}); rendered it again",

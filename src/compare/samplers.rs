@@ -8,7 +8,8 @@
 //!    one uploaded scene), MDAS's parameters against the `tree` integrand,
 //!    then the output directory.
 //! 2. The reference: Halton at `ref_spp` with the scene's own sampler
-//!    (`app::reference`, cached; every sampler estimates the same image).
+//!    (`app::reference`, cached; every unbiased sampler estimates the same
+//!    image, and a biased scene sampler, `sst` or `lgh`, is replaced by `tree`).
 //! 3. The target time: MDAS with `tree` at its spp ([`Budget::MdasSpp`]),
 //!    or `--time-ms` for all, MDAS+tree searched too ([`Budget::TimeMs`]).
 //! 4. Each listed sampler: Halton's budget search at the target
