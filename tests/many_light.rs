@@ -101,6 +101,16 @@ fn point_lights_plane_exact(scene: &SceneFile) -> Vec<[f64; 3]> {
     out
 }
 
+/// The image mean of [`point_lights_plane_exact`] (its pixels as f32, as a
+/// render stores them).
+fn exact_mean(scene: &SceneFile) -> [f64; 3] {
+    let pixels: Vec<[f32; 3]> = point_lights_plane_exact(scene)
+        .iter()
+        .map(|p| p.map(|v| v as f32))
+        .collect();
+    image_mean(&pixels)
+}
+
 fn image_mean(image: &[[f32; 3]]) -> [f64; 3] {
     let mut m = [0.0; 3];
     for p in image {
@@ -124,12 +134,7 @@ fn image_mean(image: &[[f32; 3]]) -> [f64; 3] {
 fn every_sampler_converges_to_the_exact_sum_over_4096_lights() {
     let scene = load("scenes/tests/point_lights_plane.toml");
     assert_eq!(light_prims(&scene.scene, 0.0).len(), 4096);
-    let exact = image_mean(
-        &point_lights_plane_exact(&scene)
-            .iter()
-            .map(|p| p.map(|v| v as f32))
-            .collect::<Vec<_>>(),
-    );
+    let exact = exact_mean(&scene);
     const K: u32 = 8;
     // lgh is biased by design: its own tests are in `mod lgh` below.
     for kind in SamplerKind::PICKERS {
@@ -198,12 +203,7 @@ fn tree_sampling_beats_uniform_selection_per_pixel() {
 #[test]
 fn interleaved_sampling_keeps_the_sub_block_mean() {
     let scene = load("scenes/tests/point_lights_plane.toml");
-    let exact = image_mean(
-        &point_lights_plane_exact(&scene)
-            .iter()
-            .map(|p| p.map(|v| v as f32))
-            .collect::<Vec<_>>(),
-    );
+    let exact = exact_mean(&scene);
     let plain = integrand(&scene, scene.scene.film, SamplerKind::Tree);
     let inter = integrand_interleaved(&scene, scene.scene.film, SamplerKind::Tree, 2);
     const K: u32 = 8;
@@ -859,12 +859,7 @@ mod lgh {
     #[test]
     fn level0_with_a_large_alpha_is_the_exact_sum() {
         let scene = load("scenes/tests/point_lights_plane.toml");
-        let exact = image_mean(
-            &point_lights_plane_exact(&scene)
-                .iter()
-                .map(|p| p.map(|v| v as f32))
-                .collect::<Vec<_>>(),
-        );
+        let exact = exact_mean(&scene);
         for shadows in [0, 4] {
             let params = LghParams {
                 alpha: 1000.0,
@@ -960,12 +955,7 @@ mod lgh {
         }
         let n = (scene.scene.film.width * scene.scene.film.height * Q * Q) as f64;
         let model = model.map(|m| m / n);
-        let exact = image_mean(
-            &point_lights_plane_exact(&scene)
-                .iter()
-                .map(|p| p.map(|v| v as f32))
-                .collect::<Vec<_>>(),
-        );
+        let exact = exact_mean(&scene);
         let m = means(&integrand_lgh(&scene, params), 8, 16, 400);
         for ch in 0..3 {
             let (mean, se) = mean_se(&m, ch);

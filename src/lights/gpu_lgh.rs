@@ -20,7 +20,7 @@ use super::lgh::{self, GridLight, LghGrid, LghParams};
 use super::{gpu_build, LightPrim, KIND_TRIANGLE};
 use crate::gpu::buffer::STORAGE;
 use crate::gpu::radix_sort::RadixSort;
-use crate::gpu::shader::{storage_entry, uniform_entry, Wgsl};
+use crate::gpu::shader::{bind_buffers, storage_entry, uniform_entry, Wgsl};
 use crate::gpu::{Gpu, Profiler};
 use crate::wgsl_file;
 use anyhow::{bail, Result};
@@ -288,7 +288,7 @@ impl GpuLgh {
             groups_x: 0,
             clear_len: self.sorted_offset(),
         };
-        let group = |threads: u32, level: u32| -> Result<(wgpu::BindGroup, (u32, u32))> {
+        let group = |threads: u32, level: u32| -> (wgpu::BindGroup, (u32, u32)) {
             let dims = gpu.dispatch_dims(threads.div_ceil(WG).max(1));
             let params = LghBuildParams {
                 level,
@@ -305,20 +305,8 @@ impl GpuLgh {
                 &self.lights,
                 &self.counter,
             ];
-            let entries: Vec<_> = buffers
-                .iter()
-                .enumerate()
-                .map(|(i, b)| wgpu::BindGroupEntry {
-                    binding: i as u32,
-                    resource: b.as_entire_binding(),
-                })
-                .collect();
-            let bg = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("lgh.build.group"),
-                layout: &self.layout,
-                entries: &entries,
-            });
-            Ok((bg, dims))
+            let bg = bind_buffers(gpu, "lgh.build.group", &self.layout, &buffers);
+            (bg, dims)
         };
         let run = |pass: &mut wgpu::ComputePass<'_>,
                    pipeline: &wgpu::ComputePipeline,
@@ -327,12 +315,10 @@ impl GpuLgh {
             pass.set_bind_group(0, bg, &[]);
             pass.dispatch_workgroups(dims.0, dims.1, 1);
         };
-        let per_light = group(n, 1)?;
-        let clear = group(self.sorted_offset(), 1)?;
-        let level1 = group(g.res(1).pow(3), 1)?;
-        let levels: Vec<_> = (2..=g.levels)
-            .map(|l| group(g.res(l).pow(3), l))
-            .collect::<Result<_>>()?;
+        let per_light = group(n, 1);
+        let clear = group(self.sorted_offset(), 1);
+        let level1 = group(g.res(1).pow(3), 1);
+        let levels: Vec<_> = (2..=g.levels).map(|l| group(g.res(l).pow(3), l)).collect();
         profiler.wall_phase(PHASES[0], self.grid_ms);
         gpu.scoped("building the lighting grid hierarchy", || {
             let mut batch = profiler.batch("lgh.build");

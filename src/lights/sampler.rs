@@ -61,19 +61,15 @@ pub enum SamplerKind {
 
 impl SamplerKind {
     /// Every kind: the pickers, then `lgh`.
-    pub const ALL: [SamplerKind; 11] = [
-        SamplerKind::Uniform,
-        SamplerKind::Power,
-        SamplerKind::TreeNoCut,
-        SamplerKind::Tree,
-        SamplerKind::TreeCone,
-        SamplerKind::Unbalanced,
-        SamplerKind::UnbalancedNoCut,
-        SamplerKind::UnbalancedNoCone,
-        SamplerKind::Sst,
-        SamplerKind::SstNoSub,
-        SamplerKind::Lgh,
-    ];
+    pub const ALL: [SamplerKind; 11] = {
+        let mut all = [SamplerKind::Lgh; 11];
+        let mut i = 0;
+        while i < Self::PICKERS.len() {
+            all[i] = Self::PICKERS[i];
+            i += 1;
+        }
+        all
+    };
 
     /// The kinds that pick one light per sample with a probability (the
     /// [`LightSampler`] contract): all but `lgh`, which sums over grid

@@ -131,6 +131,30 @@ impl Ctx<'_> {
         })
     }
 
+    /// A finite number ≥ 0 (`what` names it in the message), or `default`.
+    fn finite_nonneg(
+        &self,
+        v: &Option<S<Num>>,
+        key: &str,
+        what: &str,
+        default: f32,
+    ) -> Result<f32> {
+        match v {
+            None => Ok(default),
+            Some(v) => {
+                let x = v.get_ref().0;
+                if x >= 0.0 && x.is_finite() {
+                    Ok(x)
+                } else {
+                    Err(self.error(
+                        v.span(),
+                        format!("{key} must be a finite {what} ≥ 0, found {x}"),
+                    ))
+                }
+            }
+        }
+    }
+
     /// The lighting-grid keys of a `many_light` `[integrand]`.
     fn lgh(&self, r: &RawIntegrand) -> Result<LghParams> {
         let d = LghParams::default();
@@ -158,19 +182,7 @@ impl Ctx<'_> {
                 0..=lgh::MAX_SHADOW_SAMPLES as i64,
                 d.shadow_samples as i64,
             )? as u32,
-            clamp: match &r.lgh_clamp {
-                None => d.clamp,
-                Some(v) => {
-                    let x = v.get_ref().0;
-                    if !(x >= 0.0 && x.is_finite()) {
-                        return Err(self.error(
-                            v.span(),
-                            format!("lgh_clamp must be a finite fraction ≥ 0, found {x}"),
-                        ));
-                    }
-                    x
-                }
-            },
+            clamp: self.finite_nonneg(&r.lgh_clamp, "lgh_clamp", "fraction", d.clamp)?,
         })
     }
 
@@ -200,19 +212,7 @@ impl Ctx<'_> {
                 x as u32
             }
         };
-        let clamp = match &r.vpl_clamp {
-            None => d.clamp,
-            Some(v) => {
-                let x = v.get_ref().0;
-                if !(x >= 0.0 && x.is_finite()) {
-                    return Err(self.error(
-                        v.span(),
-                        format!("vpl_clamp must be a finite distance ≥ 0, found {x}"),
-                    ));
-                }
-                x
-            }
-        };
+        let clamp = self.finite_nonneg(&r.vpl_clamp, "vpl_clamp", "distance", d.clamp)?;
         Ok(VplSpec {
             paths,
             bounces,

@@ -137,6 +137,10 @@ fn lgh_walk(x: vec3<f32>, n: vec3<f32>, picking: bool) {
     let alpha = light_params.lgh_alpha;
     let clamp2 = light_params.vpl_clamp2;
     let first = select(1u, 0u, light_params.lgh_level0 != 0u);
+    if (levels == 0u) {
+        // No hierarchy (no lights).
+        return;
+    }
     if (light_params.lgh_level0 != 0u) {
         let c = 1u << (levels - 1u);
         let q = (x - lo) * light_params.lgh_inv_h1;
