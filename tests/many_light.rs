@@ -881,6 +881,26 @@ mod lgh {
         }
     }
 
+    /// No lights with the original lights as level 0: no hierarchy to walk,
+    /// a black image, no non-finite sample.
+    #[test]
+    fn zero_lights_with_level0_render_black() {
+        let text = std::fs::read_to_string("scenes/tests/point_lights_plane.toml").unwrap();
+        let start = text.find("[[light_set]]").unwrap();
+        let end = text.find("[integrand]").unwrap();
+        let no_lights = format!("{}{}", &text[..start], &text[end..]);
+        let scene = mdas::scene_file::parse(&no_lights, Path::new("no_lights.toml")).unwrap();
+        let params = LghParams {
+            level0: true,
+            ..LghParams::default()
+        };
+        let r = Halton::new(2, 1)
+            .render(gpu(), &integrand_lgh(&scene, params))
+            .unwrap();
+        assert_eq!(r.nonfinite, 0);
+        assert!(r.image.iter().all(|p| *p == [0.0; 3]));
+    }
+
     /// The LGH model's value at a point x of the plane y = 0 (normal +y):
     /// ρ/π · Σ_i f_i · P(V_i), from the CPU oracle's candidates, where the
     /// shadow ray of grid light i ends at its centre jittered uniformly in
