@@ -220,6 +220,12 @@ fn kernels() -> Vec<Kernel> {
     all.push(kernel("vpl", &VplGenerator::source(), &vpl));
     let lgh = [GpuLgh::layout_entries()];
     all.push(kernel("lgh_build", &GpuLgh::source(), &lgh));
+    let voxel = [mdas::accel::gpu_voxel::layout_entries()];
+    all.push(kernel(
+        "voxel_build",
+        &mdas::accel::gpu_voxel::source(),
+        &voxel,
+    ));
     let batch = [
         BatchSampler::layout_entries(),
         GpuSamplerData::layout_entries(),
@@ -412,6 +418,8 @@ fn bind_group_layouts_match_the_wgsl() {
 #[rustfmt::skip]
 fn mirrors() -> BTreeMap<(&'static str, &'static str), Layout> {
     use mdas::accel::trace::TraceParams;
+    use mdas::accel::gpu_voxel::VoxelBuildParams;
+    use mdas::accel::voxel::{VoxelFrame, VoxelObject};
     use mdas::lights::substitute::Substitute;
     use mdas::lights::LightCone;
     use mdas::integrator::halton::HaltonParams;
@@ -434,6 +442,7 @@ fn mirrors() -> BTreeMap<(&'static str, &'static str), Layout> {
             cam_position, cam_lens_radius, cam_forward, cam_focus_distance, cam_right,
             cam_tan_half_fov_y, cam_up, cam_aspect, film_size, shutter, background,
             emitter_count, light_count, instance_count, tlas_root, triangle_count,
+            visibility, voxel_directions, voxel_skip, voxel_objects,
         })),
         ((scene, "Material"), host!(GpuMaterial {
             albedo, checker_scale, emission, _pad0, albedo2, _pad1,
@@ -447,6 +456,17 @@ fn mirrors() -> BTreeMap<(&'static str, &'static str), Layout> {
         ((scene, "BvhNode"), host!(CwBvhNode {
             p, e, imask, child_base_idx, primitive_base_idx, child_meta, child_min_x, child_max_x,
             child_min_y, child_max_y, child_min_z, child_max_z,
+        })),
+        (("shared/voxel.wgsl", "VoxelObject"), host!(VoxelObject {
+            centre, inv_h, radius, res, words, base,
+        })),
+        (("shared/voxel.wgsl", "VoxelFrame"), host!(VoxelFrame { a, b, u })),
+        (("voxel_build.wgsl", "VoxelObject"), host!(VoxelObject {
+            centre, inv_h, radius, res, words, base,
+        })),
+        (("voxel_build.wgsl", "VoxelFrame"), host!(VoxelFrame { a, b, u })),
+        (("voxel_build.wgsl", "VoxelBuildParams"), host!(VoxelBuildParams {
+            item_count, row_stride, direction_offset, per_instance,
         })),
         ((trace, "Ray"), host!(Ray { origin, t_max, dir, time })),
         ((trace, "HitRecord"), host!(HitRecord {

@@ -1,7 +1,8 @@
 // Batch ray tracing for tests and benchmarks (src/accel/trace.rs).
 //
 // One invocation per ray: closest hit and/or any hit against the scene at
-// @group(1) via shared/bvh.wgsl. Rays and hits are flat arrays; the grid
+// @group(1) via shared/bvh.wgsl, or the voxel visibility query of
+// shared/voxel.wgsl. Rays and hits are flat arrays; the grid
 // is 2D when one dimension would exceed the workgroup-count limit, and the
 // linear ray index is id.x + id.y · params.row_stride.
 
@@ -56,4 +57,17 @@ fn trace_any_only(@builtin(global_invocation_id) id: vec3<u32>) {
   let ray = rays[i];
   let any = bvh_traverse(ray.origin, ray.dir, ray.t_max, ray.time, true);
   hits[i] = HitRecord(ray.t_max, BVH_MISS, vec2<f32>(0.0), select(0u, 1u, any.hit.prim != BVH_MISS), 0u, any.steps, 0u);
+}
+
+// The voxel visibility query (shared/voxel.wgsl) in place of the BVH's any
+// hit: any_hit = 1 when the segment [0, t_max] is occluded.
+@compute @workgroup_size(TRACE_WORKGROUP_SIZE)
+fn trace_voxel_only(@builtin(global_invocation_id) id: vec3<u32>) {
+  let i = ray_index(id);
+  if i >= params.ray_count {
+    return;
+  }
+  let ray = rays[i];
+  let occluded = voxel_occluded(ray.origin, ray.dir, ray.t_max, ray.time);
+  hits[i] = HitRecord(ray.t_max, BVH_MISS, vec2<f32>(0.0), select(0u, 1u, occluded), 0u, 0u, 0u);
 }

@@ -11,9 +11,12 @@ use anyhow::Result;
 use glam::Vec3;
 
 use super::build::BuiltScene;
+use super::gpu_voxel::GpuVoxels;
 use super::layout::{
     GpuEmitter, GpuLight, GpuMaterial, SceneUniforms, LIGHT_DIRECTIONAL, LIGHT_POINT,
+    VISIBILITY_VOXEL,
 };
+use super::voxel::{Visibility, VoxelLayout};
 use crate::film::Film;
 use crate::gpu::buffer::STORAGE;
 use crate::gpu::shader::{bind_buffers, storage_entry, uniform_entry};
@@ -33,8 +36,12 @@ pub struct SceneStats {
     pub stack_depth: u32,
     /// Wall time of the obvhs builds, milliseconds.
     pub build_ms: f64,
-    /// Bytes of all scene buffers on the device.
+    /// Bytes of all scene buffers on the device (voxel array included).
     pub gpu_bytes: u64,
+    /// Bytes of the voxel visibility array (0 with BVH visibility).
+    pub voxel_bytes: u64,
+    /// Wall time of the voxel array's build on the device, ms.
+    pub voxel_build_ms: f64,
 }
 
 /// A scene on the device, bound at `@group(1)` (see `shared/scene.wgsl`).
@@ -44,22 +51,56 @@ pub struct GpuScene {
     pub stats: SceneStats,
     /// Host copy of the uniform buffer's contents.
     pub uniforms: SceneUniforms,
-    /// The buffers of bindings 0–7, for integrands that extend `@group(1)`
+    /// How shadow rays are answered (`scene_occluded` in shading.wgsl).
+    pub visibility: Visibility,
+    /// The voxel array's layout, with voxel visibility.
+    pub voxel_layout: Option<VoxelLayout>,
+    /// The buffers of bindings 0–10, for integrands that extend `@group(1)`
     /// with their own bindings ([`GpuScene::layout_entries`],
     /// [`GpuScene::bind_group_entries`]).
-    buffers: [wgpu::Buffer; 8],
+    buffers: [wgpu::Buffer; SCENE_BINDINGS],
 }
+
+/// Bindings of the scene group: 0 uniforms, 1–7 geometry, materials and
+/// lights, 8–10 the voxel visibility array (`shared/voxel.wgsl`).
+pub const SCENE_BINDINGS: usize = 11;
 
 impl GpuScene {
     /// Builds the BVHs and uploads `scene` for rendering at resolution
     /// `film` (which may differ from `scene.film`).
     pub fn new(gpu: &Gpu, scene: &Scene, film: Film) -> Result<GpuScene> {
+        GpuScene::with_visibility(gpu, scene, film, Visibility::Bvh)
+    }
+
+    /// [`GpuScene::new`] with shadow rays answered by `visibility` (the
+    /// voxel array is built here, on the device).
+    pub fn with_visibility(
+        gpu: &Gpu,
+        scene: &Scene,
+        film: Film,
+        visibility: Visibility,
+    ) -> Result<GpuScene> {
         let built = BuiltScene::new(scene)?;
-        GpuScene::upload(gpu, scene, &built, film)
+        GpuScene::upload_with(gpu, scene, &built, film, visibility)
     }
 
     /// Uploads an already built scene; `built` must come from `scene`.
     pub fn upload(gpu: &Gpu, scene: &Scene, built: &BuiltScene, film: Film) -> Result<GpuScene> {
+        GpuScene::upload_with(gpu, scene, built, film, Visibility::Bvh)
+    }
+
+    /// [`GpuScene::upload`] with shadow rays answered by `visibility`.
+    pub fn upload_with(
+        gpu: &Gpu,
+        scene: &Scene,
+        built: &BuiltScene,
+        film: Film,
+        visibility: Visibility,
+    ) -> Result<GpuScene> {
+        if let Visibility::Voxel(params) = visibility {
+            // Refuse an array that cannot fit before uploading anything.
+            VoxelLayout::new(built, params)?.check_fits(built, gpu.max_binding_bytes())?;
+        }
         let materials: Vec<GpuMaterial> = scene
             .materials
             .iter()
@@ -73,7 +114,7 @@ impl GpuScene {
             .collect();
         let lights: Vec<GpuLight> = scene.lights.iter().map(gpu_light).collect();
         let emitters = emitter_table(scene, built);
-        let uniforms = scene_uniforms(
+        let mut uniforms = scene_uniforms(
             scene,
             built,
             film,
@@ -95,14 +136,35 @@ impl GpuScene {
         )?;
 
         gpu.scoped("uploading the scene", || {
+            let triangles = gpu.buffer_from(
+                "mdas.scene.triangles",
+                &non_empty(&built.triangles),
+                STORAGE,
+            )?;
+            let voxels = match visibility {
+                Visibility::Voxel(params) => {
+                    let v = GpuVoxels::build(gpu, built, &triangles, params)?;
+                    uniforms.visibility = VISIBILITY_VOXEL;
+                    uniforms.voxel_directions = params.directions;
+                    uniforms.voxel_skip = params.skip;
+                    uniforms.voxel_objects = v.layout.objects.len() as u32;
+                    Some(v)
+                }
+                Visibility::Bvh => None,
+            };
+            let voxel_build_ms = voxels.as_ref().map_or(0.0, |v| v.build_ms);
+            let voxel_layout = voxels.as_ref().map(|v| v.layout.clone());
+            let [bits, objects, frames] = match voxels {
+                Some(v) => [v.bits, v.objects, v.frames],
+                None => ["bits", "objects", "frames"].map(|what| {
+                    gpu.buffer_zeroed(&format!("mdas.voxel.{what} (unused)"), 64, STORAGE)
+                        .expect("64 bytes fit any binding")
+                }),
+            };
             let buffers = [
                 gpu.uniform("mdas.scene.uniforms", &uniforms),
                 gpu.buffer_from("mdas.scene.nodes", &non_empty(&built.nodes), STORAGE)?,
-                gpu.buffer_from(
-                    "mdas.scene.triangles",
-                    &non_empty(&built.triangles),
-                    STORAGE,
-                )?,
+                triangles,
                 gpu.buffer_from(
                     "mdas.scene.instances",
                     &non_empty(&built.instances),
@@ -116,6 +178,9 @@ impl GpuScene {
                 gpu.buffer_from("mdas.scene.materials", &non_empty(&materials), STORAGE)?,
                 gpu.buffer_from("mdas.scene.emitters", &non_empty(&emitters), STORAGE)?,
                 gpu.buffer_from("mdas.scene.lights", &non_empty(&lights), STORAGE)?,
+                bits,
+                objects,
+                frames,
             ];
             let layout = Self::bind_group_layout(gpu);
             let bind_group = bind_buffers(
@@ -132,23 +197,36 @@ impl GpuScene {
                 stack_depth: built.stack_depth,
                 build_ms: built.build_ms,
                 gpu_bytes: buffers.iter().map(|b| b.size()).sum(),
+                voxel_bytes: voxel_layout.as_ref().map_or(0, |l| l.bytes()),
+                voxel_build_ms,
             };
             Ok(GpuScene {
                 layout,
                 bind_group,
                 stats,
                 uniforms,
+                visibility,
+                voxel_layout,
                 buffers,
             })
         })
     }
 
     /// The entries of the scene's `@group(1)` layout: binding 0 uniform,
-    /// 1–7 read-only storage.
+    /// 1–10 read-only storage.
     pub fn layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
         let mut entries = vec![uniform_entry(0)];
-        entries.extend((1..=7).map(|b| storage_entry(b, true)));
+        entries.extend((1..SCENE_BINDINGS as u32).map(|b| storage_entry(b, true)));
         entries
+    }
+
+    /// The voxel array's bits, read back (tests compare them with the CPU
+    /// oracle [`super::voxel::build_cpu`]); empty with BVH visibility.
+    pub fn read_voxel_bits(&self, gpu: &Gpu) -> Result<Vec<u32>> {
+        match &self.voxel_layout {
+            Some(l) => gpu.read_buffer::<u32>(&self.buffers[8], l.words as usize),
+            None => Ok(Vec::new()),
+        }
     }
 
     /// Bind group entries matching [`GpuScene::layout_entries`].
@@ -163,7 +241,7 @@ impl GpuScene {
             .collect()
     }
 
-    /// The layout of `@group(1)`: binding 0 uniform, 1–7 read-only storage.
+    /// The layout of `@group(1)`: binding 0 uniform, 1–10 read-only storage.
     pub fn bind_group_layout(gpu: &Gpu) -> wgpu::BindGroupLayout {
         let entries = Self::layout_entries();
         gpu.device
@@ -236,6 +314,7 @@ pub fn scene_uniforms(
         instance_count: built.instances.len() as u32,
         tlas_root: built.tlas_root,
         triangle_count: built.triangle_count(),
+        ..Default::default()
     }
 }
 

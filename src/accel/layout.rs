@@ -37,7 +37,20 @@ pub struct SceneUniforms {
     /// `instance_count` is 0).
     pub tlas_root: u32,
     pub triangle_count: u32,
+    /// Shadow rays: 0 = BVH, 1 = voxel array (`VISIBILITY_*`).
+    pub visibility: u32,
+    /// n of the n × n direction array (voxel visibility).
+    pub voxel_directions: u32,
+    /// Extra voxels skipped at each endpoint (the self-occlusion rule).
+    pub voxel_skip: u32,
+    /// Voxelized objects (one per instance, or 1; 0 with BVH visibility).
+    pub voxel_objects: u32,
 }
+
+/// `SceneUniforms::visibility` of the BVH.
+pub const VISIBILITY_BVH: u32 = 0;
+/// `SceneUniforms::visibility` of the voxel array.
+pub const VISIBILITY_VOXEL: u32 = 1;
 
 /// `Material` (binding 5): Lambertian albedo, optional checker, emission.
 #[repr(C)]
@@ -115,7 +128,7 @@ pub struct GpuKeyframe {
 }
 
 const _: () = {
-    assert!(std::mem::size_of::<SceneUniforms>() == 112);
+    assert!(std::mem::size_of::<SceneUniforms>() == 128);
     assert!(std::mem::size_of::<GpuMaterial>() == 48);
     assert!(std::mem::size_of::<GpuEmitter>() == 16);
     assert!(std::mem::size_of::<GpuLight>() == 48);

@@ -7,7 +7,9 @@
 //! analytic lights, bound at `@group(1)` as `wgsl/shared/scene.wgsl`
 //! declares. Kernels include [`GpuScene::wgsl`] (scene.wgsl + bvh.wgsl) and
 //! call `trace_closest(origin, dir, t_max, time) -> Hit` and
-//! `trace_any(origin, dir, t_max, time) -> bool`.
+//! `trace_any(origin, dir, t_max, time) -> bool`. Shadow rays can instead
+//! be answered approximately in constant time by the voxel array of
+//! [`voxel`] ([`Visibility`]; `voxel_occluded` in `shared/voxel.wgsl`).
 //!
 //! | module         | what                                                      |
 //! |----------------|-----------------------------------------------------------|
@@ -16,6 +18,8 @@
 //! | [`gpu_scene`]  | upload, bind group, camera frame, emitter table           |
 //! | [`cpu`]        | the CPU oracle: same triangle test, brute force           |
 //! | [`trace`]      | batch trace kernel (`wgsl/trace.wgsl`) for tests/benches  |
+//! | [`voxel`]      | voxel visibility: parameters, layout, CPU oracle          |
+//! | [`gpu_voxel`]  | the voxel array built on the device                       |
 //!
 //! Design in one paragraph: all static meshes are merged into one
 //! world-space BLAS; each moving mesh has its own object-space BLAS; a TLAS
@@ -29,13 +33,16 @@
 pub mod build;
 pub mod cpu;
 pub mod gpu_scene;
+pub mod gpu_voxel;
 pub mod layout;
 pub mod trace;
+pub mod voxel;
 
 pub use build::BuiltScene;
 pub use gpu_scene::{emitter_table, GpuScene, SceneStats};
 pub use layout::{GpuEmitter, GpuInstance, GpuKeyframe, GpuLight, GpuMaterial, SceneUniforms};
 pub use trace::{HitRecord, Ray, TraceKernel, TraceMode, MISS};
+pub use voxel::{Visibility, VoxelParams};
 
 use crate::gpu::shader::Wgsl;
 
@@ -58,7 +65,9 @@ impl GpuScene {
             .constant("BVH_STACK_SIZE", BVH_STACK_SIZE)
             .constant("BVH_MAX_STEPS", BVH_MAX_STEPS)
             .constant("BVH_T_MIN_REL_BITS", cpu::T_MIN_REL.to_bits())
+            .constant("MAX_VOXEL_WORDS", voxel::MAX_RESOLUTION / voxel::WORD_BITS)
             .part(crate::wgsl_file!("shared/scene.wgsl"))
             .part(crate::wgsl_file!("shared/bvh.wgsl"))
+            .part(crate::wgsl_file!("shared/voxel.wgsl"))
     }
 }

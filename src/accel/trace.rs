@@ -69,6 +69,9 @@ pub enum TraceMode {
     Closest,
     /// Any hit only (`t` = t_max, `prim` = MISS, `steps_closest` = 0).
     Any,
+    /// The voxel visibility query instead of the BVH (`any_hit` = occluded;
+    /// the scene must have been uploaded with [`super::Visibility::Voxel`]).
+    Voxel,
 }
 
 /// `TraceParams` in `wgsl/trace.wgsl` (public for
@@ -87,6 +90,7 @@ pub struct TraceKernel {
     both: wgpu::ComputePipeline,
     closest: wgpu::ComputePipeline,
     any: wgpu::ComputePipeline,
+    voxel: wgpu::ComputePipeline,
 }
 
 impl TraceKernel {
@@ -126,6 +130,12 @@ impl TraceKernel {
                 &layouts,
             )?,
             any: gpu.compute_pipeline("mdas.trace.any", &source, "trace_any_only", &layouts)?,
+            voxel: gpu.compute_pipeline(
+                "mdas.trace.voxel",
+                &source,
+                "trace_voxel_only",
+                &layouts,
+            )?,
             layout,
         })
     }
@@ -139,6 +149,20 @@ impl TraceKernel {
 
     /// Traces `rays` with both queries and returns one record per ray.
     pub fn run(&self, gpu: &Gpu, scene: &GpuScene, rays: &[Ray]) -> Result<Vec<HitRecord>> {
+        self.run_mode(gpu, scene, rays, TraceMode::Both)
+    }
+
+    /// Traces `rays` with the queries of `mode`, one record per ray.
+    pub fn run_mode(
+        &self,
+        gpu: &Gpu,
+        scene: &GpuScene,
+        rays: &[Ray],
+        mode: TraceMode,
+    ) -> Result<Vec<HitRecord>> {
+        if mode == TraceMode::Voxel && !scene.visibility.is_voxel() {
+            anyhow::bail!("voxel queries need a scene uploaded with voxel visibility");
+        }
         let mut out = Vec::with_capacity(rays.len());
         for batch in rays.chunks(Self::max_rays_per_dispatch(gpu).max(1)) {
             let hits = gpu.scoped("tracing rays", || {
@@ -154,7 +178,7 @@ impl TraceKernel {
                     &ray_buffer,
                     &hit_buffer,
                     batch.len() as u32,
-                    TraceMode::Both,
+                    mode,
                 )?;
                 gpu.read_buffer::<HitRecord>(&hit_buffer, batch.len())
             })?;
@@ -212,6 +236,7 @@ impl TraceKernel {
             TraceMode::Both => &self.both,
             TraceMode::Closest => &self.closest,
             TraceMode::Any => &self.any,
+            TraceMode::Voxel => &self.voxel,
         };
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("mdas.trace"),

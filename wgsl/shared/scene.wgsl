@@ -27,6 +27,7 @@ struct SceneUniforms {
   film_size: vec2<f32>, shutter: vec2<f32>,          // render film W,H; shutter open, close (scene time)
   background: vec3<f32>, emitter_count: u32,
   light_count: u32, instance_count: u32, tlas_root: u32, triangle_count: u32,
+  visibility: u32 /* VISIBILITY_* */, voxel_directions: u32, voxel_skip: u32, voxel_objects: u32,  // shared/voxel.wgsl
 }
 struct Material { albedo: vec3<f32>, checker_scale: f32 /* 0 = no checker */, emission: vec3<f32>, _pad0: f32, albedo2: vec3<f32>, _pad1: f32 }
 struct Emitter { prim: u32, cdf: f32, pmf: f32, area: f32 }  // emissive triangles, selection pmf ∝ luminance(emission)·area; cdf inclusive, last = 1 exactly
@@ -52,6 +53,9 @@ struct BvhNode { p_e: vec4<f32>, ids: vec4<u32>, qx: vec4<u32>, qy: vec4<u32>, q
 @group(1) @binding(5) var<storage, read> materials: array<Material>;
 @group(1) @binding(6) var<storage, read> emitters: array<Emitter>;
 @group(1) @binding(7) var<storage, read> lights: array<Light>;
+
+const VISIBILITY_BVH: u32 = 0u;
+const VISIBILITY_VOXEL: u32 = 1u;
 
 const LIGHT_POINT: u32 = 0u;
 const LIGHT_DIRECTIONAL: u32 = 1u;

@@ -30,6 +30,12 @@ fn scene_closest(origin: vec3<f32>, dir: vec3<f32>, t_max: f32, time: f32) -> Hi
 }
 
 fn scene_occluded(origin: vec3<f32>, dir: vec3<f32>, t_max: f32, time: f32) -> bool {
+    if scene.visibility == VISIBILITY_VOXEL {
+        // One row lookup per voxel object, a few words each (shared/voxel.wgsl).
+        rays_traced += 1u;
+        traversal_steps += scene.voxel_objects * (1u + MAX_VOXEL_WORDS);
+        return voxel_occluded(origin, dir, t_max, time);
+    }
     let r = bvh_traverse(origin, dir, t_max, time, true);
     rays_traced += 1u;
     traversal_steps += r.steps;

@@ -1,0 +1,837 @@
+//! Constant-time shadow rays: the 2D array of per-direction bit
+//! voxelizations of Wang, Meng & Popescu, *Constant-Time Ray-Scene
+//! Intersection for Interactive Rendering with Thousands of Dynamic Lights*
+//! (`../shared/papers/constant-time-ray-scene-intersection.txt`), the
+//! second visibility backend beside the BVH. This module holds the
+//! parameters, the memory layout, and the CPU oracle of both the build and
+//! the query; [`super::gpu_voxel`] builds the same bits on the GPU and
+//! `wgsl/shared/voxel.wgsl` answers the queries.
+//!
+//! # Directions
+//! The paper's array: θ and φ in [0°, 180°) in steps of k = 180°/n (its
+//! default n = 90, k = 2°). Voxelization (i, j) has its rows along
+//! u = (sin θ cos φ, sin θ sin φ, cos θ) with θ = i·k, φ = j·k, and its other
+//! two axes a = ∂u/∂θ = (cos θ cos φ, cos θ sin φ, −sin θ) and
+//! b = (−sin φ, cos φ, 0). Every line direction has a representative with
+//! y ≥ 0, i.e. φ ∈ [0°, 180°]: a query direction is flipped to it, its
+//! angles rounded to the nearest step (φ = 180° wraps to φ = 0° with θ
+//! mirrored to 180° − θ; θ = 180° is the pole θ = 0°). The row axis is then
+//! within k/√2 of the segment's direction. The frames are computed once on
+//! the host (f64, stored f32) and shared by the CPU and the GPU.
+//!
+//! # Objects and resolution
+//! Each instance of the scene ([`BuiltScene::instances`]; the static
+//! geometry when there are none) is one voxelized object, in its own
+//! object space: a moving rigid instance is queried by taking the segment
+//! into its frame at the ray's time, the paper's Algorithm 4 (our scenes
+//! have rigid motion only, so nothing is rebuilt per frame). An object's
+//! grid is the cube circumscribing its bounding sphere (centre: the box
+//! centre of its vertices; radius: the farthest vertex), so every rotation
+//! holds all of it. The largest object gets `resolution` voxels per side;
+//! smaller ones get proportionally fewer (a multiple of 32, at least 32),
+//! which keeps voxels about the same size across objects.
+//!
+//! # Voxelization
+//! Voxel (x, y, z) of a direction (x along a, y along b, z along the row
+//! axis u) is set when a triangle of the object meets its box, by the
+//! separating-axis test of Akenine-Möller (2001) on the 13 axes, in voxel
+//! coordinates q = ((p − c)·(a, b, u))·(R/2r) + R/2. Only voxels whose
+//! column range can hold the triangle's plane are tested (columns along
+//! the dominant axis of the normal, ranges widened by 10⁻³ voxel), so the
+//! result is conservative up to exact touching: every voxel whose interior
+//! a triangle passes through is set, and every set voxel's closed box meets
+//! the triangle. Degenerate (zero-area) triangles set nothing, as they hide
+//! nothing from the BVH either.
+//!
+//! # Query (the paper's Algorithm 2)
+//! A shadow segment from P along d for t ∈ [0, t_max] is clipped to each
+//! object's bounding sphere. For the nearest direction, the row is the one
+//! through the clipped segment's midpoint; the endpoints are projected on
+//! the row axis, and the segment is occluded when a bit between them is
+//! set, tested word by word with explicit masks (WGSL shifts use only the
+//! low 5 bits of the shift).
+//!
+//! **Self-occlusion rule** (the paper is silent): the voxel holding a true
+//! endpoint of the segment (P, or the light end when the segment stops
+//! inside the object's sphere) holds the surface that point lies on, so it
+//! is never tested, and neither are the next `skip` voxels towards the
+//! other end (default 1): the row runs up to ~√2/2 voxel off P laterally
+//! and k/√2 off in angle, so near a surface seen at a grazing angle the row
+//! enters it a voxel or more away from P. Ends made by clipping to the
+//! sphere are not endpoints and keep every voxel.
+
+use anyhow::{bail, Result};
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
+use std::f64::consts::PI;
+
+use super::build::BuiltScene;
+
+/// Voxel rows are stored in 32-bit words.
+pub const WORD_BITS: u32 = 32;
+/// Columns per side of one build work item's tile (see [`work_items`]).
+pub const TILE: u32 = 16;
+/// Most directions per angle (1° steps).
+pub const MAX_DIRECTIONS: u32 = 180;
+/// Most voxels per side of an object.
+pub const MAX_RESOLUTION: u32 = 1024;
+/// Most extra skipped voxels at an endpoint.
+pub const MAX_SKIP: u32 = 16;
+
+/// The parameters of voxel visibility (scene file `[integrand]` keys
+/// `voxel_directions`, `voxel_resolution`, `voxel_skip`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct VoxelParams {
+    /// n: the direction array is n × n, steps of 180°/n (paper: 90).
+    pub directions: u32,
+    /// Voxels per side of the largest object, a multiple of 32 (paper: 128).
+    pub resolution: u32,
+    /// Voxels skipped beyond each endpoint's own (the self-occlusion rule).
+    pub skip: u32,
+}
+
+impl Default for VoxelParams {
+    /// 30 × 30 directions (6°) at 64³: 28 MiB for one object, within
+    /// lavapipe's 128 MiB storage binding.
+    fn default() -> Self {
+        VoxelParams {
+            directions: 30,
+            resolution: 64,
+            skip: 1,
+        }
+    }
+}
+
+impl VoxelParams {
+    /// The paper's configuration: 2° steps (90 × 90) at 128³, ~2 GB.
+    pub const PAPER: VoxelParams = VoxelParams {
+        directions: 90,
+        resolution: 128,
+        skip: 1,
+    };
+
+    /// Checks the ranges (messages name the scene-file keys).
+    pub fn validate(&self) -> Result<()> {
+        if !(1..=MAX_DIRECTIONS).contains(&self.directions) {
+            bail!(
+                "voxel_directions must be in 1..={MAX_DIRECTIONS}, found {}",
+                self.directions
+            );
+        }
+        if self.resolution < WORD_BITS
+            || self.resolution > MAX_RESOLUTION
+            || self.resolution % WORD_BITS != 0
+        {
+            bail!(
+                "voxel_resolution must be a multiple of 32 in 32..={MAX_RESOLUTION}, found {}",
+                self.resolution
+            );
+        }
+        if self.skip > MAX_SKIP {
+            bail!("voxel_skip must be at most {MAX_SKIP}, found {}", self.skip);
+        }
+        Ok(())
+    }
+
+    /// Voxelizations in the array (n²).
+    pub fn direction_count(&self) -> u32 {
+        self.directions * self.directions
+    }
+
+    /// The angle step k in degrees.
+    pub fn step_degrees(&self) -> f64 {
+        180.0 / self.directions as f64
+    }
+
+    /// "30×30 directions (6°) at 64³".
+    pub fn describe(&self) -> String {
+        let r = self.resolution;
+        format!(
+            "{n}×{n} directions ({k}°) at {r}³",
+            n = self.directions,
+            k = trim(self.step_degrees())
+        )
+    }
+}
+
+fn trim(x: f64) -> String {
+    let s = format!("{x:.3}");
+    s.trim_end_matches('0').trim_end_matches('.').to_string()
+}
+
+/// How shadow rays are answered.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Visibility {
+    /// Exact: any-hit traversal of the BVH.
+    #[default]
+    Bvh,
+    /// Approximate, constant time: the voxelization array.
+    Voxel(VoxelParams),
+}
+
+impl Visibility {
+    /// `bvh` or `voxel`.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Visibility::Bvh => "bvh",
+            Visibility::Voxel(_) => "voxel",
+        }
+    }
+
+    /// What a render's report says: `bvh`, or `voxel (30×30 directions
+    /// (6°) at 64³, skip 1)`.
+    pub fn describe(&self) -> String {
+        match self {
+            Visibility::Bvh => "bvh".into(),
+            Visibility::Voxel(p) => format!("voxel ({}, skip {})", p.describe(), p.skip),
+        }
+    }
+
+    pub fn is_voxel(&self) -> bool {
+        matches!(self, Visibility::Voxel(_))
+    }
+}
+
+/// One voxelized object on the device (`VoxelObject` in voxel.wgsl).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct VoxelObject {
+    /// Centre c of the bounding sphere and of every rotated grid (object space).
+    pub centre: [f32; 3],
+    /// Voxels per unit length: R / (2r).
+    pub inv_h: f32,
+    /// Bounding-sphere radius r.
+    pub radius: f32,
+    /// Voxels per side R (a multiple of 32).
+    pub res: u32,
+    /// Words per row, R / 32.
+    pub words: u32,
+    /// First word of the object's bits; direction v's voxel (x, y, z) is
+    /// bit z % 32 of word base + ((v·R + y)·R + x)·words + z / 32.
+    pub base: u32,
+}
+
+/// The frame of one direction (`VoxelFrame` in voxel.wgsl): a, b and the
+/// row axis u, each padded to 16 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct VoxelFrame {
+    pub a: [f32; 4],
+    pub b: [f32; 4],
+    pub u: [f32; 4],
+}
+
+const _: () = assert!(std::mem::size_of::<VoxelObject>() == 32);
+const _: () = assert!(std::mem::size_of::<VoxelFrame>() == 48);
+
+/// The frames of an n × n array, index i·n + j for θ = i·k, φ = j·k.
+pub fn frames(n: u32) -> Vec<VoxelFrame> {
+    let k = PI / n as f64;
+    let mut out = Vec::with_capacity((n * n) as usize);
+    for i in 0..n {
+        for j in 0..n {
+            let (st, ct) = (i as f64 * k).sin_cos();
+            let (sp, cp) = (j as f64 * k).sin_cos();
+            let v = |x: f64, y: f64, z: f64| [x as f32, y as f32, z as f32, 0.0];
+            out.push(VoxelFrame {
+                a: v(ct * cp, ct * sp, -st),
+                b: v(-sp, cp, 0.0),
+                u: v(st * cp, st * sp, ct),
+            });
+        }
+    }
+    out
+}
+
+/// The objects of a build and where their bits go.
+#[derive(Clone, Debug, PartialEq)]
+pub struct VoxelLayout {
+    pub params: VoxelParams,
+    pub objects: Vec<VoxelObject>,
+    pub frames: Vec<VoxelFrame>,
+    /// Words of all objects' bits.
+    pub words: u64,
+}
+
+impl VoxelLayout {
+    /// Bytes of the bits (the frames and objects are small beside them).
+    pub fn bytes(&self) -> u64 {
+        self.words * 4
+    }
+
+    /// The objects of `built` (one per instance, or one for all triangles
+    /// when there are no instances) under `params`.
+    pub fn new(built: &BuiltScene, params: VoxelParams) -> Result<VoxelLayout> {
+        params.validate()?;
+        let count = built.instances.len().max(1);
+        let mut lo = vec![Vec3::splat(f32::INFINITY); count];
+        let mut hi = vec![Vec3::splat(f32::NEG_INFINITY); count];
+        for prim in 0..built.triangle_count() {
+            let o = object_of(built, prim);
+            for v in built.triangle_stored(prim) {
+                lo[o] = lo[o].min(v);
+                hi[o] = hi[o].max(v);
+            }
+        }
+        let centres: Vec<Vec3> = (0..count)
+            .map(|o| {
+                if lo[o].x <= hi[o].x {
+                    (lo[o] + hi[o]) * 0.5
+                } else {
+                    Vec3::ZERO
+                }
+            })
+            .collect();
+        let mut radius = vec![0.0f32; count];
+        for prim in 0..built.triangle_count() {
+            let o = object_of(built, prim);
+            for v in built.triangle_stored(prim) {
+                radius[o] = radius[o].max(v.distance(centres[o]));
+            }
+        }
+        // A little room, so rounding never puts a vertex outside the grid;
+        // an empty or point-like object still gets a positive size.
+        let largest = radius.iter().cloned().fold(0.0f32, f32::max);
+        let floor = (largest * 1e-6).max(1e-6);
+        let radius: Vec<f32> = radius
+            .iter()
+            .map(|r| (r * (1.0 + 1e-4)).max(floor))
+            .collect();
+        let largest = radius.iter().cloned().fold(0.0f32, f32::max);
+        let per_direction = |res: u64| res * res * res / WORD_BITS as u64;
+        let mut base = 0u64;
+        let mut objects = Vec::with_capacity(count);
+        for (o, &r) in radius.iter().enumerate() {
+            let scaled = (params.resolution as f64 * (r / largest) as f64).ceil() as u32;
+            let res = scaled
+                .next_multiple_of(WORD_BITS)
+                .clamp(WORD_BITS, params.resolution);
+            objects.push(VoxelObject {
+                centre: centres[o].into(),
+                inv_h: res as f32 / (2.0 * r),
+                radius: r,
+                res,
+                words: res / WORD_BITS,
+                base: base.min(u32::MAX as u64) as u32,
+            });
+            base += per_direction(res as u64) * params.direction_count() as u64;
+        }
+        Ok(VoxelLayout {
+            params,
+            objects,
+            frames: frames(params.directions),
+            words: base,
+        })
+    }
+
+    /// Fails before any work when the bits exceed one storage binding of
+    /// `max_bytes` (or 2³² words), naming the size needed and the largest
+    /// configurations that fit: the same directions at a lower resolution,
+    /// and the same resolution with fewer directions.
+    pub fn check_fits(&self, built: &BuiltScene, max_bytes: u64) -> Result<()> {
+        let max_bytes = max_bytes.min(4 * u32::MAX as u64);
+        if self.bytes() <= max_bytes {
+            return Ok(());
+        }
+        let p = self.params;
+        let fits =
+            |q: VoxelParams| VoxelLayout::new(built, q).is_ok_and(|l| l.bytes() <= max_bytes);
+        let mut suggestions = Vec::new();
+        if let Some(res) = (1..p.resolution / WORD_BITS)
+            .rev()
+            .map(|w| w * WORD_BITS)
+            .find(|&resolution| fits(VoxelParams { resolution, ..p }))
+        {
+            suggestions.push(VoxelParams {
+                resolution: res,
+                ..p
+            });
+        }
+        if let Some(n) = (1..p.directions)
+            .rev()
+            .find(|&directions| fits(VoxelParams { directions, ..p }))
+        {
+            suggestions.push(VoxelParams { directions: n, ..p });
+        }
+        let mib = |b: u64| b as f64 / 1048576.0;
+        let hint = if suggestions.is_empty() {
+            "no configuration of this scene fits".to_string()
+        } else {
+            let s: Vec<String> = suggestions
+                .iter()
+                .map(|q| {
+                    let b = VoxelLayout::new(built, *q).map_or(0, |l| l.bytes());
+                    format!(
+                        "{} ({:.1} MiB; voxel_directions = {}, voxel_resolution = {})",
+                        q.describe(),
+                        mib(b),
+                        q.directions,
+                        q.resolution
+                    )
+                })
+                .collect();
+            format!("the largest that fit: {}", s.join(" or "))
+        };
+        bail!(
+            "voxel visibility with {} needs {:.1} MiB for {} object(s), but this adapter \
+             allows {:.1} MiB per storage buffer; {hint}",
+            p.describe(),
+            mib(self.bytes()),
+            self.objects.len(),
+            mib(max_bytes)
+        )
+    }
+}
+
+/// The voxel object of global triangle `prim`.
+pub fn object_of(built: &BuiltScene, prim: u32) -> usize {
+    if built.instances.is_empty() {
+        0
+    } else {
+        built.triangle_instance(prim) as usize
+    }
+}
+
+// Explicit scalar arithmetic, operation for operation as in voxel.wgsl,
+// so that the CPU and GPU builds agree bit for bit.
+fn dot3(a: [f32; 3], b: [f32; 3]) -> f32 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn cross3(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+fn sub3(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+/// Object-space point `p` in the voxel coordinates of direction frame `f`.
+pub fn to_voxel(o: &VoxelObject, f: &VoxelFrame, p: [f32; 3]) -> [f32; 3] {
+    let rel = sub3(p, o.centre);
+    let half = (o.res / 2) as f32;
+    let ax = |v: [f32; 4]| dot3(rel, [v[0], v[1], v[2]]) * o.inv_h + half;
+    [ax(f.a), ax(f.b), ax(f.u)]
+}
+
+/// Whether the triangle (voxel coordinates, relative to the box centre)
+/// meets the box [−½, ½]³: no separating axis among the 3 box normals, the
+/// triangle normal and the 9 edge cross products.
+pub fn triangle_meets_box(v: [[f32; 3]; 3]) -> bool {
+    let e = [sub3(v[1], v[0]), sub3(v[2], v[1]), sub3(v[0], v[2])];
+    let separated = |axis: [f32; 3]| {
+        let p0 = dot3(axis, v[0]);
+        let p1 = dot3(axis, v[1]);
+        let p2 = dot3(axis, v[2]);
+        let r = 0.5 * (axis[0].abs() + axis[1].abs() + axis[2].abs());
+        p0.min(p1).min(p2) > r || p0.max(p1).max(p2) < -r
+    };
+    let units = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    if units.iter().any(|&u| separated(u)) {
+        return false;
+    }
+    if separated(cross3(e[0], e[1])) {
+        return false;
+    }
+    for u in units {
+        for edge in e {
+            if separated(cross3(u, edge)) {
+                return false;
+            }
+        }
+    }
+    true
+}
+
+/// The voxels one triangle (voxel coordinates `q`) sets in a grid of `res`
+/// per side, restricted to columns `cols` (per loop axis, inclusive; the
+/// whole footprint when `None`), passed to `set(x, y, z)`. The loop axes
+/// are the two axes other than the normal's dominant one. The build
+/// kernel runs the same loop over one tile of columns per work item.
+pub fn voxelize_triangle(
+    q: [[f32; 3]; 3],
+    res: u32,
+    cols: Option<[[i32; 2]; 2]>,
+    mut set: impl FnMut(u32, u32, u32),
+) {
+    let n = cross3(sub3(q[1], q[0]), sub3(q[2], q[0]));
+    let (ax, ay, az) = (n[0].abs(), n[1].abs(), n[2].abs());
+    let k = if ax >= ay && ax >= az {
+        0
+    } else if ay >= az {
+        1
+    } else {
+        2
+    };
+    let (i, j) = match k {
+        0 => (1, 2),
+        1 => (0, 2),
+        _ => (0, 1),
+    };
+    let nk = n[k];
+    if nk == 0.0 || !nk.is_finite() {
+        return;
+    }
+    let last = res as i32 - 1;
+    let bound = |axis: usize| {
+        let lo = q[0][axis].min(q[1][axis]).min(q[2][axis]).floor();
+        let hi = q[0][axis].max(q[1][axis]).max(q[2][axis]).floor();
+        // Clamp in f32 first: a far-away vertex must not overflow i32.
+        let lo = lo.clamp(-1.0, res as f32) as i32;
+        let hi = hi.clamp(-1.0, res as f32) as i32;
+        [lo.max(0), hi.min(last)]
+    };
+    let (bi, bj, bk) = (bound(i), bound(j), bound(k));
+    let [ri, rj] = match cols {
+        Some([ci, cj]) => [
+            [ci[0].max(bi[0]), ci[1].min(bi[1])],
+            [cj[0].max(bj[0]), cj[1].min(bj[1])],
+        ],
+        None => [bi, bj],
+    };
+    let si = n[i] / nk;
+    let sj = n[j] / nk;
+    for ci in ri[0]..=ri[1] {
+        for cj in rj[0]..=rj[1] {
+            // The plane's k over the column's square is base − si·[0, 1] − sj·[0, 1].
+            let base = q[0][k] - si * (ci as f32 - q[0][i]) - sj * (cj as f32 - q[0][j]);
+            let kmin = base - si.max(0.0) - sj.max(0.0);
+            let kmax = base - si.min(0.0) - sj.min(0.0);
+            let z0 = ((kmin - 1e-3).floor().clamp(-1.0, res as f32) as i32).max(bk[0]);
+            let z1 = ((kmax + 1e-3).floor().clamp(-1.0, res as f32) as i32).min(bk[1]);
+            for ck in z0..=z1 {
+                let mut cell = [0i32; 3];
+                cell[i] = ci;
+                cell[j] = cj;
+                cell[k] = ck;
+                let centre = cell.map(|c| c as f32 + 0.5);
+                let v = q.map(|p| sub3(p, centre));
+                if triangle_meets_box(v) {
+                    set(cell[0] as u32, cell[1] as u32, cell[2] as u32);
+                }
+            }
+        }
+    }
+}
+
+/// Word index of voxel (x, y, z) of direction `v` of object `o`.
+pub fn word_index(o: &VoxelObject, v: u32, x: u32, y: u32, z: u32) -> u64 {
+    let r = o.res as u64;
+    o.base as u64 + ((v as u64 * r + y as u64) * r + x as u64) * o.words as u64 + (z / 32) as u64
+}
+
+/// The CPU oracle of the whole build: the bits of every object and
+/// direction (use on small scenes; the GPU build is [`super::gpu_voxel`]).
+pub fn build_cpu(built: &BuiltScene, layout: &VoxelLayout) -> Vec<u32> {
+    let mut bits = vec![0u32; layout.words as usize];
+    for prim in 0..built.triangle_count() {
+        let o = &layout.objects[object_of(built, prim)];
+        let tri = built.triangle_stored(prim).map(|p| p.to_array());
+        for (v, f) in layout.frames.iter().enumerate() {
+            let q = tri.map(|p| to_voxel(o, f, p));
+            voxelize_triangle(q, o.res, None, |x, y, z| {
+                bits[word_index(o, v as u32, x, y, z) as usize] |= 1 << (z % 32);
+            });
+        }
+    }
+    bits
+}
+
+/// The build's work list: one item per (triangle, tile of
+/// [`TILE`]×[`TILE`] columns) as [prim, tile | tiles_per_side << 16]. A
+/// triangle of bounding radius ρ spans at most 2ρ·R/(2r) + 2 columns per
+/// axis in any direction; tiles are counted from that bound (+1 for
+/// rounding), so the items of a triangle cover its footprint in every
+/// direction.
+pub fn work_items(built: &BuiltScene, layout: &VoxelLayout) -> Vec<[u32; 2]> {
+    let mut items = Vec::with_capacity(built.triangle_count() as usize);
+    for prim in 0..built.triangle_count() {
+        let o = &layout.objects[object_of(built, prim)];
+        let [a, b, c] = built.triangle_stored(prim);
+        let centroid = (a + b + c) / 3.0;
+        let rho = a
+            .distance(centroid)
+            .max(b.distance(centroid))
+            .max(c.distance(centroid));
+        let span = (2.0 * rho as f64 * o.inv_h as f64 + 3.0).ceil();
+        if !span.is_finite() {
+            continue;
+        }
+        let tiles = ((span / TILE as f64).ceil() as u32).clamp(1, o.res.div_ceil(TILE));
+        for t in 0..tiles * tiles {
+            items.push([prim, t | (tiles << 16)]);
+        }
+    }
+    items
+}
+
+/// The direction index (i·n + j) of the voxelization whose rows best match
+/// `d` (any length > 0): d flipped to y ≥ 0, θ = acos z, φ = atan2(y, x),
+/// each rounded to the nearest step, φ = 180° wrapping to 0° with θ
+/// mirrored, θ = 180° to θ = 0° (module docs). `voxel_direction` in WGSL.
+pub fn direction_index(n: u32, d: Vec3) -> u32 {
+    let mut d = d.normalize();
+    if d.y < 0.0 {
+        d = -d;
+    }
+    let k = n as f32 / std::f32::consts::PI;
+    let theta = d.z.clamp(-1.0, 1.0).acos();
+    let phi = d.y.max(0.0).atan2(d.x);
+    let mut i = ((theta * k + 0.5).floor() as u32).min(n);
+    let mut j = ((phi * k + 0.5).floor() as u32).min(n);
+    if j == n {
+        j = 0;
+        i = n - i;
+    }
+    if i == n {
+        i = 0;
+    }
+    i * n + j
+}
+
+/// Whether the bits of `o` occlude the object-space segment p + t·d,
+/// t ∈ [0, t_max] (the query of the module docs; `voxel_object_hit` in
+/// WGSL).
+pub fn object_hit(
+    bits: &[u32],
+    layout: &VoxelLayout,
+    o: &VoxelObject,
+    p: Vec3,
+    d: Vec3,
+    t_max: f32,
+) -> bool {
+    let c = Vec3::from(o.centre);
+    let oc = p - c;
+    let dd = d.dot(d);
+    let b = oc.dot(d);
+    let cc = oc.dot(oc) - o.radius * o.radius;
+    let disc = b * b - dd * cc;
+    if dd <= 0.0 || disc < 0.0 || !disc.is_finite() {
+        return false;
+    }
+    let s = disc.sqrt();
+    let t0 = ((-b - s) / dd).max(0.0);
+    let t1 = ((-b + s) / dd).min(t_max);
+    if t0 >= t1 {
+        return false;
+    }
+    let v = direction_index(layout.params.directions, d);
+    let f = &layout.frames[v as usize];
+    let x0 = p + d * t0;
+    let x1 = p + d * t1;
+    let m = to_voxel(o, f, ((x0 + x1) * 0.5).to_array());
+    let (x, y) = (m[0].floor(), m[1].floor());
+    let res = o.res as f32;
+    if x < 0.0 || y < 0.0 || x >= res || y >= res {
+        return false;
+    }
+    let z0 = to_voxel(o, f, x0.to_array())[2];
+    let z1 = to_voxel(o, f, x1.to_array())[2];
+    let (lo_end, hi_end) = (t0 == 0.0, t1 == t_max);
+    let (zlo, lo_end, zhi, hi_end) = if z0 <= z1 {
+        (z0, lo_end, z1, hi_end)
+    } else {
+        (z1, hi_end, z0, lo_end)
+    };
+    let skip = 1 + layout.params.skip as i32;
+    let lo = zlo.floor().clamp(-1.0, res) as i32 + if lo_end { skip } else { 0 };
+    let hi = zhi.floor().clamp(-1.0, res) as i32 - if hi_end { skip } else { 0 };
+    let (lo, hi) = (lo.max(0), hi.min(o.res as i32 - 1));
+    if lo > hi {
+        return false;
+    }
+    let row = word_index(o, v, x as u32, y as u32, 0) as usize;
+    let (lo, hi) = (lo as u32, hi as u32);
+    (lo / 32..=hi / 32).any(|w| {
+        let wlo = lo.max(32 * w) - 32 * w;
+        let whi = hi.min(32 * w + 31) - 32 * w;
+        let mask = (u32::MAX >> (31 - (whi - wlo))) << wlo;
+        bits[row + w as usize] & mask != 0
+    })
+}
+
+/// Whether the world-space segment origin + t·dir, t ∈ [0, t_max], at
+/// scene time `time` is occluded: any object hit, moving instances queried
+/// in their own frame (`voxel_occluded` in WGSL).
+pub fn occluded(
+    built: &BuiltScene,
+    layout: &VoxelLayout,
+    bits: &[u32],
+    origin: Vec3,
+    dir: Vec3,
+    t_max: f32,
+    time: f32,
+) -> bool {
+    layout.objects.iter().enumerate().any(|(i, o)| {
+        let moving = built
+            .instances
+            .get(i)
+            .is_some_and(|inst| inst.key_count > 0);
+        let (p, d) = if moving {
+            let x = built.instance_transform_at(i as u32, time);
+            (x.inverse_point(origin), x.inverse_vector(dir))
+        } else {
+            (origin, dir)
+        };
+        object_hit(bits, layout, o, p, d, t_max)
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::rngs::StdRng;
+    use rand::{RngExt, SeedableRng};
+
+    /// Whether the triangle meets the box [−h, h]³, by clipping the
+    /// triangle polygon against the box's six planes (Sutherland–Hodgman)
+    /// in f64: an oracle independent of the separating-axis test.
+    fn clipped_meets_box(v: [[f32; 3]; 3], h: f64) -> bool {
+        let mut poly: Vec<[f64; 3]> = v.iter().map(|p| p.map(|c| c as f64)).collect();
+        for axis in 0..3 {
+            for sign in [1.0, -1.0] {
+                // Keep sign·p[axis] ≤ h.
+                let inside = |p: &[f64; 3]| sign * p[axis] <= h;
+                let mut out = Vec::new();
+                for k in 0..poly.len() {
+                    let (a, b) = (poly[k], poly[(k + 1) % poly.len()]);
+                    if inside(&a) {
+                        out.push(a);
+                    }
+                    if inside(&a) != inside(&b) {
+                        let t = (h - sign * a[axis]) / (sign * (b[axis] - a[axis]));
+                        out.push([0, 1, 2].map(|c| a[c] + t * (b[c] - a[c])));
+                    }
+                }
+                poly = out;
+                if poly.is_empty() {
+                    return false;
+                }
+            }
+        }
+        true
+    }
+
+    /// The voxelization is conservative up to touching and tight: against
+    /// the clipping oracle over a whole 32³ grid, every voxel the triangle
+    /// meets with a 10⁻³-voxel margin inside is set, and every set voxel's
+    /// box grown by 10⁻³ meets the triangle. Random triangles of every size
+    /// (slivers, huge ones reaching outside the grid, tiny ones).
+    #[test]
+    fn voxelization_is_conservative_and_tight_against_clipping() {
+        let mut rng = StdRng::seed_from_u64(11);
+        let res = 32u32;
+        let (mut set_total, mut tested) = (0usize, 0usize);
+        for t in 0..120 {
+            let size = [0.3f32, 3.0, 20.0, 60.0][t % 4];
+            let centre: [f32; 3] = std::array::from_fn(|_| rng.random_range(2.0..30.0));
+            let q: [[f32; 3]; 3] = std::array::from_fn(|_| {
+                std::array::from_fn(|c| centre[c] + size * rng.random_range(-1.0..1.0f32))
+            });
+            let mut set = vec![false; (res * res * res) as usize];
+            voxelize_triangle(q, res, None, |x, y, z| {
+                set[((z * res + y) * res + x) as usize] = true;
+            });
+            for z in 0..res {
+                for y in 0..res {
+                    for x in 0..res {
+                        let c = [x, y, z].map(|i| i as f32 + 0.5);
+                        let v = q.map(|p| sub3(p, c));
+                        let is_set = set[((z * res + y) * res + x) as usize];
+                        if clipped_meets_box(v, 0.5 - 1e-3) {
+                            assert!(is_set, "triangle {t} {q:?}: voxel {x},{y},{z} missed");
+                        }
+                        if is_set {
+                            assert!(
+                                clipped_meets_box(v, 0.5 + 1e-3),
+                                "triangle {t} {q:?}: voxel {x},{y},{z} set but apart"
+                            );
+                            set_total += 1;
+                        }
+                        tested += 1;
+                    }
+                }
+            }
+        }
+        assert!(set_total > 10_000, "{set_total} of {tested} set");
+    }
+
+    /// Tiles of TILE columns partition a triangle's columns: their union
+    /// is the whole footprint's voxels, in any direction.
+    #[test]
+    fn tiles_cover_the_footprint() {
+        let q = [[1.3, 2.2, 3.1], [40.0, 7.5, 12.0], [9.0, 50.0, 30.0]];
+        let res = 64;
+        let mut whole = Vec::new();
+        voxelize_triangle(q, res, None, |x, y, z| whole.push([x, y, z]));
+        let mut tiled = Vec::new();
+        let t = TILE as i32;
+        for ti in 0..4 {
+            for tj in 0..4 {
+                // Columns counted from the footprint's low corner, as the kernel does.
+                let cols = [[ti * t, ti * t + t - 1], [tj * t, tj * t + t - 1]];
+                let lo = |axis: usize| q.iter().map(|p| p[axis]).fold(f32::MAX, f32::min);
+                let n = cross3(sub3(q[1], q[0]), sub3(q[2], q[0]));
+                let k = (0..3)
+                    .max_by(|&a, &b| n[a].abs().partial_cmp(&n[b].abs()).unwrap().then(b.cmp(&a)))
+                    .unwrap();
+                let (i, j) = match k {
+                    0 => (1, 2),
+                    1 => (0, 2),
+                    _ => (0, 1),
+                };
+                let (li, lj) = (lo(i).floor() as i32, lo(j).floor() as i32);
+                let cols = [
+                    [li + cols[0][0], li + cols[0][1]],
+                    [lj + cols[1][0], lj + cols[1][1]],
+                ];
+                voxelize_triangle(q, res, Some(cols), |x, y, z| tiled.push([x, y, z]));
+            }
+        }
+        whole.sort();
+        tiled.sort();
+        assert!(!whole.is_empty());
+        assert_eq!(whole, tiled);
+    }
+
+    /// Every direction maps to a voxelization whose row axis is within
+    /// k/√2 of it (up to sign), the bound of rounding θ and φ to the
+    /// nearest step; on-grid directions map to themselves.
+    #[test]
+    fn direction_index_picks_a_row_axis_within_half_a_diagonal_step() {
+        let mut rng = StdRng::seed_from_u64(3);
+        for n in [1u32, 6, 30, 90] {
+            let frames = frames(n);
+            let k = std::f32::consts::PI / n as f32;
+            let bound = (k / std::f32::consts::SQRT_2).min(std::f32::consts::FRAC_PI_2) + 1e-4;
+            for _ in 0..20_000 {
+                let d = Vec3::new(
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(-1.0..1.0),
+                );
+                if d.length() < 1e-3 {
+                    continue;
+                }
+                let v = direction_index(n, d);
+                let u = Vec3::from_slice(&frames[v as usize].u[..3]);
+                let angle = d.normalize().dot(u).abs().min(1.0).acos();
+                // Near the pole a step of φ moves u by less: the bound holds.
+                assert!(angle <= bound, "n {n}, d {d}: {angle} > {bound}");
+            }
+            for (v, f) in frames.iter().enumerate() {
+                let u = Vec3::from_slice(&f.u[..3]);
+                let got = direction_index(n, u);
+                let same = Vec3::from_slice(&frames[got as usize].u[..3]);
+                assert!(
+                    got == v as u32 || same.dot(u).abs() > 1.0 - 1e-6,
+                    "n {n}: frame {v} maps to {got}"
+                );
+            }
+        }
+    }
+}
