@@ -2,6 +2,7 @@
 //! setting up a scene on the GPU, rendering, references with a cache, and
 //! writing outputs.
 
+use crate::accel::voxel::{Visibility, VisibilityKind};
 use crate::accel::GpuScene;
 use crate::film::Film;
 use crate::gpu::Gpu;
@@ -46,8 +47,14 @@ pub fn mdas_params_at_scale(params: MdasParams, scale: f32) -> MdasParams {
 }
 
 /// Builds the scene's GPU representation and its integrand over `film`.
+/// Shadow rays use `file.visibility`.
 pub fn integrand_for(gpu: &Gpu, file: &SceneFile, film: Film) -> Result<Box<dyn Integrand>> {
-    let gpu_scene = Arc::new(GpuScene::new(gpu, &file.scene, film)?);
+    let gpu_scene = Arc::new(GpuScene::with_visibility(
+        gpu,
+        &file.scene,
+        film,
+        file.visibility,
+    )?);
     integrand_on(gpu, file, gpu_scene, film)
 }
 
@@ -89,6 +96,9 @@ pub fn light_sampler(spec: &IntegrandSpec) -> Option<SamplerKind> {
 pub struct IntegrandOverrides {
     /// `--sampler`: the light sampler of a `many_light` integrand.
     pub sampler: Option<SamplerKind>,
+    /// `--visibility`: how shadow rays are answered (voxel parameters from
+    /// the scene's `voxel_*` keys).
+    pub visibility: Option<VisibilityKind>,
 }
 
 impl IntegrandOverrides {
@@ -96,12 +106,37 @@ impl IntegrandOverrides {
     pub fn sampler(kind: SamplerKind) -> IntegrandOverrides {
         IntegrandOverrides {
             sampler: Some(kind),
+            visibility: None,
+        }
+    }
+
+    /// The visibility `file` renders with under these overrides.
+    pub fn visibility(&self, file: &SceneFile) -> Visibility {
+        self.visibility
+            .map_or(file.visibility, |kind| kind.with(file.voxel))
+    }
+
+    /// What the visibility override adds to a reference's cache key:
+    /// nothing when it leaves the scene's visibility as it is.
+    pub fn visibility_key(&self, file: &SceneFile) -> String {
+        let v = self.visibility(file);
+        if v == file.visibility {
+            return String::new();
+        }
+        match v {
+            Visibility::Bvh => "|visibility=bvh".into(),
+            Visibility::Voxel(p) => format!(
+                "|visibility=voxel({},{},{})",
+                p.directions, p.resolution, p.skip
+            ),
         }
     }
 
     /// `spec` with the overrides applied. A sampler override on an
     /// integrand other than `many_light` is an error; `scene` names the
     /// scene in messages.
+    /// The sampler override only; [`IntegrandOverrides::visibility`] gives
+    /// the visibility.
     pub fn apply(&self, spec: &IntegrandSpec, scene: &Path) -> Result<IntegrandSpec> {
         let Some(kind) = self.sampler else {
             return Ok(spec.clone());
@@ -185,6 +220,7 @@ pub fn prepare_loaded(
     overrides: IntegrandOverrides,
 ) -> Result<Prepared> {
     scene.integrand = overrides.apply(&scene.integrand, scene_path)?;
+    scene.visibility = overrides.visibility(&scene);
     let film = scaled_film(scene.scene.film, scale)?;
     let integrand = integrand_for(gpu, &scene, film)?;
     Ok(Prepared {
@@ -332,9 +368,10 @@ pub struct Reference {
     /// [`IntegrandSpec::light_warnings`] (an integrand that sees no light
     /// renders a black reference).
     pub warnings: Vec<String>,
-    /// Set when the scene's own light sampler is biased and the reference
-    /// used `tree` instead ([`reference`]).
-    pub sampler_note: Option<String>,
+    /// What the reference used instead of the scene's own choices: `tree`
+    /// for a biased light sampler, the BVH for voxel visibility
+    /// ([`reference`]).
+    pub notes: Vec<String>,
 }
 
 /// How a reference was obtained.
@@ -395,7 +432,9 @@ fn read_cache_entry(path: &Path, film: Film) -> Result<Vec<[f32; 3]>> {
 /// unbiased light sampler estimates the same image) — except a biased
 /// light sampler (`sst`, `lgh`: [`SamplerKind::is_biased`]), which would
 /// hide its own bias: without a `--sampler` override such a scene's
-/// reference uses `tree` ([`Reference::sampler_note`] says so).
+/// reference uses `tree`, and without a `--visibility` override a scene
+/// with voxel visibility (approximate) gets a BVH reference
+/// ([`Reference::notes`] says so).
 pub fn reference(
     gpu: &Gpu,
     scene_path: &Path,
@@ -445,12 +484,18 @@ pub fn reference_with(
     progress: Option<crate::integrator::halton::Progress>,
 ) -> Result<Reference> {
     let scene = SceneFile::load(scene_path)?;
-    let (overrides, sampler_note) = reference_overrides(&scene.integrand, overrides);
+    let (mut overrides, sampler_note) = reference_overrides(&scene.integrand, overrides);
+    let mut notes: Vec<String> = sampler_note.into_iter().collect();
+    if overrides.visibility.is_none() && scene.visibility.is_voxel() {
+        overrides.visibility = Some(VisibilityKind::Bvh);
+        notes
+            .push("the scene's voxel visibility is approximate: its reference uses the BVH".into());
+    }
     // An override the scene cannot take fails here, cached entry or not.
     let applied = overrides.apply(&scene.integrand, scene_path)?;
     let mut warnings = scene.warnings.clone();
     warnings.extend(applied.light_warnings(&scene.scene));
-    let extra = overrides.cache_key(&scene.integrand)?;
+    let extra = overrides.cache_key(&scene.integrand)? + &overrides.visibility_key(&scene);
     let path = reference_cache_path_keyed(cache_dir, scene_path, &scene.inputs, spec, &extra)?;
     if path.is_dir() {
         bail!(
@@ -469,7 +514,7 @@ pub fn reference_with(
                     path,
                     cache: CacheUse::Hit,
                     warnings,
-                    sampler_note,
+                    notes,
                 })
             }
             Err(e) => cache = CacheUse::Rebuilt(format!("{e:#}")),
@@ -524,7 +569,7 @@ pub fn reference_with(
         path,
         cache,
         warnings,
-        sampler_note,
+        notes,
     })
 }
 

@@ -1132,10 +1132,14 @@ fn voxel_queries_match_the_cpu_oracle() {
             &built,
             &layout,
             &bits,
-            r.origin.into(),
-            r.dir.into(),
-            r.t_max,
-            r.time,
+            &voxel::Segment {
+                origin: r.origin.into(),
+                dir: r.dir.into(),
+                t_max: r.t_max,
+                time: r.time,
+                n_origin: Vec3::ZERO,
+                n_end: Vec3::ZERO,
+            },
         );
         differ += usize::from(c != g);
         occluded += usize::from(c);
@@ -1252,7 +1256,15 @@ fn on_grid_axes_are_exact_away_from_border_voxels() {
     );
     let p = params(8, 64);
     let (built, gpu_scene) = voxel_upload(&scene, p);
-    let h = 1.0 / gpu_scene.voxel_layout.as_ref().unwrap().objects[0].inv_h;
+    // Voxels are boxes; direction 0's grid is axis-aligned (a = x, b = y,
+    // u = z), its scales the voxels per unit along each axis (in the other
+    // on-grid directions too): take the widest voxel as h.
+    let layout = gpu_scene.voxel_layout.as_ref().unwrap();
+    let f = layout.frame(&layout.objects[0], 0);
+    let h = [f.a[0], f.b[1], f.u[2]]
+        .iter()
+        .map(|s| 1.0 / s.abs())
+        .fold(0.0f32, f32::max);
     let mut rng = StdRng::seed_from_u64(8);
     let mut rays = Vec::new();
     while rays.len() < 8000 {

@@ -421,7 +421,10 @@ fn reference_sampler_override_is_part_of_the_cache_key() {
             gpu(),
             path,
             spec,
-            mdas::app::IntegrandOverrides { sampler: k },
+            mdas::app::IntegrandOverrides {
+                sampler: k,
+                visibility: None,
+            },
             &cache,
             None,
         )

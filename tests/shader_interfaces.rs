@@ -458,11 +458,11 @@ fn mirrors() -> BTreeMap<(&'static str, &'static str), Layout> {
             child_min_y, child_max_y, child_min_z, child_max_z,
         })),
         (("shared/voxel.wgsl", "VoxelObject"), host!(VoxelObject {
-            centre, inv_h, radius, res, words, base,
+            centre, res, words, base, frames, _pad,
         })),
         (("shared/voxel.wgsl", "VoxelFrame"), host!(VoxelFrame { a, b, u })),
         (("voxel_build.wgsl", "VoxelObject"), host!(VoxelObject {
-            centre, inv_h, radius, res, words, base,
+            centre, res, words, base, frames, _pad,
         })),
         (("voxel_build.wgsl", "VoxelFrame"), host!(VoxelFrame { a, b, u })),
         (("voxel_build.wgsl", "VoxelBuildParams"), host!(VoxelBuildParams {
@@ -472,7 +472,7 @@ fn mirrors() -> BTreeMap<(&'static str, &'static str), Layout> {
         ((trace, "HitRecord"), host!(HitRecord {
             t, prim, bary, any_hit, steps_closest, steps_any, _pad,
         })),
-        ((trace, "TraceParams"), host!(TraceParams { ray_count, row_stride, _pad })),
+        ((trace, "TraceParams"), host!(TraceParams { ray_count, row_stride, normals, _pad })),
         ((prims, "LightPrim"), host!(LightPrim {
             p0, kind, p1, _pad0, p2, _pad1, emission, _pad2,
         })),

@@ -17,6 +17,7 @@ fn integrand(p: ptr<function, IntegrandPoint>) -> vec3<f32> {
     }
     let s = surface_at(hit, ray.dir, time);
     let wi = frame_from_normal(s.n) * sample_cosine_hemisphere(vec2<f32>((*p).u[0], (*p).u[1]));
-    let occluded = scene_occluded(offset_origin(s.x, s.n), wi, bitcast<f32>(AO_RADIUS_BITS), time);
+    let occluded = scene_occluded(offset_origin(s.x, s.n), wi, bitcast<f32>(AO_RADIUS_BITS), time,
+                                  s.n, vec3<f32>(0.0));
     return vec3<f32>(select(1.0, 0.0, occluded));
 }

@@ -95,7 +95,12 @@ fn ml_light(s: Surface, l: LightPrim, u2: vec2<f32>, time: f32) -> vec3<f32> {
         }
         c *= cos_y * area;
     }
-    if (scene_occluded(origin, wi, dist * (1.0 - RAY_EPSILON), time)) {
+    // The light's surface: a triangle's, a VPL's (p1), none for a point.
+    var n_light = ng;
+    if (l.kind == KIND_VPL) {
+        n_light = l.p1;
+    }
+    if (scene_occluded(origin, wi, dist * (1.0 - RAY_EPSILON), time, s.n, n_light)) {
         return vec3<f32>(0.0);
     }
     return c;
@@ -141,7 +146,7 @@ fn ml_lgh(s: Surface, u: vec4<f32>, u_tri: vec3<f32>, time: f32) -> vec3<f32> {
             continue;
         }
         let dist = sqrt(dist2);
-        if (!scene_occluded(origin, to_light / dist, dist * (1.0 - RAY_EPSILON), time)) {
+        if (!scene_occluded(origin, to_light / dist, dist * (1.0 - RAY_EPSILON), time, s.n, vec3<f32>(0.0))) {
             sum += lgh_pick_chroma[k];
         }
     }

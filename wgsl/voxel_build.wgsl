@@ -8,7 +8,7 @@
 //
 // Needs shared/voxel.wgsl's structs only; TILE is a constant.
 
-struct VoxelObject { centre: vec3<f32>, inv_h: f32, radius: f32, res: u32, words: u32, base: u32 }
+struct VoxelObject { centre: vec3<f32>, res: u32, words: u32, base: u32, frames: u32, _pad: u32 }
 struct VoxelFrame { a: vec4<f32>, b: vec4<f32>, u: vec4<f32> }
 struct VoxelBuildParams {
   item_count: u32,
@@ -35,9 +35,7 @@ fn cross3(a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
 fn to_voxel(o: VoxelObject, f: VoxelFrame, p: vec3<f32>) -> vec3<f32> {
   let rel = p - o.centre;
   let half = f32(o.res / 2u);
-  return vec3<f32>(dot3(rel, f.a.xyz) * o.inv_h + half,
-                   dot3(rel, f.b.xyz) * o.inv_h + half,
-                   dot3(rel, f.u.xyz) * o.inv_h + half);
+  return vec3<f32>(dot3(rel, f.a.xyz) + half, dot3(rel, f.b.xyz) + half, dot3(rel, f.u.xyz) + half);
 }
 
 fn separated(axis: vec3<f32>, v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>) -> bool {
@@ -102,7 +100,7 @@ fn voxelize(@builtin(global_invocation_id) id: vec3<u32>) {
   let r2 = triangles[3u * prim + 2u];
   let object = select(0u, bitcast<u32>(r1.w), params.per_instance != 0u);
   let o = objects[object];
-  let f = frames[v];
+  let f = frames[o.frames + v];
   let q0 = to_voxel(o, f, r0.xyz);
   let q1 = to_voxel(o, f, r1.xyz);
   let q2 = to_voxel(o, f, r2.xyz);

@@ -82,7 +82,9 @@ pub struct TraceParams {
     pub ray_count: u32,
     /// Invocations per grid row: the linear index is x + y · row_stride.
     pub row_stride: u32,
-    pub _pad: [u32; 2],
+    /// 1: binding 3 holds two normals per ray (voxel queries).
+    pub normals: u32,
+    pub _pad: u32,
 }
 
 pub struct TraceKernel {
@@ -94,13 +96,15 @@ pub struct TraceKernel {
 }
 
 impl TraceKernel {
-    /// Group 0 of the trace kernels: parameters, rays (read-only), hits.
+    /// Group 0 of the trace kernels: parameters, rays (read-only), hits,
+    /// and the rays' surface normals (voxel queries; two per ray).
     /// Group 1 is the scene's ([`GpuScene::layout_entries`]).
     pub fn layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
         vec![
             uniform_entry(0),
             storage_entry(1, true),
             storage_entry(2, false),
+            storage_entry(3, true),
         ]
     }
 
@@ -160,22 +164,47 @@ impl TraceKernel {
         rays: &[Ray],
         mode: TraceMode,
     ) -> Result<Vec<HitRecord>> {
+        self.run_with_normals(gpu, scene, rays, None, mode)
+    }
+
+    /// [`TraceKernel::run_mode`] with, for voxel queries, the normals of
+    /// the surfaces each ray starts and ends on: `normals[2i]`,
+    /// `normals[2i + 1]` (xyz; zero where there is none).
+    pub fn run_with_normals(
+        &self,
+        gpu: &Gpu,
+        scene: &GpuScene,
+        rays: &[Ray],
+        normals: Option<&[[f32; 4]]>,
+        mode: TraceMode,
+    ) -> Result<Vec<HitRecord>> {
         if mode == TraceMode::Voxel && !scene.visibility.is_voxel() {
             anyhow::bail!("voxel queries need a scene uploaded with voxel visibility");
         }
+        if let Some(n) = normals {
+            anyhow::ensure!(n.len() == 2 * rays.len(), "two normals per ray");
+        }
         let mut out = Vec::with_capacity(rays.len());
-        for batch in rays.chunks(Self::max_rays_per_dispatch(gpu).max(1)) {
+        let per = Self::max_rays_per_dispatch(gpu).max(1);
+        for (k, batch) in rays.chunks(per).enumerate() {
             let hits = gpu.scoped("tracing rays", || {
                 let ray_buffer = gpu.buffer_from("mdas.trace.rays", batch, STORAGE)?;
+                let normal_buffer = normals
+                    .map(|n| {
+                        let n = &n[2 * k * per..2 * (k * per + batch.len())];
+                        gpu.buffer_from("mdas.trace.normals", n, STORAGE)
+                    })
+                    .transpose()?;
                 let hit_buffer = gpu.buffer_zeroed(
                     "mdas.trace.hits",
                     (batch.len() * std::mem::size_of::<HitRecord>()) as u64,
                     STORAGE,
                 )?;
-                self.dispatch(
+                self.dispatch_with_normals(
                     gpu,
                     scene,
                     &ray_buffer,
+                    normal_buffer.as_ref(),
                     &hit_buffer,
                     batch.len() as u32,
                     mode,
@@ -199,12 +228,38 @@ impl TraceKernel {
         count: u32,
         mode: TraceMode,
     ) -> Result<()> {
+        self.dispatch_with_normals(gpu, scene, rays, None, hits, count, mode)
+    }
+
+    /// [`TraceKernel::dispatch`] with the rays' surface normals (two per
+    /// ray, see [`TraceKernel::run_with_normals`]).
+    #[allow(clippy::too_many_arguments)]
+    pub fn dispatch_with_normals(
+        &self,
+        gpu: &Gpu,
+        scene: &GpuScene,
+        rays: &wgpu::Buffer,
+        normals: Option<&wgpu::Buffer>,
+        hits: &wgpu::Buffer,
+        count: u32,
+        mode: TraceMode,
+    ) -> Result<()> {
         let mut encoder = gpu
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("mdas.trace"),
             });
-        self.encode(gpu, &mut encoder, scene, rays, hits, count, mode, None);
+        self.encode_with_normals(
+            gpu,
+            &mut encoder,
+            scene,
+            rays,
+            normals,
+            hits,
+            count,
+            mode,
+            None,
+        );
         gpu.queue.submit([encoder.finish()]);
         Ok(())
     }
@@ -223,15 +278,52 @@ impl TraceKernel {
         mode: TraceMode,
         timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) {
+        self.encode_with_normals(
+            gpu, encoder, scene, rays, None, hits, count, mode, timestamps,
+        );
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn encode_with_normals(
+        &self,
+        gpu: &Gpu,
+        encoder: &mut wgpu::CommandEncoder,
+        scene: &GpuScene,
+        rays: &wgpu::Buffer,
+        normals: Option<&wgpu::Buffer>,
+        hits: &wgpu::Buffer,
+        count: u32,
+        mode: TraceMode,
+        timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) {
         let groups = count.div_ceil(TRACE_WORKGROUP_SIZE);
         let (nx, ny) = gpu.dispatch_dims(groups);
         let params = TraceParams {
             ray_count: count,
             row_stride: nx * TRACE_WORKGROUP_SIZE,
-            _pad: [0; 2],
+            normals: u32::from(normals.is_some()),
+            _pad: 0,
         };
         let params = gpu.uniform("mdas.trace.params", &params);
-        let bind_group = bind_buffers(gpu, "mdas.trace", &self.layout, &[&params, rays, hits]);
+        let placeholder;
+        let normals = match normals {
+            Some(n) => n,
+            None => {
+                placeholder = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("mdas.trace.normals (none)"),
+                    size: 16,
+                    usage: wgpu::BufferUsages::STORAGE,
+                    mapped_at_creation: false,
+                });
+                &placeholder
+            }
+        };
+        let bind_group = bind_buffers(
+            gpu,
+            "mdas.trace",
+            &self.layout,
+            &[&params, rays, hits, normals],
+        );
         let pipeline = match mode {
             TraceMode::Both => &self.both,
             TraceMode::Closest => &self.closest,

@@ -19,23 +19,29 @@
 //! within k/√2 of the segment's direction. The frames are computed once on
 //! the host (f64, stored f32) and shared by the CPU and the GPU.
 //!
-//! # Objects and resolution
+//! # Objects, grids and resolution
 //! Each instance of the scene ([`BuiltScene::instances`]; the static
 //! geometry when there are none) is one voxelized object, in its own
 //! object space: a moving rigid instance is queried by taking the segment
 //! into its frame at the ray's time, the paper's Algorithm 4 (our scenes
-//! have rigid motion only, so nothing is rebuilt per frame). An object's
-//! grid is the cube circumscribing its bounding sphere (centre: the box
-//! centre of its vertices; radius: the farthest vertex), so every rotation
-//! holds all of it. The largest object gets `resolution` voxels per side;
-//! smaller ones get proportionally fewer (a multiple of 32, at least 32),
-//! which keeps voxels about the same size across objects.
+//! have rigid motion only, so nothing is rebuilt per frame). The grid of
+//! direction (i, j) is the box around the object's bounding box (centre c,
+//! half extents e) in the frame (a, b, u): half widths w_x = Σ|x_k|·e_k for
+//! x = a, b, u, each cut into R voxels. So the voxels are boxes, not cubes,
+//! and as fine as the object is thin in that frame: seen from above, a
+//! 20 × 0.6 × 20 floor with a box on it gets rows of 0.6/R per bit, where
+//! the paper's cube around the bounding sphere would give 28/R. (Widths
+//! are padded by 10⁻⁴ and at least 10⁻³·|e|.) Each direction's frame is
+//! stored pre-scaled, x·(R/2w_x), so that voxel coordinates are
+//! q = ((p − c)·a', (p − c)·b', (p − c)·u') + R/2. The largest object gets
+//! `resolution` voxels per side; smaller ones get proportionally fewer (by
+//! |e|, a multiple of 32, at least 32).
 //!
 //! # Voxelization
 //! Voxel (x, y, z) of a direction (x along a, y along b, z along the row
 //! axis u) is set when a triangle of the object meets its box, by the
 //! separating-axis test of Akenine-Möller (2001) on the 13 axes, in voxel
-//! coordinates q = ((p − c)·(a, b, u))·(R/2r) + R/2. Only voxels whose
+//! coordinates (an affine map keeps intersections). Only voxels whose
 //! column range can hold the triangle's plane are tested (columns along
 //! the dominant axis of the normal, ranges widened by 10⁻³ voxel), so the
 //! result is conservative up to exact touching: every voxel whose interior
@@ -44,21 +50,21 @@
 //! nothing from the BVH either.
 //!
 //! # Query (the paper's Algorithm 2)
-//! A shadow segment from P along d for t ∈ [0, t_max] is clipped to each
-//! object's bounding sphere. For the nearest direction, the row is the one
-//! through the clipped segment's midpoint; the endpoints are projected on
-//! the row axis, and the segment is occluded when a bit between them is
-//! set, tested word by word with explicit masks (WGSL shifts use only the
-//! low 5 bits of the shift).
+//! A shadow segment from P along d for t ∈ [0, t_max] is taken into the
+//! voxel coordinates of each object's nearest direction and clipped to the
+//! grid [0, R]³ (slabs). The row is the one through the clipped segment's
+//! midpoint; the endpoints are projected on the row axis, and the segment
+//! is occluded when a bit between them is set, tested word by word with
+//! explicit masks (WGSL shifts use only the low 5 bits of the shift).
 //!
 //! **Self-occlusion rule** (the paper is silent): the voxel holding a true
 //! endpoint of the segment (P, or the light end when the segment stops
-//! inside the object's sphere) holds the surface that point lies on, so it
-//! is never tested, and neither are the next `skip` voxels towards the
-//! other end (default 1): the row runs up to ~√2/2 voxel off P laterally
-//! and k/√2 off in angle, so near a surface seen at a grazing angle the row
-//! enters it a voxel or more away from P. Ends made by clipping to the
-//! sphere are not endpoints and keep every voxel.
+//! inside the grid) holds the surface that point lies on, so it is never
+//! tested, and neither are the next `skip` voxels towards the other end
+//! (default 1): the row runs up to ~√2/2 voxel off P laterally and k/√2
+//! off in angle, so near a surface seen at a grazing angle the row enters
+//! it a voxel or more away from P. Ends made by clipping to the grid are
+//! not endpoints and keep every voxel.
 
 use anyhow::{bail, Result};
 use bytemuck::{Pod, Zeroable};
@@ -192,16 +198,52 @@ impl Visibility {
     }
 }
 
+/// The backend a `--visibility` flag names; voxel parameters come from the
+/// scene file's `voxel_*` keys.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum VisibilityKind {
+    Bvh,
+    Voxel,
+}
+
+impl VisibilityKind {
+    /// The visibility of this kind with the voxel parameters `voxel`.
+    pub fn with(self, voxel: VoxelParams) -> Visibility {
+        match self {
+            VisibilityKind::Bvh => Visibility::Bvh,
+            VisibilityKind::Voxel => Visibility::Voxel(voxel),
+        }
+    }
+}
+
+impl std::str::FromStr for VisibilityKind {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        match s {
+            "bvh" => Ok(VisibilityKind::Bvh),
+            "voxel" => Ok(VisibilityKind::Voxel),
+            other => Err(format!(
+                "unknown visibility '{other}', expected bvh or voxel"
+            )),
+        }
+    }
+}
+
+impl std::fmt::Display for VisibilityKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            VisibilityKind::Bvh => "bvh",
+            VisibilityKind::Voxel => "voxel",
+        })
+    }
+}
+
 /// One voxelized object on the device (`VoxelObject` in voxel.wgsl).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct VoxelObject {
-    /// Centre c of the bounding sphere and of every rotated grid (object space).
+    /// Centre c of the bounding box and of every grid (object space).
     pub centre: [f32; 3],
-    /// Voxels per unit length: R / (2r).
-    pub inv_h: f32,
-    /// Bounding-sphere radius r.
-    pub radius: f32,
     /// Voxels per side R (a multiple of 32).
     pub res: u32,
     /// Words per row, R / 32.
@@ -209,10 +251,14 @@ pub struct VoxelObject {
     /// First word of the object's bits; direction v's voxel (x, y, z) is
     /// bit z % 32 of word base + ((v·R + y)·R + x)·words + z / 32.
     pub base: u32,
+    /// Index of the object's direction-0 frame in [`VoxelLayout::frames`].
+    pub frames: u32,
+    pub _pad: u32,
 }
 
-/// The frame of one direction (`VoxelFrame` in voxel.wgsl): a, b and the
-/// row axis u, each padded to 16 bytes.
+/// The grid of one object and direction (`VoxelFrame` in voxel.wgsl): the
+/// axes a, b and u (the row axis) scaled by R/(2w) (module docs), each
+/// padded to 16 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct VoxelFrame {
@@ -224,23 +270,47 @@ pub struct VoxelFrame {
 const _: () = assert!(std::mem::size_of::<VoxelObject>() == 32);
 const _: () = assert!(std::mem::size_of::<VoxelFrame>() == 48);
 
-/// The frames of an n × n array, index i·n + j for θ = i·k, φ = j·k.
-pub fn frames(n: u32) -> Vec<VoxelFrame> {
+/// The unit axes (a, b, u) of an n × n array, index i·n + j for θ = i·k,
+/// φ = j·k (module docs).
+pub fn axes(n: u32) -> Vec<[[f64; 3]; 3]> {
     let k = PI / n as f64;
     let mut out = Vec::with_capacity((n * n) as usize);
     for i in 0..n {
         for j in 0..n {
             let (st, ct) = (i as f64 * k).sin_cos();
             let (sp, cp) = (j as f64 * k).sin_cos();
-            let v = |x: f64, y: f64, z: f64| [x as f32, y as f32, z as f32, 0.0];
-            out.push(VoxelFrame {
-                a: v(ct * cp, ct * sp, -st),
-                b: v(-sp, cp, 0.0),
-                u: v(st * cp, st * sp, ct),
-            });
+            out.push([
+                [ct * cp, ct * sp, -st],
+                [-sp, cp, 0.0],
+                [st * cp, st * sp, ct],
+            ]);
         }
     }
     out
+}
+
+/// The grids of one object with half extents `e` at `res` voxels per side
+/// for every direction of `axes`, and the largest scale among them (voxels
+/// per unit length).
+fn object_frames(axes: &[[[f64; 3]; 3]], e: [f64; 3], res: u32) -> (Vec<VoxelFrame>, f64) {
+    let norm = (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt();
+    let floor = (1e-3 * norm).max(1e-6);
+    let mut largest = 0.0f64;
+    let frames = axes
+        .iter()
+        .map(|f| {
+            let mut scaled = |x: [f64; 3]| {
+                let w = x[0].abs() * e[0] + x[1].abs() * e[1] + x[2].abs() * e[2];
+                let w = (w * (1.0 + 1e-4)).max(floor);
+                let s = res as f64 / (2.0 * w);
+                largest = largest.max(s);
+                [(x[0] * s) as f32, (x[1] * s) as f32, (x[2] * s) as f32, 0.0]
+            };
+            let (a, b, u) = (scaled(f[0]), scaled(f[1]), scaled(f[2]));
+            VoxelFrame { a, b, u }
+        })
+        .collect();
+    (frames, largest)
 }
 
 /// The objects of a build and where their bits go.
@@ -248,7 +318,11 @@ pub fn frames(n: u32) -> Vec<VoxelFrame> {
 pub struct VoxelLayout {
     pub params: VoxelParams,
     pub objects: Vec<VoxelObject>,
+    /// Every object's grid per direction (`VoxelObject::frames` + v).
     pub frames: Vec<VoxelFrame>,
+    /// Per object, the largest scale of its frames (voxels per unit
+    /// length), for sizing the build's tiles.
+    pub max_scale: Vec<f64>,
     /// Words of all objects' bits.
     pub words: u64,
 }
@@ -273,55 +347,66 @@ impl VoxelLayout {
                 hi[o] = hi[o].max(v);
             }
         }
-        let centres: Vec<Vec3> = (0..count)
+        let half: Vec<[f64; 3]> = (0..count)
             .map(|o| {
                 if lo[o].x <= hi[o].x {
-                    (lo[o] + hi[o]) * 0.5
+                    ((hi[o] - lo[o]) * 0.5).as_dvec3().to_array()
                 } else {
-                    Vec3::ZERO
+                    [0.0; 3]
                 }
             })
             .collect();
-        let mut radius = vec![0.0f32; count];
-        for prim in 0..built.triangle_count() {
-            let o = object_of(built, prim);
-            for v in built.triangle_stored(prim) {
-                radius[o] = radius[o].max(v.distance(centres[o]));
-            }
-        }
-        // A little room, so rounding never puts a vertex outside the grid;
-        // an empty or point-like object still gets a positive size.
-        let largest = radius.iter().cloned().fold(0.0f32, f32::max);
-        let floor = (largest * 1e-6).max(1e-6);
-        let radius: Vec<f32> = radius
+        let norms: Vec<f64> = half
             .iter()
-            .map(|r| (r * (1.0 + 1e-4)).max(floor))
+            .map(|e| (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt())
             .collect();
-        let largest = radius.iter().cloned().fold(0.0f32, f32::max);
+        let largest = norms.iter().cloned().fold(0.0f64, f64::max);
+        let axes = axes(params.directions);
         let per_direction = |res: u64| res * res * res / WORD_BITS as u64;
         let mut base = 0u64;
         let mut objects = Vec::with_capacity(count);
-        for (o, &r) in radius.iter().enumerate() {
-            let scaled = (params.resolution as f64 * (r / largest) as f64).ceil() as u32;
+        let mut frames = Vec::with_capacity(count * axes.len());
+        let mut max_scale = Vec::with_capacity(count);
+        for o in 0..count {
+            let share = if largest > 0.0 {
+                norms[o] / largest
+            } else {
+                1.0
+            };
+            let scaled = (params.resolution as f64 * share).ceil() as u32;
             let res = scaled
                 .next_multiple_of(WORD_BITS)
                 .clamp(WORD_BITS, params.resolution);
+            let centre = if lo[o].x <= hi[o].x {
+                (lo[o] + hi[o]) * 0.5
+            } else {
+                Vec3::ZERO
+            };
             objects.push(VoxelObject {
-                centre: centres[o].into(),
-                inv_h: res as f32 / (2.0 * r),
-                radius: r,
+                centre: centre.into(),
                 res,
                 words: res / WORD_BITS,
                 base: base.min(u32::MAX as u64) as u32,
+                frames: frames.len() as u32,
+                _pad: 0,
             });
+            let (f, scale) = object_frames(&axes, half[o], res);
+            frames.extend(f);
+            max_scale.push(scale);
             base += per_direction(res as u64) * params.direction_count() as u64;
         }
         Ok(VoxelLayout {
             params,
             objects,
-            frames: frames(params.directions),
+            frames,
+            max_scale,
             words: base,
         })
+    }
+
+    /// The grid of object `o` for direction `v`.
+    pub fn frame(&self, o: &VoxelObject, v: u32) -> &VoxelFrame {
+        &self.frames[(o.frames + v) as usize]
     }
 
     /// Fails before any work when the bits exceed one storage binding of
@@ -410,11 +495,17 @@ fn sub3(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
 
-/// Object-space point `p` in the voxel coordinates of direction frame `f`.
+/// Object-space point `p` in the voxel coordinates of grid `f`.
 pub fn to_voxel(o: &VoxelObject, f: &VoxelFrame, p: [f32; 3]) -> [f32; 3] {
     let rel = sub3(p, o.centre);
     let half = (o.res / 2) as f32;
-    let ax = |v: [f32; 4]| dot3(rel, [v[0], v[1], v[2]]) * o.inv_h + half;
+    let ax = |v: [f32; 4]| dot3(rel, [v[0], v[1], v[2]]) + half;
+    [ax(f.a), ax(f.b), ax(f.u)]
+}
+
+/// Object-space vector `d` in the voxel coordinates of grid `f`.
+pub fn to_voxel_vector(f: &VoxelFrame, d: [f32; 3]) -> [f32; 3] {
+    let ax = |v: [f32; 4]| dot3(d, [v[0], v[1], v[2]]);
     [ax(f.a), ax(f.b), ax(f.u)]
 }
 
@@ -531,10 +622,10 @@ pub fn build_cpu(built: &BuiltScene, layout: &VoxelLayout) -> Vec<u32> {
     for prim in 0..built.triangle_count() {
         let o = &layout.objects[object_of(built, prim)];
         let tri = built.triangle_stored(prim).map(|p| p.to_array());
-        for (v, f) in layout.frames.iter().enumerate() {
-            let q = tri.map(|p| to_voxel(o, f, p));
+        for v in 0..layout.params.direction_count() {
+            let q = tri.map(|p| to_voxel(o, layout.frame(o, v), p));
             voxelize_triangle(q, o.res, None, |x, y, z| {
-                bits[word_index(o, v as u32, x, y, z) as usize] |= 1 << (z % 32);
+                bits[word_index(o, v, x, y, z) as usize] |= 1 << (z % 32);
             });
         }
     }
@@ -543,21 +634,22 @@ pub fn build_cpu(built: &BuiltScene, layout: &VoxelLayout) -> Vec<u32> {
 
 /// The build's work list: one item per (triangle, tile of
 /// [`TILE`]×[`TILE`] columns) as [prim, tile | tiles_per_side << 16]. A
-/// triangle of bounding radius ρ spans at most 2ρ·R/(2r) + 2 columns per
-/// axis in any direction; tiles are counted from that bound (+1 for
-/// rounding), so the items of a triangle cover its footprint in every
-/// direction.
+/// triangle of bounding radius ρ spans at most 2ρ·s + 2 columns per axis
+/// in any direction, s the object's largest scale, and at most R; tiles
+/// are counted from that bound (+1 for rounding), so the items of a
+/// triangle cover its footprint in every direction.
 pub fn work_items(built: &BuiltScene, layout: &VoxelLayout) -> Vec<[u32; 2]> {
     let mut items = Vec::with_capacity(built.triangle_count() as usize);
     for prim in 0..built.triangle_count() {
-        let o = &layout.objects[object_of(built, prim)];
+        let object = object_of(built, prim);
+        let o = &layout.objects[object];
         let [a, b, c] = built.triangle_stored(prim);
         let centroid = (a + b + c) / 3.0;
         let rho = a
             .distance(centroid)
             .max(b.distance(centroid))
             .max(c.distance(centroid));
-        let span = (2.0 * rho as f64 * o.inv_h as f64 + 3.0).ceil();
+        let span = (2.0 * rho as f64 * layout.max_scale[object] + 3.0).ceil();
         if !span.is_finite() {
             continue;
         }
@@ -593,53 +685,76 @@ pub fn direction_index(n: u32, d: Vec3) -> u32 {
     i * n + j
 }
 
-/// Whether the bits of `o` occlude the object-space segment p + t·d,
-/// t ∈ [0, t_max] (the query of the module docs; `voxel_object_hit` in
-/// WGSL).
-pub fn object_hit(
-    bits: &[u32],
-    layout: &VoxelLayout,
-    o: &VoxelObject,
-    p: Vec3,
-    d: Vec3,
-    t_max: f32,
-) -> bool {
-    let c = Vec3::from(o.centre);
-    let oc = p - c;
-    let dd = d.dot(d);
-    let b = oc.dot(d);
-    let cc = oc.dot(oc) - o.radius * o.radius;
-    let disc = b * b - dd * cc;
-    if dd <= 0.0 || disc < 0.0 || !disc.is_finite() {
-        return false;
-    }
-    let s = disc.sqrt();
-    let t0 = ((-b - s) / dd).max(0.0);
-    let t1 = ((-b + s) / dd).min(t_max);
-    if t0 >= t1 {
-        return false;
-    }
+/// A shadow segment origin + t·dir, t ∈ [0, t_max], at scene time
+/// `time`, starting on a surface of normal `n_origin` and ending on one of
+/// normal `n_end` (zero vectors where it does not: a point light, a
+/// direction).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Segment {
+    pub origin: Vec3,
+    pub dir: Vec3,
+    pub t_max: f32,
+    pub time: f32,
+    pub n_origin: Vec3,
+    pub n_end: Vec3,
+}
+
+/// Whether the bits of `o` occlude the object-space segment `s` (the query
+/// of the module docs; `voxel_object_hit` in WGSL).
+pub fn object_hit(bits: &[u32], layout: &VoxelLayout, o: &VoxelObject, s: &Segment) -> bool {
+    let (p, d, t_max) = (s.origin, s.dir, s.t_max);
     let v = direction_index(layout.params.directions, d);
-    let f = &layout.frames[v as usize];
-    let x0 = p + d * t0;
-    let x1 = p + d * t1;
-    let m = to_voxel(o, f, ((x0 + x1) * 0.5).to_array());
-    let (x, y) = (m[0].floor(), m[1].floor());
+    let f = layout.frame(o, v);
+    let qp = to_voxel(o, f, p.to_array());
+    let qd = to_voxel_vector(f, d.to_array());
     let res = o.res as f32;
+    // Clip to the grid [0, R]³, slab by slab.
+    let (mut t0, mut t1) = (0.0f32, t_max);
+    for k in 0..3 {
+        if qd[k] == 0.0 {
+            if qp[k] < 0.0 || qp[k] > res {
+                return false;
+            }
+        } else {
+            let ta = (0.0 - qp[k]) / qd[k];
+            let tb = (res - qp[k]) / qd[k];
+            t0 = t0.max(ta.min(tb));
+            t1 = t1.min(ta.max(tb));
+        }
+    }
+    // (Also false for NaN.)
+    if t0.partial_cmp(&t1) != Some(std::cmp::Ordering::Less) {
+        return false;
+    }
+    let at = |t: f32| [0, 1, 2].map(|k| qp[k] + qd[k] * t);
+    let (x0, xm, x1) = (at(t0), at(0.5 * (t0 + t1)), at(t1));
+    let (x, y) = (xm[0].floor(), xm[1].floor());
     if x < 0.0 || y < 0.0 || x >= res || y >= res {
         return false;
     }
-    let z0 = to_voxel(o, f, x0.to_array())[2];
-    let z1 = to_voxel(o, f, x1.to_array())[2];
-    let (lo_end, hi_end) = (t0 == 0.0, t1 == t_max);
-    let (zlo, lo_end, zhi, hi_end) = if z0 <= z1 {
-        (z0, lo_end, z1, hi_end)
-    } else {
-        (z1, hi_end, z0, lo_end)
+    let extra = 1 + layout.params.skip as i32;
+    let zm = xm[2].floor().clamp(-1.0, res) as i32;
+    // Voxels excluded at a true endpoint `near` (its own, those its
+    // surface touches, `skip` more), never past the midpoint's voxel.
+    let excluded = |near: [f32; 3], is_end: bool, n: Vec3| {
+        if !is_end {
+            return 0;
+        }
+        let z = near[2].floor().clamp(-1.0, res) as i32;
+        let skip = endpoint_skip(o, f, [x, y], near, xm, n) + extra;
+        skip.min((zm - z).abs().max(1))
     };
-    let skip = 1 + layout.params.skip as i32;
-    let lo = zlo.floor().clamp(-1.0, res) as i32 + if lo_end { skip } else { 0 };
-    let hi = zhi.floor().clamp(-1.0, res) as i32 - if hi_end { skip } else { 0 };
+    let (s0, s1) = (
+        excluded(x0, t0 == 0.0, s.n_origin),
+        excluded(x1, t1 == t_max, s.n_end),
+    );
+    let z0 = x0[2].floor().clamp(-1.0, res) as i32;
+    let z1 = x1[2].floor().clamp(-1.0, res) as i32;
+    let (lo, hi) = if x0[2] <= x1[2] {
+        (z0 + s0, z1 - s1)
+    } else {
+        (z1 + s1, z0 - s0)
+    };
     let (lo, hi) = (lo.max(0), hi.min(o.res as i32 - 1));
     if lo > hi {
         return false;
@@ -654,30 +769,72 @@ pub fn object_hit(
     })
 }
 
-/// Whether the world-space segment origin + t·dir, t ∈ [0, t_max], at
-/// scene time `time` is occluded: any object hit, moving instances queried
-/// in their own frame (`voxel_occluded` in WGSL).
-pub fn occluded(
-    built: &BuiltScene,
-    layout: &VoxelLayout,
-    bits: &[u32],
-    origin: Vec3,
-    dir: Vec3,
-    t_max: f32,
-    time: f32,
-) -> bool {
+/// The voxels after a true endpoint's own that its surface (object-space
+/// normal `n`; zero: none) still touches along row `row` towards `far`:
+/// the tangent plane through `near` meets the row's k-th voxel from
+/// `near`'s (centre c_k) while |n_v·(c_k − near)| ≤ ½(|n_v,x| + |n_v,y| +
+/// |n_v,z|), n_v the normal in voxel space (x·n/|x|² for each scaled axis
+/// x); that is linear in k, and this is the last such k (0 if none).
+pub fn endpoint_skip(
+    o: &VoxelObject,
+    f: &VoxelFrame,
+    row: [f32; 2],
+    near: [f32; 3],
+    far: [f32; 3],
+    n: Vec3,
+) -> i32 {
+    if n == Vec3::ZERO {
+        return 0;
+    }
+    let n = n.to_array();
+    let scaled = |x: [f32; 4]| {
+        let x = [x[0], x[1], x[2]];
+        dot3(x, n) / dot3(x, x)
+    };
+    let nv = [scaled(f.a), scaled(f.b), scaled(f.u)];
+    let r = 0.5 * (nv[0].abs() + nv[1].abs() + nv[2].abs());
+    let c0 = [row[0] + 0.5, row[1] + 0.5, near[2].floor() + 0.5];
+    let f0 = nv[0] * (c0[0] - near[0]) + nv[1] * (c0[1] - near[1]) + nv[2] * (c0[2] - near[2]);
+    let slope = if far[2] >= near[2] { nv[2] } else { -nv[2] };
+    let res = o.res as f32;
+    let touching = if slope != 0.0 {
+        let q = (r - slope.signum() * f0) / slope.abs();
+        // (NaN, from a NaN normal, counts as 0.)
+        if q >= 0.0 {
+            q.floor().min(res)
+        } else {
+            0.0
+        }
+    } else if f0.abs() <= r {
+        res
+    } else {
+        0.0
+    };
+    touching as i32
+}
+
+/// Whether the world-space segment `s` is occluded: any object hit,
+/// moving instances queried in their own frame at `s.time`
+/// (`voxel_occluded` in WGSL).
+pub fn occluded(built: &BuiltScene, layout: &VoxelLayout, bits: &[u32], s: &Segment) -> bool {
     layout.objects.iter().enumerate().any(|(i, o)| {
         let moving = built
             .instances
             .get(i)
             .is_some_and(|inst| inst.key_count > 0);
-        let (p, d) = if moving {
-            let x = built.instance_transform_at(i as u32, time);
-            (x.inverse_point(origin), x.inverse_vector(dir))
+        let local = if moving {
+            let x = built.instance_transform_at(i as u32, s.time);
+            Segment {
+                origin: x.inverse_point(s.origin),
+                dir: x.inverse_vector(s.dir),
+                n_origin: x.inverse_vector(s.n_origin),
+                n_end: x.inverse_vector(s.n_end),
+                ..*s
+            }
         } else {
-            (origin, dir)
+            *s
         };
-        object_hit(bits, layout, o, p, d, t_max)
+        object_hit(bits, layout, o, &local)
     })
 }
 
@@ -805,7 +962,7 @@ mod tests {
     fn direction_index_picks_a_row_axis_within_half_a_diagonal_step() {
         let mut rng = StdRng::seed_from_u64(3);
         for n in [1u32, 6, 30, 90] {
-            let frames = frames(n);
+            let frames: Vec<[f32; 3]> = axes(n).iter().map(|f| f[2].map(|c| c as f32)).collect();
             let k = std::f32::consts::PI / n as f32;
             let bound = (k / std::f32::consts::SQRT_2).min(std::f32::consts::FRAC_PI_2) + 1e-4;
             for _ in 0..20_000 {
@@ -818,15 +975,15 @@ mod tests {
                     continue;
                 }
                 let v = direction_index(n, d);
-                let u = Vec3::from_slice(&frames[v as usize].u[..3]);
+                let u = Vec3::from(frames[v as usize]);
                 let angle = d.normalize().dot(u).abs().min(1.0).acos();
                 // Near the pole a step of φ moves u by less: the bound holds.
                 assert!(angle <= bound, "n {n}, d {d}: {angle} > {bound}");
             }
             for (v, f) in frames.iter().enumerate() {
-                let u = Vec3::from_slice(&f.u[..3]);
+                let u = Vec3::from(*f);
                 let got = direction_index(n, u);
-                let same = Vec3::from_slice(&frames[got as usize].u[..3]);
+                let same = Vec3::from(frames[got as usize]);
                 assert!(
                     got == v as u32 || same.dot(u).abs() > 1.0 - 1e-6,
                     "n {n}: frame {v} maps to {got}"

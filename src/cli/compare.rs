@@ -21,6 +21,11 @@ pub(crate) struct CompareArgs {
     /// integrands); the reference keeps the scene's own.
     #[arg(long, value_name = "NAME", conflicts_with = "samplers")]
     pub(crate) sampler: Option<SamplerKind>,
+    /// How the compared renders' shadow rays are answered, overriding the
+    /// scene's [integrand] visibility: bvh or voxel (approximate; its
+    /// bias then shows against the reference, which always uses the BVH).
+    #[arg(long, value_name = "BACKEND", conflicts_with = "samplers")]
+    pub(crate) visibility: Option<VisibilityKind>,
     /// Compare these light samplers (comma-separated: uniform, power,
     /// tree_nocut, tree, tree_cone, unbalanced, unbalanced_nocut,
     /// unbalanced_nocone, sst, sst_nosub, lgh) under Halton at
@@ -58,6 +63,7 @@ pub(crate) fn run(args: CompareArgs, ui: Ui) -> Result<()> {
         spp,
         time_ms,
         sampler,
+        visibility,
         samplers,
         seeds,
         crop,
@@ -98,7 +104,10 @@ pub(crate) fn run(args: CompareArgs, ui: Ui) -> Result<()> {
                 crops: crop,
                 uniform,
             },
-            IntegrandOverrides { sampler },
+            IntegrandOverrides {
+                sampler,
+                visibility,
+            },
         )?,
     };
     ui.result(mdas::compare::report::table(&report));

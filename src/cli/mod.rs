@@ -12,6 +12,7 @@ pub(crate) mod tune;
 pub(crate) use anyhow::{bail, Result};
 pub(crate) use clap::{Parser, Subcommand, ValueEnum};
 pub(crate) use indicatif::{ProgressBar, ProgressStyle};
+pub(crate) use mdas::accel::voxel::VisibilityKind;
 pub(crate) use mdas::app::{self, IntegrandOverrides, ReferenceSpec};
 pub(crate) use mdas::gpu::Gpu;
 pub(crate) use mdas::integrator::mdas::MdasParams;

@@ -28,6 +28,11 @@ pub(crate) struct ReferenceArgs {
     /// the cache key. `mdas compare` always uses the scene's own.
     #[arg(long, value_name = "NAME")]
     pub(crate) sampler: Option<SamplerKind>,
+    /// How shadow rays are answered: bvh or voxel. References use the BVH
+    /// unless this says voxel (then it is part of the cache key); a scene
+    /// whose [integrand] asks for voxel visibility gets a BVH reference.
+    #[arg(long, value_name = "BACKEND")]
+    pub(crate) visibility: Option<VisibilityKind>,
 }
 
 /// What `reference --json` prints.
@@ -55,6 +60,7 @@ pub(crate) fn run(args: ReferenceArgs, ui: Ui) -> Result<()> {
         cache,
         output,
         sampler,
+        visibility,
     } = args;
     if let Some(out) = &output {
         check_output(out)?;
@@ -80,17 +86,20 @@ pub(crate) fn run(args: ReferenceArgs, ui: Ui) -> Result<()> {
         path,
         cache: cache_use,
         warnings,
-        sampler_note,
+        notes,
     } = app::reference_with(
         gpu,
         &scene,
         spec,
-        IntegrandOverrides { sampler },
+        IntegrandOverrides {
+            sampler,
+            visibility,
+        },
         &cache,
         Some(Box::new(move |done, _| b.set_position(done as u64))),
     )?;
     bar.finish_and_clear();
-    for w in warnings.iter().chain(&sampler_note) {
+    for w in warnings.iter().chain(&notes) {
         eprintln!("warning: {w}");
     }
     if let app::CacheUse::Rebuilt(why) = &cache_use {

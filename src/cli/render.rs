@@ -41,6 +41,12 @@ pub(crate) struct RenderArgs {
     /// docs/light-sampling.md).
     #[arg(long, value_name = "NAME")]
     pub(crate) sampler: Option<SamplerKind>,
+    /// How shadow rays are answered, overriding the scene's [integrand]
+    /// visibility: bvh (exact) or voxel (the constant-time voxelization
+    /// array of Wang, Meng & Popescu; approximate, built on the GPU from
+    /// the scene's voxel_directions, voxel_resolution and voxel_skip).
+    #[arg(long, value_name = "BACKEND")]
+    pub(crate) visibility: Option<VisibilityKind>,
     /// Render once untimed first, so that the printed times are warm:
     /// CPU drivers (lavapipe) compile a pipeline at its first dispatch,
     /// inside the GPU timestamps of a cold render.
@@ -93,6 +99,7 @@ pub(crate) fn run(args: RenderArgs, ui: Ui) -> Result<()> {
         scale,
         reference,
         sampler,
+        visibility,
         warmup,
         mdas,
     } = args;
@@ -132,7 +139,16 @@ pub(crate) fn run(args: RenderArgs, ui: Ui) -> Result<()> {
         None => None,
     };
     let gpu = Gpu::shared()?;
-    let prepared = app::prepare_loaded(gpu, loaded, &scene, scale, IntegrandOverrides { sampler })?;
+    let prepared = app::prepare_loaded(
+        gpu,
+        loaded,
+        &scene,
+        scale,
+        IntegrandOverrides {
+            sampler,
+            visibility,
+        },
+    )?;
     debug_assert_eq!(film, prepared.film);
     // A bar once the render has taken a second (Halton then waits for the
     // GPU every few dispatches to report; MDAS reads its state anyway).
@@ -164,8 +180,11 @@ pub(crate) fn run(args: RenderArgs, ui: Ui) -> Result<()> {
             (Box::new(m), mdas_params.seed)
         }
     };
-    let light_sampler = app::light_sampler(&prepared.scene.integrand)
+    let mut light_sampler = app::light_sampler(&prepared.scene.integrand)
         .map_or_else(String::new, |k| format!(", sampler {k}"));
+    if prepared.scene.visibility.is_voxel() {
+        light_sampler += &format!(", shadows {}", prepared.scene.visibility.describe());
+    }
     ui.note(format!(
         "{}: {}×{} px, {} triangles, integrand {} ({}D{light_sampler}), {}, adapter {}",
         scene.display(),

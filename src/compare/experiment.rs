@@ -361,7 +361,7 @@ pub(crate) fn load_reference(
         Some(Box::new(move |done, _| b2.set_position(done as u64))),
     )?;
     b.finish_and_clear();
-    if let Some(note) = &reference.sampler_note {
+    for note in &reference.notes {
         eprintln!("note: {note}");
     }
     if let app::CacheUse::Rebuilt(why) = &reference.cache {

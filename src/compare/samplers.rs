@@ -108,7 +108,12 @@ fn run(gpu: &Gpu, spec: &SamplersSpec) -> Result<Report> {
     };
     let film = app::scaled_film(scene.scene.film, setup.scale)?;
     let staged = StagedDir::new(&setup.out)?;
-    let gpu_scene = Arc::new(GpuScene::new(gpu, &scene.scene, film)?);
+    let gpu_scene = Arc::new(GpuScene::with_visibility(
+        gpu,
+        &scene.scene,
+        film,
+        scene.visibility,
+    )?);
     // One integrand per sampler (plus MDAS's tree if not listed), sharing
     // the uploaded scene.
     let mut kinds = spec.samplers.clone();

@@ -88,13 +88,19 @@ impl Ctx<'_> {
             point_light_sets.push(generated);
         }
 
-        let integrand = match &raw.integrand {
-            None => IntegrandSpec::AreaLight,
+        let (integrand, (visibility, voxel)) = match &raw.integrand {
+            None => (
+                IntegrandSpec::AreaLight,
+                (Visibility::Bvh, VoxelParams::default()),
+            ),
             Some(i) => {
                 let emissive = meshes
                     .iter()
                     .any(|m| materials[m.material as usize].emission.max_element() > 0.0);
-                self.integrand(i.get_ref(), emissive)?
+                (
+                    self.integrand(i.get_ref(), emissive)?,
+                    self.visibility(i.get_ref())?,
+                )
             }
         };
         let mdas = match &raw.mdas {
@@ -112,6 +118,8 @@ impl Ctx<'_> {
                 point_light_sets,
             },
             integrand,
+            visibility,
+            voxel,
             mdas,
             inputs,
             warnings,

@@ -6,6 +6,7 @@ use super::ctx::{Ctx, Result};
 use super::raw::*;
 use super::values::{Num, S};
 use super::*;
+use crate::accel::voxel::{self, Visibility, VoxelParams};
 use crate::integrand::ManyLightSpec;
 use crate::lights::lgh::{self, LghParams};
 use crate::lights::sampler::SamplerKind;
@@ -93,6 +94,51 @@ impl Ctx<'_> {
             }
             _ => unreachable!("INTEGRAND_TYPES and this match list the same types"),
         })
+    }
+
+    /// The visibility keys of any `[integrand]`: `visibility = "bvh" |
+    /// "voxel"` and the voxel array's `voxel_directions` (n of the n × n
+    /// array), `voxel_resolution` (a multiple of 32) and `voxel_skip`.
+    /// Returns the backend and the voxel parameters (kept with `bvh` too,
+    /// for `--visibility voxel`).
+    pub(super) fn visibility(&self, r: &RawIntegrand) -> Result<(Visibility, VoxelParams)> {
+        let d = VoxelParams::default();
+        let voxel = VoxelParams {
+            directions: self.opt_int(
+                &r.voxel_directions,
+                "voxel_directions",
+                1..=voxel::MAX_DIRECTIONS as i64,
+                d.directions as i64,
+            )? as u32,
+            resolution: match &r.voxel_resolution {
+                None => d.resolution,
+                Some(v) => {
+                    let x = self.int(v, "voxel_resolution", 32..=voxel::MAX_RESOLUTION as i64)?;
+                    if x % 32 != 0 {
+                        return Err(self.error(
+                            v.span(),
+                            format!("voxel_resolution must be a multiple of 32, found {x}"),
+                        ));
+                    }
+                    x as u32
+                }
+            },
+            skip: self.opt_int(&r.voxel_skip, "voxel_skip", 0..=voxel::MAX_SKIP as i64, 1)? as u32,
+        };
+        let visibility = match &r.visibility {
+            None => Visibility::Bvh,
+            Some(v) => match v.get_ref().as_str() {
+                "bvh" => Visibility::Bvh,
+                "voxel" => Visibility::Voxel(voxel),
+                other => {
+                    return Err(self.error(
+                        v.span(),
+                        format!("unknown visibility '{other}', expected one of \"bvh\", \"voxel\""),
+                    ))
+                }
+            },
+        };
+        Ok((visibility, voxel))
     }
 
     /// The substitute-tree keys of a `many_light` `[integrand]`: ν_min in

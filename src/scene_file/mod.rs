@@ -27,7 +27,9 @@
 //!             intensity_jitter, color_jitter, orbit_radius, orbit_speed
 //! [integrand] type = area_light | depth_of_field | motion_blur
 //!             | path (max_bounces = 1) | ambient_occlusion (radius)
-//!             | many_light (sampler, cut_size, block, interleave, time, frame)
+//!             | many_light (sampler, cut_size, block, interleave, time, frame);
+//!             any type: visibility = bvh | voxel, voxel_directions,
+//!             voxel_resolution, voxel_skip
 //! [mdas]      bits_per_dim, extra_image_bits, initial_samples_per_cell,
 //!             scale_factor, alpha, candidates, max_samples_per_leaf, spp, seed
 //! ```
@@ -53,6 +55,7 @@ mod shapes;
 mod tests;
 mod values;
 
+use crate::accel::voxel::{Visibility, VoxelParams};
 use crate::integrand::IntegrandSpec;
 use crate::integrator::mdas::MdasParams;
 #[cfg(doc)]
@@ -68,6 +71,12 @@ pub struct SceneFile {
     pub scene: Scene,
     /// `[integrand]` (area-light direct lighting when absent).
     pub integrand: IntegrandSpec,
+    /// `[integrand] visibility`: how shadow rays are answered (BVH when
+    /// absent).
+    pub visibility: Visibility,
+    /// `[integrand] voxel_*`: the voxel array's parameters, also when
+    /// `visibility` is the BVH (for `--visibility voxel`).
+    pub voxel: VoxelParams,
     /// `[mdas]` (missing keys from `MdasParams::for_film`).
     pub mdas: MdasParams,
     /// The files the scene loaded besides itself (its OBJ meshes and

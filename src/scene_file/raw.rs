@@ -244,6 +244,11 @@ pub(super) struct RawIntegrand {
     pub(super) lgh_level0: Option<S<bool>>,
     pub(super) lgh_shadows: Option<S<i64>>,
     pub(super) lgh_clamp: Option<S<Num>>,
+    // Visibility keys apply to every type (not in `type_keys`).
+    pub(super) visibility: Option<S<String>>,
+    pub(super) voxel_directions: Option<S<i64>>,
+    pub(super) voxel_resolution: Option<S<i64>>,
+    pub(super) voxel_skip: Option<S<i64>>,
 }
 
 impl RawIntegrand {

@@ -29,12 +29,19 @@ fn scene_closest(origin: vec3<f32>, dir: vec3<f32>, t_max: f32, time: f32) -> Hi
     return r.hit;
 }
 
-fn scene_occluded(origin: vec3<f32>, dir: vec3<f32>, t_max: f32, time: f32) -> bool {
+// Whether the segment origin + t·dir, t ∈ (0, t_max), is blocked.
+// `n_origin` and `n_end` are the unit normals of the surfaces the segment
+// starts and ends on (zero where it does not end on a surface: a point
+// light, a direction, an ambient-occlusion radius); the BVH ignores them,
+// voxel visibility uses them to leave out the voxels of those surfaces
+// (shared/voxel.wgsl, src/accel/voxel.rs "Self-occlusion rule").
+fn scene_occluded(origin: vec3<f32>, dir: vec3<f32>, t_max: f32, time: f32,
+                  n_origin: vec3<f32>, n_end: vec3<f32>) -> bool {
     if scene.visibility == VISIBILITY_VOXEL {
-        // One row lookup per voxel object, a few words each (shared/voxel.wgsl).
+        // Two row lookups per voxel object, a few words each (shared/voxel.wgsl).
         rays_traced += 1u;
-        traversal_steps += scene.voxel_objects * (1u + MAX_VOXEL_WORDS);
-        return voxel_occluded(origin, dir, t_max, time);
+        traversal_steps += scene.voxel_objects * (2u + 2u * MAX_VOXEL_WORDS);
+        return voxel_occluded(origin, dir, t_max, time, n_origin, n_end);
     }
     let r = bvh_traverse(origin, dir, t_max, time, true);
     rays_traced += 1u;
@@ -110,7 +117,7 @@ fn direct_delta_lights(s: Surface, time: f32) -> vec3<f32> {
         if (cos_x <= 0.0 || all(e == vec3<f32>(0.0))) {
             continue;
         }
-        if (scene_occluded(origin, wi, t_max, time)) {
+        if (scene_occluded(origin, wi, t_max, time, s.n, vec3<f32>(0.0))) {
             continue;
         }
         irradiance += e * cos_x;
@@ -182,7 +189,7 @@ fn direct_area_light(s: Surface, u: vec2<f32>, time: f32) -> vec3<f32> {
     if (cos_x <= 0.0 || cos_y <= 0.0) {
         return vec3<f32>(0.0);
     }
-    if (scene_occluded(origin, wi, dist * (1.0 - RAY_EPSILON), time)) {
+    if (scene_occluded(origin, wi, dist * (1.0 - RAY_EPSILON), time, s.n, l.n)) {
         return vec3<f32>(0.0);
     }
     return s.rho * INV_PI * l.le * (cos_x * cos_y / (dist2 * l.pdf_area));
