@@ -733,16 +733,14 @@ pub fn object_hit(bits: &[u32], layout: &VoxelLayout, o: &VoxelObject, s: &Segme
         return false;
     }
     let extra = 1 + layout.params.skip as i32;
-    let zm = xm[2].floor().clamp(-1.0, res) as i32;
-    // Voxels excluded at a true endpoint `near` (its own, those its
-    // surface touches, `skip` more), never past the midpoint's voxel.
+    // Voxels excluded at a true endpoint `near`: its own, those its
+    // surface's tangent plane touches along the row, `skip` more.
     let excluded = |near: [f32; 3], is_end: bool, n: Vec3| {
-        if !is_end {
-            return 0;
+        if is_end {
+            endpoint_skip(o, f, [x, y], near, xm, n) + extra
+        } else {
+            0
         }
-        let z = near[2].floor().clamp(-1.0, res) as i32;
-        let skip = endpoint_skip(o, f, [x, y], near, xm, n) + extra;
-        skip.min((zm - z).abs().max(1))
     };
     let (s0, s1) = (
         excluded(x0, t0 == 0.0, s.n_origin),

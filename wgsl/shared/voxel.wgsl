@@ -88,16 +88,15 @@ fn voxel_object_hit(o: VoxelObject, p: vec3<f32>, d: vec3<f32>, t_max: f32,
   if x < 0.0 || y < 0.0 || x >= res || y >= res {
     return false;
   }
-  let zm = i32(clamp(floor(xm.z), -1.0, res));
   let z0 = i32(clamp(floor(x0.z), -1.0, res));
   let z1 = i32(clamp(floor(x1.z), -1.0, res));
   var s0 = 0;
   var s1 = 0;
   if t0 == 0.0 {
-    s0 = min(voxel_endpoint_skip(o, f, vec2<f32>(x, y), x0, xm, n0), max(abs(zm - z0), 1));
+    s0 = voxel_endpoint_skip(o, f, vec2<f32>(x, y), x0, xm, n0);
   }
   if t1 == t_max {
-    s1 = min(voxel_endpoint_skip(o, f, vec2<f32>(x, y), x1, xm, n1), max(abs(zm - z1), 1));
+    s1 = voxel_endpoint_skip(o, f, vec2<f32>(x, y), x1, xm, n1);
   }
   var lo = z1 + s1;
   var hi = z0 - s0;
