@@ -458,11 +458,11 @@ fn mirrors() -> BTreeMap<(&'static str, &'static str), Layout> {
             child_min_y, child_max_y, child_min_z, child_max_z,
         })),
         (("shared/voxel.wgsl", "VoxelObject"), host!(VoxelObject {
-            centre, res, words, base, frames, _pad,
+            centre, res, words, base, frames, _pad, world_min, _pad1, world_max, _pad2,
         })),
         (("shared/voxel.wgsl", "VoxelFrame"), host!(VoxelFrame { a, b, u })),
         (("voxel_build.wgsl", "VoxelObject"), host!(VoxelObject {
-            centre, res, words, base, frames, _pad,
+            centre, res, words, base, frames, _pad, world_min, _pad1, world_max, _pad2,
         })),
         (("voxel_build.wgsl", "VoxelFrame"), host!(VoxelFrame { a, b, u })),
         (("voxel_build.wgsl", "VoxelBuildParams"), host!(VoxelBuildParams {

@@ -8,7 +8,10 @@
 //
 // Needs shared/voxel.wgsl's structs only; TILE is a constant.
 
-struct VoxelObject { centre: vec3<f32>, res: u32, words: u32, base: u32, frames: u32, _pad: u32 }
+struct VoxelObject {
+  centre: vec3<f32>, res: u32, words: u32, base: u32, frames: u32, _pad: u32,
+  world_min: vec3<f32>, _pad1: u32, world_max: vec3<f32>, _pad2: u32,
+}
 struct VoxelFrame { a: vec4<f32>, b: vec4<f32>, u: vec4<f32> }
 struct VoxelBuildParams {
   item_count: u32,
@@ -118,6 +121,18 @@ fn voxelize(@builtin(global_invocation_id) id: vec3<u32>) {
   let nk = component(n, k);
   // (abs(nk) <= 3e38 is false for NaN and ±inf.)
   if nk == 0.0 || !(abs(nk) <= 3.0e38) {
+    return;
+  }
+  // A triangle inside one voxel meets it: the separating-axis test would
+  // say so too (the same bit as the CPU oracle), so set it directly.
+  let cell_lo = floor(min(min(q0, q1), q2));
+  let cell_hi = floor(max(max(q0, q1), q2));
+  if all(cell_lo == cell_hi) {
+    if tile == 0u && all(cell_lo >= vec3<f32>(0.0)) && all(cell_lo < vec3<f32>(f32(o.res))) {
+      let c = vec3<u32>(cell_lo);
+      let word = o.base + ((v * o.res + c.y) * o.res + c.x) * o.words + c.z / 32u;
+      atomicOr(&bits[word], 1u << (c.z % 32u));
+    }
     return;
   }
   let bi = footprint(q0, q1, q2, i, o.res);

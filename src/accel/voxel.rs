@@ -254,6 +254,13 @@ pub struct VoxelObject {
     /// Index of the object's direction-0 frame in [`VoxelLayout::frames`].
     pub frames: u32,
     pub _pad: u32,
+    /// World-space bounds of the object at every time (swept over its
+    /// keyframes for a moving instance): a segment that misses them is not
+    /// taken into the object's frame at all.
+    pub world_min: [f32; 3],
+    pub _pad1: u32,
+    pub world_max: [f32; 3],
+    pub _pad2: u32,
 }
 
 /// The grid of one object and direction (`VoxelFrame` in voxel.wgsl): the
@@ -267,7 +274,7 @@ pub struct VoxelFrame {
     pub u: [f32; 4],
 }
 
-const _: () = assert!(std::mem::size_of::<VoxelObject>() == 32);
+const _: () = assert!(std::mem::size_of::<VoxelObject>() == 64);
 const _: () = assert!(std::mem::size_of::<VoxelFrame>() == 48);
 
 /// The unit axes (a, b, u) of an n × n array, index i·n + j for θ = i·k,
@@ -382,13 +389,16 @@ impl VoxelLayout {
             } else {
                 Vec3::ZERO
             };
+            let (world_min, world_max) = world_bounds(built, o, lo[o], hi[o]);
             objects.push(VoxelObject {
                 centre: centre.into(),
                 res,
                 words: res / WORD_BITS,
                 base: base.min(u32::MAX as u64) as u32,
                 frames: frames.len() as u32,
-                _pad: 0,
+                world_min: world_min.into(),
+                world_max: world_max.into(),
+                ..Default::default()
             });
             let (f, scale) = object_frames(&axes, half[o], res);
             frames.extend(f);
@@ -466,6 +476,48 @@ impl VoxelLayout {
             mib(max_bytes)
         )
     }
+}
+
+/// World bounds of object `o` with object-space bounds [lo, hi] (empty
+/// when lo > hi): swept over its keyframes when it moves, padded by 10⁻⁴
+/// of its size (and 10⁻⁶) against rounding.
+fn world_bounds(built: &BuiltScene, o: usize, lo: Vec3, hi: Vec3) -> (Vec3, Vec3) {
+    if lo.x > hi.x {
+        return (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    }
+    let moving = built.instances.get(o).is_some_and(|i| i.key_count > 0);
+    let (lo, hi) = if moving {
+        let keys = built.instance_keys(o as u32);
+        let b = crate::scene::motion::swept_bounds(
+            &keys,
+            &obvhs::aabb::Aabb::new(lo.into(), hi.into()),
+        );
+        (Vec3::from(b.min), Vec3::from(b.max))
+    } else {
+        (lo, hi)
+    };
+    let pad = (hi - lo).max_element() * 1e-4 + 1e-6;
+    (lo - pad, hi + pad)
+}
+
+/// Whether the world segment p + t·d, t ∈ [0, t_max], meets the box
+/// [lo, hi] (slabs; a zero component of d needs p inside that slab).
+/// `voxel_segment_meets_box` in WGSL.
+pub fn segment_meets_box(p: Vec3, d: Vec3, t_max: f32, lo: [f32; 3], hi: [f32; 3]) -> bool {
+    let (mut t0, mut t1) = (0.0f32, t_max);
+    for k in 0..3 {
+        if d[k] == 0.0 {
+            if p[k] < lo[k] || p[k] > hi[k] {
+                return false;
+            }
+        } else {
+            let ta = (lo[k] - p[k]) / d[k];
+            let tb = (hi[k] - p[k]) / d[k];
+            t0 = t0.max(ta.min(tb));
+            t1 = t1.min(ta.max(tb));
+        }
+    }
+    t0 <= t1
 }
 
 /// The voxel object of global triangle `prim`.
@@ -816,6 +868,9 @@ pub fn endpoint_skip(
 /// (`voxel_occluded` in WGSL).
 pub fn occluded(built: &BuiltScene, layout: &VoxelLayout, bits: &[u32], s: &Segment) -> bool {
     layout.objects.iter().enumerate().any(|(i, o)| {
+        if !segment_meets_box(s.origin, s.dir, s.t_max, o.world_min, o.world_max) {
+            return false;
+        }
         let moving = built
             .instances
             .get(i)

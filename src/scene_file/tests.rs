@@ -262,3 +262,75 @@ fn symmetric_bow_tie_quads_are_refused() {
     let e = err(&format!("{MINIMAL}{light}"));
     assert!(e.contains("bow tie"), "{e}");
 }
+
+/// `visibility` and the `voxel_*` keys apply to every integrand type; bad
+/// values are refused at their key.
+#[test]
+fn visibility_keys_parse_for_every_type_and_are_checked() {
+    use crate::accel::voxel::{Visibility, VoxelParams};
+    let s = parse(MINIMAL, Path::new("t.toml")).unwrap();
+    assert_eq!(
+        (s.visibility, s.voxel),
+        (Visibility::Bvh, VoxelParams::default())
+    );
+    for (name, keys) in raw::INTEGRAND_TYPES {
+        let required = if keys.contains(&"radius") {
+            "radius = 1\n"
+        } else {
+            ""
+        };
+        let text = format!(
+            "{MINIMAL}[integrand]\ntype = \"{name}\"\n{required}visibility = \"voxel\"\nvoxel_directions = 12\nvoxel_resolution = 96\nvoxel_skip = 0\n"
+        );
+        let file = parse(&text, Path::new("t.toml")).unwrap();
+        let p = VoxelParams {
+            directions: 12,
+            resolution: 96,
+            skip: 0,
+        };
+        assert_eq!(
+            (file.visibility, file.voxel),
+            (Visibility::Voxel(p), p),
+            "{name}"
+        );
+        // The keys without `visibility = "voxel"` keep the BVH (and the
+        // parameters, for --visibility voxel).
+        let text = text.replace("visibility = \"voxel\"\n", "");
+        let file = parse(&text, Path::new("t.toml")).unwrap();
+        assert_eq!(
+            (file.visibility, file.voxel),
+            (Visibility::Bvh, p),
+            "{name}"
+        );
+    }
+    let table = format!("{MINIMAL}[integrand]\ntype = \"area_light\"\n");
+    for (line, expected) in [
+        (
+            "visibility = \"rays\"",
+            "t.toml:11:14: unknown visibility 'rays'",
+        ),
+        (
+            "voxel_directions = 0",
+            "t.toml:11:20: voxel_directions must be at least 1",
+        ),
+        (
+            "voxel_directions = 181",
+            "t.toml:11:20: voxel_directions must be at most 180",
+        ),
+        (
+            "voxel_resolution = 48",
+            "t.toml:11:20: voxel_resolution must be a multiple of 32",
+        ),
+        (
+            "voxel_resolution = 2048",
+            "t.toml:11:20: voxel_resolution must be at most 1024",
+        ),
+        (
+            "voxel_skip = 17",
+            "t.toml:11:14: voxel_skip must be at most 16",
+        ),
+    ] {
+        let e = err(&format!("{table}{line}\n"));
+        assert!(e.starts_with(expected), "{line}: {e}");
+    }
+}

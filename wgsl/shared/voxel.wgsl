@@ -7,7 +7,10 @@
 // Bindings 8–10 of the scene group; with BVH visibility they hold one
 // zeroed element each and scene.visibility is 0.
 
-struct VoxelObject { centre: vec3<f32>, res: u32, words: u32, base: u32, frames: u32, _pad: u32 }
+struct VoxelObject {
+  centre: vec3<f32>, res: u32, words: u32, base: u32, frames: u32, _pad: u32,
+  world_min: vec3<f32>, _pad1: u32, world_max: vec3<f32>, _pad2: u32,  // world bounds at every time
+}
 struct VoxelFrame { a: vec4<f32>, b: vec4<f32>, u: vec4<f32> }  // axes scaled to voxels (xyz)
 
 @group(1) @binding(8) var<storage, read> voxel_bits: array<u32>;
@@ -161,6 +164,26 @@ fn voxel_endpoint_skip(o: VoxelObject, f: VoxelFrame, row: vec2<f32>, near: vec3
   return i32(touching) + extra;
 }
 
+// Whether the world segment p + t·d, t ∈ [0, t_max], meets the box
+// [lo, hi] (slabs; a zero component of d needs p inside that slab).
+fn voxel_segment_meets_box(p: vec3<f32>, d: vec3<f32>, t_max: f32, lo: vec3<f32>, hi: vec3<f32>) -> bool {
+  var t0 = 0.0;
+  var t1 = t_max;
+  for (var k = 0u; k < 3u; k += 1u) {
+    if d[k] == 0.0 {
+      if p[k] < lo[k] || p[k] > hi[k] {
+        return false;
+      }
+    } else {
+      let ta = (lo[k] - p[k]) / d[k];
+      let tb = (hi[k] - p[k]) / d[k];
+      t0 = max(t0, min(ta, tb));
+      t1 = min(t1, max(ta, tb));
+    }
+  }
+  return t0 <= t1;
+}
+
 // Whether the world-space segment origin + t·dir, t ∈ [0, t_max], at
 // scene time `time` is occluded: any voxel object hit, moving instances
 // queried in their own frame (the paper's Algorithm 4). n0, n1: the
@@ -168,6 +191,10 @@ fn voxel_endpoint_skip(o: VoxelObject, f: VoxelFrame, row: vec2<f32>, near: vec3
 fn voxel_occluded(origin: vec3<f32>, dir: vec3<f32>, t_max: f32, time: f32,
                   n0: vec3<f32>, n1: vec3<f32>) -> bool {
   for (var i = 0u; i < scene.voxel_objects; i += 1u) {
+    let o = voxel_objects[i];
+    if !voxel_segment_meets_box(origin, dir, t_max, o.world_min, o.world_max) {
+      continue;
+    }
     var p = origin;
     var d = dir;
     var m0 = n0;
@@ -179,7 +206,7 @@ fn voxel_occluded(origin: vec3<f32>, dir: vec3<f32>, t_max: f32, time: f32,
       m0 = rigid_inverse_vector(x, n0);
       m1 = rigid_inverse_vector(x, n1);
     }
-    if voxel_object_hit(voxel_objects[i], p, d, t_max, m0, m1) {
+    if voxel_object_hit(o, p, d, t_max, m0, m1) {
       return true;
     }
   }
