@@ -11,7 +11,10 @@
 #      per frame), stochastic substitute trees among them (issue 13), at
 #      1/4 and full scale, and `sst`'s bias over seeds;
 #   5. the lighting grid hierarchy (issue 14): equal time on lights_1m, its
-#      bias over seeds, its GPU build and its cost per sample.
+#      bias over seeds, its GPU build and its cost per sample;
+#   6. voxel visibility (issue 15): build, memory, shadow queries per
+#      second and ε_v / ε_s against the BVH, the voxel render against the
+#      BVH render, and `compare --visibility voxel` on vpl_atrium.
 # With a baseline binary (another build of mdas that has `bench`), steps 1
 # and 2 also run it, right after the same step of this build.
 #
@@ -95,3 +98,21 @@ if [ "${QUICK:-0}" != 1 ]; then
     cargo bench --bench light_tree -- lgh 2>&1 | tee "$OUT/lgh-build.txt"
     MDAS_BENCH_SCALE=$FULL_SCALE cargo bench --bench light_sampling 2>&1 | tee "$OUT/light-sampling.txt"
 fi
+# Voxel visibility (issue 15): build, memory, shadow queries per second
+# against the BVH and ε_v / ε_s on the test and many-light scenes and on
+# dragon_lights (1.31M triangles, 1,024 lights), at the default array and
+# at the paper's 2°, 128³ (which a real GPU's storage binding holds); then
+# the voxel render against the BVH render, same seed, and MDAS vs Halton
+# with voxel shadows against the exact reference.
+VIS_CONFIGS="30x64 22x128 90x128"
+[ "${QUICK:-0}" = 1 ] && VIS_CONFIGS="12x32"
+step "visibility" env CONFIGS="$VIS_CONFIGS" REPEATS="$REPEATS" SCALE="$QUARTER_SCALE" \
+    SCENES="scenes/tests/box_shadow.toml scenes/cornell_lights.toml scenes/vpl_atrium.toml scenes/dragon_lights.toml" \
+    cargo bench --bench visibility
+"$BIN" render scenes/vpl_atrium.toml --integrator halton --scale "$QUARTER_SCALE" --spp 64 --seed 1 \
+    --warmup -o "$OUT/vpl_atrium-bvh64.exr" 2>&1 | tee "$OUT/vpl_atrium-bvh64.txt"
+"$BIN" render scenes/vpl_atrium.toml --integrator halton --scale "$QUARTER_SCALE" --spp 64 --seed 1 \
+    --warmup --visibility voxel --reference "$OUT/vpl_atrium-bvh64.exr" \
+    -o "$OUT/vpl_atrium-voxel64.exr" 2>&1 | tee "$OUT/vpl_atrium-voxel-vs-bvh.txt"
+step "compare-vpl_atrium-voxel" "$BIN" compare scenes/vpl_atrium.toml --visibility voxel \
+    --scale "$QUARTER_SCALE" --ref-spp "$REF_SPP" --repeats "$REPEATS" --out "$OUT/compare-vpl_atrium-voxel"
