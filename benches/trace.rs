@@ -20,6 +20,7 @@ use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use glam::{Affine3A, Vec3};
+use mdas::accel::trace::pinhole_rays;
 use mdas::accel::{BuiltScene, GpuScene, HitRecord, Ray, TraceKernel, TraceMode};
 use mdas::film::Film;
 use mdas::gpu::buffer::STORAGE;
@@ -184,30 +185,6 @@ fn lumpy_million() -> Scene {
     )
 }
 
-/// One primary ray through each pixel centre (DESIGN.md "Primary ray").
-fn primary_rays(camera: &Camera, film: Film) -> Vec<Ray> {
-    let f = (camera.look_at - camera.position).normalize();
-    let r = f.cross(camera.up).normalize();
-    let u = r.cross(f);
-    let tan = (camera.fov_y.to_radians() * 0.5).tan();
-    let aspect = film.width as f32 / film.height as f32;
-    let mut rays = Vec::with_capacity((film.width * film.height) as usize);
-    for j in 0..film.height {
-        for i in 0..film.width {
-            let ndc_x = 2.0 * (i as f32 + 0.5) / film.width as f32 - 1.0;
-            let ndc_y = 1.0 - 2.0 * (j as f32 + 0.5) / film.height as f32;
-            let dir = (f + ndc_x * tan * aspect * r + ndc_y * tan * u).normalize();
-            rays.push(Ray {
-                origin: camera.position.into(),
-                t_max: f32::INFINITY,
-                dir: dir.into(),
-                time: 0.0,
-            });
-        }
-    }
-    rays
-}
-
 /// Shadow rays from each primary hit to a point on the light (jittered
 /// over `light_size` with a fixed pattern), stopping just short of it.
 fn shadow_rays(primary: &[Ray], hits: &[HitRecord], light: Vec3, light_size: Vec3) -> Vec<Ray> {
@@ -289,7 +266,7 @@ fn trace_scene(c: &mut Criterion, group: &str, scene: &Scene, light: Vec3, light
         s.gpu_bytes as f64 / 1048576.0,
         bench.gpu.info.name
     );
-    let primary = primary_rays(&scene.camera, FILM);
+    let primary = pinhole_rays(&scene.camera, FILM);
     let hits = bench
         .kernel
         .run(bench.gpu, &bench.scene, &primary)

@@ -28,15 +28,14 @@
 
 use anyhow::Result;
 use glam::Vec3;
+use mdas::accel::trace::pinhole_rays;
 use mdas::accel::voxel::{Visibility, VoxelParams};
 use mdas::accel::{BuiltScene, GpuScene, HitRecord, Ray, TraceKernel, TraceMode};
 use mdas::app;
-use mdas::film::Film;
 use mdas::gpu::buffer::STORAGE;
 use mdas::gpu::Gpu;
 use mdas::integrand::{IntegrandSpec, ManyLight};
 use mdas::lights::{LightPrim, KIND_TRIANGLE, KIND_VPL};
-use mdas::scene::Camera;
 use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
 use std::path::Path;
@@ -45,30 +44,6 @@ use std::time::Instant;
 
 fn env_or(name: &str, default: &str) -> String {
     std::env::var(name).unwrap_or_else(|_| default.to_string())
-}
-
-/// One primary ray through each pixel centre (DESIGN.md "Primary ray").
-fn primary_rays(camera: &Camera, film: Film) -> Vec<Ray> {
-    let f = (camera.look_at - camera.position).normalize();
-    let r = f.cross(camera.up).normalize();
-    let u = r.cross(f);
-    let tan = (camera.fov_y.to_radians() * 0.5).tan();
-    let aspect = film.width as f32 / film.height as f32;
-    let mut rays = Vec::with_capacity((film.width * film.height) as usize);
-    for j in 0..film.height {
-        for i in 0..film.width {
-            let x = 2.0 * (i as f32 + 0.5) / film.width as f32 - 1.0;
-            let y = 1.0 - 2.0 * (j as f32 + 0.5) / film.height as f32;
-            let dir = (f + x * tan * aspect * r + y * tan * u).normalize();
-            rays.push(Ray {
-                origin: camera.position.into(),
-                t_max: f32::INFINITY,
-                dir: dir.into(),
-                time: 0.0,
-            });
-        }
-    }
-    rays
 }
 
 /// `offset_origin` of shading.wgsl.
@@ -242,7 +217,7 @@ fn main() -> Result<()> {
         let built = BuiltScene::new(scene)?;
         let exact_scene = Arc::new(GpuScene::upload(gpu, scene, &built, film)?);
         let kernel = TraceKernel::new(gpu, &exact_scene)?;
-        let primary = primary_rays(&scene.camera, film);
+        let primary = pinhole_rays(&scene.camera, film);
         let hits = kernel.run_mode(gpu, &exact_scene, &primary, TraceMode::Closest)?;
         let prims = match &loaded.integrand {
             IntegrandSpec::ManyLight(spec) => {

@@ -204,6 +204,7 @@ fn main() -> Result<()> {
         ),
         sampler: None,
         reference_sampler: None,
+        visibility: None,
     };
     let report = compare_integrand(gpu, &spec, &subject)?;
     print!("{}", report::table(&report));

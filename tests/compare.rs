@@ -139,6 +139,7 @@ fn compare_integrand_runs_on_an_integrand_built_in_code() {
         reference_source: ReferenceSource::Exact("polygon areas".into()),
         sampler: None,
         reference_sampler: None,
+        visibility: None,
     };
     let short: &'static [[f32; 3]] = exact[1..].to_vec().leak();
     let e = format!(

@@ -97,10 +97,15 @@ impl GpuScene {
         film: Film,
         visibility: Visibility,
     ) -> Result<GpuScene> {
-        if let Visibility::Voxel(params) = visibility {
-            // Refuse an array that cannot fit before uploading anything.
-            VoxelLayout::new(built, params)?.check_fits(built, gpu.max_binding_bytes())?;
-        }
+        // Refuse an array that cannot fit before uploading anything.
+        let voxel_layout = match visibility {
+            Visibility::Voxel(params) => {
+                let layout = VoxelLayout::new(built, params)?;
+                layout.check_fits(gpu.max_binding_bytes())?;
+                Some(layout)
+            }
+            Visibility::Bvh => None,
+        };
         let materials: Vec<GpuMaterial> = scene
             .materials
             .iter()
@@ -141,16 +146,16 @@ impl GpuScene {
                 &non_empty(&built.triangles),
                 STORAGE,
             )?;
-            let voxels = match visibility {
-                Visibility::Voxel(params) => {
-                    let v = GpuVoxels::build(gpu, built, &triangles, params)?;
+            let voxels = match voxel_layout {
+                Some(layout) => {
+                    let v = GpuVoxels::build(gpu, built, &triangles, layout)?;
                     uniforms.visibility = VISIBILITY_VOXEL;
-                    uniforms.voxel_directions = params.directions;
-                    uniforms.voxel_skip = params.skip;
+                    uniforms.voxel_directions = v.layout.params.directions;
+                    uniforms.voxel_skip = v.layout.params.skip;
                     uniforms.voxel_objects = v.layout.objects.len() as u32;
                     Some(v)
                 }
-                Visibility::Bvh => None,
+                None => None,
             };
             let voxel_build_ms = voxels.as_ref().map_or(0.0, |v| v.build_ms);
             let voxel_layout = voxels.as_ref().map(|v| v.layout.clone());

@@ -13,7 +13,7 @@ use bytemuck::{Pod, Zeroable};
 use std::time::Instant;
 
 use super::build::BuiltScene;
-use super::voxel::{self, VoxelLayout, VoxelParams};
+use super::voxel::{self, VoxelLayout};
 use crate::gpu::buffer::STORAGE;
 use crate::gpu::shader::{bind_buffers, storage_entry, uniform_entry, Wgsl};
 use crate::gpu::Gpu;
@@ -66,18 +66,19 @@ pub fn layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
 }
 
 impl GpuVoxels {
-    /// Builds the array of `params` for `built`, whose triangles are
-    /// already on the device in `triangles` (the scene's binding 2).
-    /// Fails, before allocating anything, when the bits do not fit one
-    /// storage binding (the message names the size and what would fit).
+    /// Builds the array `layout` describes for `built` (its
+    /// [`VoxelLayout::new`]), whose triangles are already on the device
+    /// in `triangles` (the scene's binding 2). Fails, before allocating
+    /// anything, when the bits do not fit one storage binding (the message
+    /// names the size and what would fit).
     pub fn build(
         gpu: &Gpu,
         built: &BuiltScene,
         triangles: &wgpu::Buffer,
-        params: VoxelParams,
+        layout: VoxelLayout,
     ) -> Result<GpuVoxels> {
-        let layout = VoxelLayout::new(built, params)?;
-        layout.check_fits(built, gpu.max_binding_bytes())?;
+        layout.check_fits(gpu.max_binding_bytes())?;
+        let params = layout.params;
         let items = voxel::work_items(built, &layout);
         gpu.scoped("building the voxel visibility array", || {
             let bits = gpu.buffer_zeroed("mdas.voxel.bits", layout.bytes(), STORAGE)?;

@@ -13,9 +13,36 @@ use anyhow::Result;
 use bytemuck::{Pod, Zeroable};
 
 use super::GpuScene;
+use crate::film::Film;
 use crate::gpu::buffer::STORAGE;
 use crate::gpu::shader::{bind_buffers, storage_entry, uniform_entry, Wgsl};
 use crate::gpu::Gpu;
+
+/// One pinhole ray through each pixel centre of `film`, row by row from
+/// the top (DESIGN.md "Primary ray"), at scene time 0, t_max infinite:
+/// the shading points of the trace and visibility benchmarks.
+pub fn pinhole_rays(camera: &crate::scene::Camera, film: Film) -> Vec<Ray> {
+    let f = (camera.look_at - camera.position).normalize();
+    let r = f.cross(camera.up).normalize();
+    let u = r.cross(f);
+    let tan = (camera.fov_y.to_radians() * 0.5).tan();
+    let aspect = film.width as f32 / film.height as f32;
+    let mut rays = Vec::with_capacity((film.width * film.height) as usize);
+    for j in 0..film.height {
+        for i in 0..film.width {
+            let x = 2.0 * (i as f32 + 0.5) / film.width as f32 - 1.0;
+            let y = 1.0 - 2.0 * (j as f32 + 0.5) / film.height as f32;
+            let dir = (f + x * tan * aspect * r + y * tan * u).normalize();
+            rays.push(Ray {
+                origin: camera.position.into(),
+                t_max: f32::INFINITY,
+                dir: dir.into(),
+                time: 0.0,
+            });
+        }
+    }
+    rays
+}
 
 /// `prim` of a miss.
 pub const MISS: u32 = u32::MAX;

@@ -330,8 +330,20 @@ pub struct VoxelLayout {
     /// Per object, the largest scale of its frames (voxels per unit
     /// length), for sizing the build's tiles.
     pub max_scale: Vec<f64>,
+    /// Per object, its size |e| over the largest object's (sets its
+    /// resolution, [`object_resolution`]).
+    pub shares: Vec<f64>,
     /// Words of all objects' bits.
     pub words: u64,
+}
+
+/// Voxels per side of an object `share` of the largest one's size under
+/// `resolution`: proportional, a multiple of 32, at least 32.
+pub fn object_resolution(share: f64, resolution: u32) -> u32 {
+    let scaled = (resolution as f64 * share).ceil() as u32;
+    scaled
+        .next_multiple_of(WORD_BITS)
+        .clamp(WORD_BITS, resolution)
 }
 
 impl VoxelLayout {
@@ -368,22 +380,17 @@ impl VoxelLayout {
             .map(|e| (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt())
             .collect();
         let largest = norms.iter().cloned().fold(0.0f64, f64::max);
+        let shares: Vec<f64> = norms
+            .iter()
+            .map(|&n| if largest > 0.0 { n / largest } else { 1.0 })
+            .collect();
         let axes = axes(params.directions);
-        let per_direction = |res: u64| res * res * res / WORD_BITS as u64;
         let mut base = 0u64;
         let mut objects = Vec::with_capacity(count);
         let mut frames = Vec::with_capacity(count * axes.len());
         let mut max_scale = Vec::with_capacity(count);
         for o in 0..count {
-            let share = if largest > 0.0 {
-                norms[o] / largest
-            } else {
-                1.0
-            };
-            let scaled = (params.resolution as f64 * share).ceil() as u32;
-            let res = scaled
-                .next_multiple_of(WORD_BITS)
-                .clamp(WORD_BITS, params.resolution);
+            let res = object_resolution(shares[o], params.resolution);
             let centre = if lo[o].x <= hi[o].x {
                 (lo[o] + hi[o]) * 0.5
             } else {
@@ -403,15 +410,27 @@ impl VoxelLayout {
             let (f, scale) = object_frames(&axes, half[o], res);
             frames.extend(f);
             max_scale.push(scale);
-            base += per_direction(res as u64) * params.direction_count() as u64;
+            base += words_per_direction(res) * params.direction_count() as u64;
         }
         Ok(VoxelLayout {
             params,
             objects,
             frames,
             max_scale,
+            shares,
             words: base,
         })
+    }
+
+    /// Bytes of the bits of these objects under `params` (what
+    /// [`VoxelLayout::bytes`] would be for a layout built with them).
+    pub fn bytes_with(&self, params: VoxelParams) -> u64 {
+        let words: u64 = self
+            .shares
+            .iter()
+            .map(|&s| words_per_direction(object_resolution(s, params.resolution)))
+            .sum();
+        4 * words * params.direction_count() as u64
     }
 
     /// The grid of object `o` for direction `v`.
@@ -423,14 +442,13 @@ impl VoxelLayout {
     /// `max_bytes` (or 2³² words), naming the size needed and the largest
     /// configurations that fit: the same directions at a lower resolution,
     /// and the same resolution with fewer directions.
-    pub fn check_fits(&self, built: &BuiltScene, max_bytes: u64) -> Result<()> {
+    pub fn check_fits(&self, max_bytes: u64) -> Result<()> {
         let max_bytes = max_bytes.min(4 * u32::MAX as u64);
         if self.bytes() <= max_bytes {
             return Ok(());
         }
         let p = self.params;
-        let fits =
-            |q: VoxelParams| VoxelLayout::new(built, q).is_ok_and(|l| l.bytes() <= max_bytes);
+        let fits = |q: VoxelParams| self.bytes_with(q) <= max_bytes;
         let mut suggestions = Vec::new();
         if let Some(res) = (1..p.resolution / WORD_BITS)
             .rev()
@@ -455,7 +473,7 @@ impl VoxelLayout {
             let s: Vec<String> = suggestions
                 .iter()
                 .map(|q| {
-                    let b = VoxelLayout::new(built, *q).map_or(0, |l| l.bytes());
+                    let b = self.bytes_with(*q);
                     format!(
                         "{} ({:.1} MiB; voxel_directions = {}, voxel_resolution = {})",
                         q.describe(),
@@ -476,6 +494,12 @@ impl VoxelLayout {
             mib(max_bytes)
         )
     }
+}
+
+/// Words of one direction's bits of an object of `res` voxels per side.
+fn words_per_direction(res: u32) -> u64 {
+    let r = res as u64;
+    r * r * r / WORD_BITS as u64
 }
 
 /// World bounds of object `o` with object-space bounds [lo, hi] (empty

@@ -105,6 +105,7 @@ impl Setup<'_> {
             },
             sampler: None,
             reference_sampler: None,
+            visibility: None,
         }
     }
 
@@ -196,6 +197,9 @@ pub struct Subject<'a> {
     /// (`many_light` scenes), for the report.
     pub sampler: Option<String>,
     pub reference_sampler: Option<String>,
+    /// The compared renders' visibility when it is approximate (voxel),
+    /// for the report.
+    pub visibility: Option<String>,
 }
 
 /// Where a comparison's reference came from.
@@ -240,6 +244,7 @@ pub enum ReferenceSource {
 ///     reference_source: ReferenceSource::Exact("closed form".into()),
 ///     sampler: None,
 ///     reference_sampler: None,
+///     visibility: None,
 /// };
 /// let report = compare_integrand(gpu, &spec, &subject)?;
 /// println!("MDAS/Halton RelMSE at equal time: {:.3}", report.equal_time.relmse_ratio);
@@ -439,6 +444,11 @@ pub(crate) fn check_mdas(
     Ok(min_spp)
 }
 
+/// What a report says of `visibility`: nothing for the exact BVH.
+pub(crate) fn voxel_note(visibility: crate::accel::Visibility) -> Option<String> {
+    visibility.is_voxel().then(|| visibility.describe())
+}
+
 /// Writes `report.json` (atomically) into `out`.
 pub(crate) fn write_report(out: &Path, report: &Report) -> Result<()> {
     let json = serde_json::to_string_pretty(report)?;
@@ -469,6 +479,7 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
     let subject = Subject {
         sampler: sampler.map(|k| k.to_string()),
         reference_sampler: reference_sampler.map(|k| k.to_string()),
+        visibility: voxel_note(prepared.scene.visibility),
         ..spec
             .setup
             .scene_subject(integrand, params, &reference, path, cached)
@@ -730,6 +741,7 @@ fn compare_subject(
         scene: subject.name.clone(),
         scale: spec.setup.scale,
         sampler: subject.sampler.clone(),
+        visibility: subject.visibility.clone(),
         film: FilmReport {
             width: w,
             height: h,

@@ -25,6 +25,11 @@ pub struct Report {
     /// `compare --samplers`, whose method names carry it).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub sampler: Option<String>,
+    /// The compared renders' shadow rays when they are not exact: voxel
+    /// visibility and its parameters (the reference always uses the BVH
+    /// unless `reference --visibility voxel` made it); absent for the BVH.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub visibility: Option<String>,
     pub film: FilmReport,
     pub seed: Seeds,
     pub adapter: String,
@@ -379,6 +384,9 @@ pub fn table(report: &Report) -> String {
         report.adapter,
         report.backend
     );
+    if let Some(v) = &report.visibility {
+        out += &format!("shadow rays: {v} (the reference's: the BVH)\n");
+    }
     let nw = report
         .methods
         .iter()

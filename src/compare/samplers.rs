@@ -275,6 +275,7 @@ fn run(gpu: &Gpu, spec: &SamplersSpec) -> Result<Report> {
         scene: setup.scene.display().to_string(),
         scale: setup.scale,
         sampler: None,
+        visibility: super::experiment::voxel_note(scene.visibility),
         film: FilmReport {
             width: w,
             height: h,

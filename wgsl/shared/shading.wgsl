@@ -38,9 +38,11 @@ fn scene_closest(origin: vec3<f32>, dir: vec3<f32>, t_max: f32, time: f32) -> Hi
 fn scene_occluded(origin: vec3<f32>, dir: vec3<f32>, t_max: f32, time: f32,
                   n_origin: vec3<f32>, n_end: vec3<f32>) -> bool {
     if scene.visibility == VISIBILITY_VOXEL {
-        // Two row lookups per voxel object, a few words each (shared/voxel.wgsl).
+        // Per voxel object a box test and, where the segment meets it, a
+        // slab clip and one row of at most MAX_VOXEL_WORDS words
+        // (shared/voxel.wgsl): a bound on the loop iterations.
         rays_traced += 1u;
-        traversal_steps += scene.voxel_objects * (2u + 2u * MAX_VOXEL_WORDS);
+        traversal_steps += scene.voxel_objects * (7u + MAX_VOXEL_WORDS);
         return voxel_occluded(origin, dir, t_max, time, n_origin, n_end);
     }
     let r = bvh_traverse(origin, dir, t_max, time, true);
