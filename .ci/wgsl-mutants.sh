@@ -26,6 +26,8 @@ MUTATIONS=(
   "pmf_division|wgsl/many_light.wgsl|ldexp(c / pick.pmf_m, vec3<i32>(-pick.pmf_e))|ldexp(c, vec3<i32>(-pick.pmf_e))|many_light"
   "morton_bit|wgsl/lights/morton.wgsl|(spread3(q[0]) << 2u)|(spread3(q[0]) << 3u)|light_tree_gpu"
   "splat_weight|wgsl/mdas/reconstruct.wgsl|add_fixed(word + 6u, to_fixed(ldexp(w, 60)));|add_fixed(word + 6u, to_fixed(ldexp(ox * oy, 60)));|mdas_invariants mdas_bias"
+  "voxel_skip|wgsl/shared/voxel.wgsl|let extra = 1 + i32(scene.voxel_skip);|let extra = 2 + i32(scene.voxel_skip);|bvh_traversal"
+  "voxel_column|wgsl/voxel_build.wgsl|floor(kmin - 1e-3)|floor(kmin + 1e-3)|bvh_traversal"
 )
 
 rm -rf "$WORK"

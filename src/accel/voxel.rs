@@ -49,22 +49,37 @@
 //! the triangle. Degenerate (zero-area) triangles set nothing, as they hide
 //! nothing from the BVH either.
 //!
-//! # Query (the paper's Algorithm 2)
-//! A shadow segment from P along d for t ∈ [0, t_max] is taken into the
-//! voxel coordinates of each object's nearest direction and clipped to the
-//! grid [0, R]³ (slabs). The row is the one through the clipped segment's
-//! midpoint; the endpoints are projected on the row axis, and the segment
-//! is occluded when a bit between them is set, tested word by word with
-//! explicit masks (WGSL shifts use only the low 5 bits of the shift).
+//! # Query (the paper's Algorithm 2, and Algorithm 4 for instances)
+//! A shadow segment from P along d for t ∈ [0, t_max] is first tested
+//! against each object's world bounds (swept over its keyframes); where it
+//! meets them it is taken into the object's frame at the ray's time, then
+//! into the voxel coordinates of the object's nearest direction, and
+//! clipped to the grid [0, R]³ (slabs). The row is the one through the
+//! clipped segment's midpoint; the endpoints are projected on the row
+//! axis, and the segment is occluded when a bit between them is set,
+//! tested word by word with explicit masks (WGSL shifts use only the low 5
+//! bits of the shift).
 //!
-//! **Self-occlusion rule** (the paper is silent): the voxel holding a true
-//! endpoint of the segment (P, or the light end when the segment stops
-//! inside the grid) holds the surface that point lies on, so it is never
-//! tested, and neither are the next `skip` voxels towards the other end
-//! (default 1): the row runs up to ~√2/2 voxel off P laterally and k/√2
-//! off in angle, so near a surface seen at a grazing angle the row enters
-//! it a voxel or more away from P. Ends made by clipping to the grid are
-//! not endpoints and keep every voxel.
+//! **Self-occlusion rule** (the paper is silent). At a true endpoint of
+//! the segment (P, or the light end when the segment stops inside the
+//! grid) lies a surface, whose voxels the row passes through near that
+//! end: the row runs up to ~√2/2 voxel off P laterally and k/√2 off in
+//! angle, so at grazing angles it stays inside the surface's voxels for
+//! a while. Left out of the test, at each true endpoint: its own voxel;
+//! when the caller gives the surface's normal n (`scene_occluded` does),
+//! every voxel of the row up to the last one the tangent plane through the
+//! endpoint still touches (for a box of half-sizes ½ in voxel space that is
+//! |n_v·(c − p)| ≤ ½(|n_v,x| + |n_v,y| + |n_v,z|), with n_v the normal in
+//! voxel coordinates — linear along the row, so one division finds the
+//! run; [`endpoint_skip`]); then `skip` more voxels (default 1). A point
+//! light has no surface: its own voxel and `skip` more. Ends made by
+//! clipping to the grid are not endpoints and keep every voxel. The rule
+//! is exact for a planar surface; curved ones and occluders within a
+//! voxel of the endpoint's surface are below the array's resolution.
+//! Tried and dropped: a row through each endpoint for its half of the
+//! segment (no lateral offset at the ends, but a wall near the middle
+//! slipped between the two rows), and capping the skipped run at the
+//! midpoint (a grazing segment then met its own floor there).
 
 use anyhow::{bail, Result};
 use bytemuck::{Pod, Zeroable};
@@ -92,7 +107,8 @@ pub struct VoxelParams {
     pub directions: u32,
     /// Voxels per side of the largest object, a multiple of 32 (paper: 128).
     pub resolution: u32,
-    /// Voxels skipped beyond each endpoint's own (the self-occlusion rule).
+    /// Voxels skipped beyond an endpoint's own and those its surface's
+    /// tangent plane touches (the self-occlusion rule).
     pub skip: u32,
 }
 
