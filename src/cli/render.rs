@@ -139,16 +139,20 @@ pub(crate) fn run(args: RenderArgs, ui: Ui) -> Result<()> {
         None => None,
     };
     let gpu = Gpu::shared()?;
-    let prepared = app::prepare_loaded(
-        gpu,
-        loaded,
-        &scene,
-        scale,
-        IntegrandOverrides {
-            sampler,
-            visibility,
-        },
-    )?;
+    let overrides = IntegrandOverrides {
+        sampler,
+        visibility,
+    };
+    if let mdas::accel::Visibility::Voxel(p) = overrides.visibility(&loaded) {
+        // The array is built with the scene upload: seconds to minutes on
+        // a CPU driver for a large scene.
+        ui.note(format!(
+            "building the voxel visibility array ({}) for {} triangles…",
+            p.describe(),
+            loaded.scene.triangle_count()
+        ));
+    }
+    let prepared = app::prepare_loaded(gpu, loaded, &scene, scale, overrides)?;
     debug_assert_eq!(film, prepared.film);
     // A bar once the render has taken a second (Halton then waits for the
     // GPU every few dispatches to report; MDAS reads its state anyway).
