@@ -4,7 +4,9 @@
 # installs Mesa's lavapipe CPU driver (Debian/Ubuntu: mesa-vulkan-drivers).
 set -euo pipefail
 
-have_loader() { ldconfig -p 2>/dev/null | grep -q 'libvulkan\.so\.1'; }
+# grep reads all of ldconfig's output (not -q): with pipefail, a grep that
+# exits at the first match can kill ldconfig with SIGPIPE and fail the test.
+have_loader() { ldconfig -p 2>/dev/null | grep 'libvulkan\.so\.1' >/dev/null; }
 have_icd() {
     local d
     for d in /usr/share/vulkan/icd.d /etc/vulkan/icd.d /usr/local/share/vulkan/icd.d; do
