@@ -28,6 +28,8 @@ MUTATIONS=(
   "splat_weight|wgsl/mdas/reconstruct.wgsl|add_fixed(word + 6u, to_fixed(ldexp(w, 60)));|add_fixed(word + 6u, to_fixed(ldexp(ox * oy, 60)));|mdas_invariants mdas_bias"
   "voxel_skip|wgsl/shared/voxel.wgsl|let extra = 1 + i32(scene.voxel_skip);|let extra = 2 + i32(scene.voxel_skip);|bvh_traversal"
   "voxel_column|wgsl/voxel_build.wgsl|floor(kmin - 1e-3)|floor(kmin + 1e-3)|bvh_traversal"
+  "pixel_prior|wgsl/mdas/reconstruct.wgsl|value = m.mean * (params.pixel_prior * inv);|value = m.mean * inv;|mdas_invariants mdas_quality"
+  "pixel_own|wgsl/mdas/reconstruct.wgsl|                    if (pixel_of[n] == t) {|                    if (pixel_of[n] <= t) {|mdas_invariants mdas_quality"
 )
 
 rm -rf "$WORK"

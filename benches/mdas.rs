@@ -122,6 +122,8 @@ fn bench(c: &mut Criterion) {
             max_samples_per_leaf: 4,
             epsilon: mdas::integrator::mdas::config::EPSILON,
             split: mdas::integrator::mdas::SplitRule::Extent,
+            reconstruction: mdas::integrator::mdas::Reconstruction::Box,
+            pixel_prior: mdas::integrator::mdas::config::PIXEL_PRIOR,
             spp: 8.0,
             seed: 1,
         };

@@ -194,6 +194,15 @@ pub(crate) struct MdasArgs {
     /// or contrast (where the two halves' sample means differ most).
     #[arg(long, value_name = "RULE")]
     pub(crate) split: Option<mdas::integrator::mdas::SplitRule>,
+    /// MDAS: reconstruction, box (the paper's eq. 7: a leaf's mean over
+    /// its whole film footprint) or pixel (each pixel from the leaf's
+    /// samples inside it, blended with the leaf mean by --pixel-prior).
+    #[arg(long, value_name = "RULE")]
+    pub(crate) reconstruction: Option<mdas::integrator::mdas::Reconstruction>,
+    /// MDAS: κ of --reconstruction pixel, the leaf mean's weight in
+    /// samples (default 1; larger is closer to box).
+    #[arg(long, value_name = "KAPPA")]
+    pub(crate) pixel_prior: Option<f32>,
 }
 
 impl MdasArgs {
@@ -215,6 +224,8 @@ impl MdasArgs {
             ),
             (self.epsilon.is_some(), "--epsilon"),
             (self.split.is_some(), "--split"),
+            (self.reconstruction.is_some(), "--reconstruction"),
+            (self.pixel_prior.is_some(), "--pixel-prior"),
         ]
         .into_iter()
         .filter_map(|(given, name)| given.then_some(name))
@@ -242,6 +253,8 @@ impl MdasArgs {
             max_samples_per_leaf: self.max_samples_per_leaf.unwrap_or(p.max_samples_per_leaf),
             epsilon: self.epsilon.unwrap_or(p.epsilon),
             split: self.split.unwrap_or(p.split),
+            reconstruction: self.reconstruction.unwrap_or(p.reconstruction),
+            pixel_prior: self.pixel_prior.unwrap_or(p.pixel_prior),
             spp: spp.unwrap_or(p.spp),
             seed: seed.unwrap_or(p.seed),
         }

@@ -36,17 +36,20 @@ use crate::atomic::StagedDir;
 use crate::gpu::Gpu;
 use crate::image_io;
 use crate::integrand::Integrand;
-use crate::integrator::mdas::{MdasParams, SplitRule};
+use crate::integrator::mdas::{MdasParams, Reconstruction, SplitRule};
 use crate::integrator::{Halton, Integrator, Mdas};
 use anyhow::{bail, Context, Result};
 use indicatif::ProgressBar;
 use serde::Serialize;
 use std::collections::BTreeMap;
 
-/// The `[mdas]` keys a grid may vary (`split` takes the rule names,
-/// stored as 0 = extent, 1 = contrast).
-pub const GRID_KEYS: [&str; 9] = [
+/// The `[mdas]` keys a grid may vary (`split` and `reconstruction` take
+/// the rule names, stored as 0 = extent, 1 = contrast and 0 = box,
+/// 1 = pixel).
+pub const GRID_KEYS: [&str; 11] = [
     "split",
+    "reconstruction",
+    "pixel_prior",
     "alpha",
     "epsilon",
     "scale_factor",
@@ -96,6 +99,12 @@ pub fn parse_grid_entry(s: &str) -> Result<(String, Vec<f64>)> {
                     .map(|r| (r == SplitRule::Contrast) as u32 as f64)
                     .map_err(|e| anyhow::anyhow!("grid entry '{s}': {e}"));
             }
+            if key == "reconstruction" {
+                return v
+                    .parse::<Reconstruction>()
+                    .map(|r| (r == Reconstruction::Pixel) as u32 as f64)
+                    .map_err(|e| anyhow::anyhow!("grid entry '{s}': {e}"));
+            }
             v.parse::<f64>()
                 .ok()
                 .filter(|x| x.is_finite())
@@ -125,6 +134,14 @@ fn with_value(p: MdasParams, key: &str, v: f64) -> Result<MdasParams> {
                 _ => bail!("split = {v}: 0 (extent) or 1 (contrast)"),
             }
         }
+        "reconstruction" => {
+            p.reconstruction = match int()? {
+                0 => Reconstruction::Box,
+                1 => Reconstruction::Pixel,
+                _ => bail!("reconstruction = {v}: 0 (box) or 1 (pixel)"),
+            }
+        }
+        "pixel_prior" => p.pixel_prior = v as f32,
         "alpha" => p.alpha = v as f32,
         "epsilon" => p.epsilon = v as f32,
         "scale_factor" => p.scale_factor = v as f32,
@@ -171,6 +188,8 @@ fn configurations(base: MdasParams, grid: &[(String, Vec<f64>)]) -> Result<Vec<C
             label.push(match (key.as_str(), v) {
                 ("split", 0.0) => "split=extent".to_string(),
                 ("split", 1.0) => "split=contrast".to_string(),
+                ("reconstruction", 0.0) => "reconstruction=box".to_string(),
+                ("reconstruction", 1.0) => "reconstruction=pixel".to_string(),
                 _ => format!("{key}={v}"),
             });
         }
@@ -482,7 +501,7 @@ fn rank(rows: &mut [TuneRow], equal_samples: bool) {
 /// `p` as an `[mdas]` table.
 pub fn mdas_table(p: &MdasParams) -> String {
     format!(
-        "[mdas]\nbits_per_dim = {}\nextra_image_bits = {}\ninitial_samples_per_cell = {}\nscale_factor = {}\nalpha = {}\nepsilon = {}\nsplit = \"{}\"\ncandidates = {}\nmax_samples_per_leaf = {}\nspp = {}\n",
+        "[mdas]\nbits_per_dim = {}\nextra_image_bits = {}\ninitial_samples_per_cell = {}\nscale_factor = {}\nalpha = {}\nepsilon = {}\nsplit = \"{}\"\nreconstruction = \"{}\"\npixel_prior = {}\ncandidates = {}\nmax_samples_per_leaf = {}\nspp = {}\n",
         p.bits_per_dim,
         p.extra_image_bits,
         p.initial_samples_per_cell,
@@ -490,6 +509,8 @@ pub fn mdas_table(p: &MdasParams) -> String {
         p.alpha,
         p.epsilon,
         p.split,
+        p.reconstruction,
+        p.pixel_prior,
         p.candidates,
         p.max_samples_per_leaf,
         p.spp
@@ -607,6 +628,11 @@ mod tests {
             vec![0.0, 1.0]
         );
         assert!(parse_grid_entry("split=median").is_err());
+        assert_eq!(
+            parse_grid_entry("reconstruction=box,pixel").unwrap().1,
+            vec![0.0, 1.0]
+        );
+        assert!(parse_grid_entry("reconstruction=gauss").is_err());
     }
 
     #[test]

@@ -51,6 +51,14 @@ impl Ctx<'_> {
                     .parse::<config::SplitRule>()
                     .map_err(|e| self.error(v.span(), e))?,
             },
+            reconstruction: match &m.reconstruction {
+                None => d.reconstruction,
+                Some(v) => v
+                    .get_ref()
+                    .parse::<config::Reconstruction>()
+                    .map_err(|e| self.error(v.span(), e))?,
+            },
+            pixel_prior: number(&m.pixel_prior, d.pixel_prior),
             spp: number(&m.spp, d.spp),
             seed: self.u32(&m.seed, "seed", 0, d.seed)?,
         };
@@ -75,6 +83,7 @@ impl Ctx<'_> {
             "scale_factor" => num(&m.scale_factor),
             "alpha" => num(&m.alpha),
             "epsilon" => num(&m.epsilon),
+            "pixel_prior" => num(&m.pixel_prior),
             "spp" => num(&m.spp),
             _ => None,
         }

@@ -301,6 +301,8 @@ pub(super) struct RawMdas {
     pub(super) max_samples_per_leaf: Option<S<i64>>,
     pub(super) epsilon: Option<S<Num>>,
     pub(super) split: Option<S<String>>,
+    pub(super) reconstruction: Option<S<String>>,
+    pub(super) pixel_prior: Option<S<Num>>,
     pub(super) spp: Option<S<Num>>,
     pub(super) seed: Option<S<i64>>,
 }

@@ -18,6 +18,8 @@ pub fn params(bits: u32, extra: u32, l: u32, spp: f32, seed: u32) -> MdasParams 
         max_samples_per_leaf: 4,
         epsilon: mdas::integrator::mdas::config::EPSILON,
         split: mdas::integrator::mdas::SplitRule::Extent,
+        reconstruction: mdas::integrator::mdas::Reconstruction::Box,
+        pixel_prior: mdas::integrator::mdas::config::PIXEL_PRIOR,
         spp,
         seed,
     }

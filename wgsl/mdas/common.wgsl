@@ -1,7 +1,7 @@
 // Bindings, parameters and storage layout shared by the MDAS kernels.
 // src/integrator/mdas/mod.rs documents the layout and generates the
 // constants used here: DIMS, BITS_PER_DIM, EXTRA_BITS, SAMPLES_PER_CELL,
-// MAX_PER_LEAF, CANDIDATES, COORD_WORDS, SAMPLE_STRIDE, LEAF_STRIDE, WG,
+// MAX_PER_LEAF, CANDIDATES, RECONSTRUCT_PIXEL, COORD_WORDS, SAMPLE_STRIDE, LEAF_STRIDE, WG,
 // STATS_PER_INVOCATION, PIXELS_PER_PASS, the leaf header's NIL,
 // COUNT_SHIFT, COLLAPSED_BIT and DIRTY (src/integrator/mdas/words.rs) and
 // the indices C_* (counters) and S_* (state). Needs shared/rng.wgsl and shared/morton.wgsl.
@@ -37,7 +37,8 @@ struct Params {
     scale_factor: f32,
     inv_alpha: f32,
     epsilon: f32,
-    _pad0: u32,
+    // κ of the per-pixel reconstruction (RECONSTRUCT_PIXEL).
+    pixel_prior: f32,
     _pad1: u32,
     _pad2: u32,
     _pad3: u32,
@@ -172,6 +173,11 @@ fn finite_bits(v: vec3<u32>) -> bool {
     return all(e != vec3<u32>(0x7f800000u));
 }
 
+// The largest f32 strictly below x > 0.
+fn below(x: f32) -> f32 {
+    return bitcast<f32>(bitcast<u32>(x) - 1u);
+}
+
 // ---- cell geometry ----
 
 // Bits of cell coordinate along `axis` (b, plus e for film axes).
@@ -198,6 +204,19 @@ fn axis_coord(axis: u32, c: u32, q: f32) -> f32 {
 // Size of one quantum along `axis` in the scaled domain.
 fn axis_quantum(axis: u32) -> f32 {
     return ldexp(axis_side(axis), -i32(QUANTUM_BITS + axis_bits(axis)));
+}
+
+// Normalized coordinate of sample quantum q (its centre) of cell
+// coordinate c, below 1.
+fn sample_coord(axis: u32, c: u32, q: u32) -> f32 {
+    return min(axis_coord(axis, c, f32(q) + 0.5), ONE_MINUS_EPSILON);
+}
+
+// Raster coordinate (film axis 0 or 1) of sample quantum q of cell
+// coordinate c, below the film size: where evaluate.wgsl puts the sample.
+fn sample_raster(axis: u32, c: u32, q: u32) -> f32 {
+    let size = select(f32(params.height), f32(params.width), axis == 0u);
+    return min(sample_coord(axis, c, q) * size, below(size));
 }
 
 fn leaf_cell_coords(k: u32) -> array<u32, MAX_DIMS> {

@@ -13,23 +13,13 @@
 // are stored as they are, and stats.wgsl counts non-finite ones and finds
 // max |f| once, before the reconstruction.
 
-// The largest f32 strictly below x > 0.
-fn below(x: f32) -> f32 {
-    return bitcast<f32>(bitcast<u32>(x) - 1u);
-}
-
 fn evaluate_sample(s: u32) {
     let cell = morton_decode(values_get(4u * s), DIMS, BITS_PER_DIM, EXTRA_BITS);
     var point: IntegrandPoint;
-    for (var axis = 0u; axis < DIMS; axis++) {
-        let x = min(axis_coord(axis, cell[axis], f32(sample_q(s, axis)) + 0.5), ONE_MINUS_EPSILON);
-        if (axis == 0u) {
-            point.film.x = min(x * f32(params.width), below(f32(params.width)));
-        } else if (axis == 1u) {
-            point.film.y = min(x * f32(params.height), below(f32(params.height)));
-        } else {
-            point.u[axis - 2u] = x;
-        }
+    point.film = vec2<f32>(sample_raster(0u, cell[0], sample_q(s, 0u)),
+                           sample_raster(1u, cell[1], sample_q(s, 1u)));
+    for (var axis = 2u; axis < DIMS; axis++) {
+        point.u[axis - 2u] = sample_coord(axis, cell[axis], sample_q(s, axis));
     }
     let bits = bitcast<vec3<u32>>(integrand(&point));
     values_set(4u * s, bits.x);

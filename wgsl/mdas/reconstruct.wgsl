@@ -5,6 +5,13 @@
 // host divides the sums by the weight sum (= the pixel area 1 when every
 // leaf has a finite mean; less where a region produced only NaN/Inf).
 //
+// With RECONSTRUCT_PIXEL (`reconstruction = "pixel"`), pixel p gets
+// w·(Σ_{s in p} f_s + κ·f̄)/(n_p + κ) instead of w·f̄: the leaf's n_p finite
+// samples whose film position (as evaluate.wgsl placed them) lies in p,
+// pulled toward the leaf mean by κ = params.pixel_prior pseudo-samples
+// (f̄ alone where n_p = 0). The coordinates are read here, so the
+// accumulators then have their own buffer.
+//
 // Sums are 64-bit two's-complement fixed point, added with a 32-bit
 // atomicAdd on the low word and the carry folded into the high word:
 // integer addition is associative, so the result does not depend on the
@@ -77,6 +84,26 @@ fn reconstruct(@builtin(global_invocation_id) gid: vec3<u32>,
     let j1 = min(u32(ceil(y1)), params.height);
     let nx = i1 - i0;
     let total = nx * (j1 - j0);
+    // The footprint index t of each finite sample's pixel, and its value.
+    var own = 0u;
+    var pixel_of: array<u32, MAX_PER_LEAF + 1u>;
+    var value_of: array<vec3<f32>, MAX_PER_LEAF + 1u>;
+    if (RECONSTRUCT_PIXEL != 0u) {
+        var s = header_head(h);
+        for (var n = 0u; n < min(header_count(h), MAX_PER_LEAF + 1u); n++) {
+            let bits = sample_value_bits(s);
+            if (finite_bits(bits)) {
+                let i = u32(sample_raster(0u, cell[0], sample_q(s, 0u)));
+                let j = u32(sample_raster(1u, cell[1], sample_q(s, 1u)));
+                // Always inside the footprint (the sample is inside the box).
+                pixel_of[own] = select(total, (j - j0) * nx + (i - i0),
+                                       i >= i0 && i < i1 && j >= j0 && j < j1);
+                value_of[own] = bitcast<vec3<f32>>(bits);
+                own += 1u;
+            }
+            s = sample_next(s);
+        }
+    }
     let end = min(total, params.pass_offset + PIXELS_PER_PASS);
     for (var t = params.pass_offset; t < end; t++) {
         let i = i0 + t % nx;
@@ -87,9 +114,26 @@ fn reconstruct(@builtin(global_invocation_id) gid: vec3<u32>,
             continue;
         }
         let w = ox * oy * nonfilm;
+        var value = m.mean;
+        if (RECONSTRUCT_PIXEL != 0u) {
+            var count = 0u;
+            for (var n = 0u; n < own; n++) {
+                count += select(0u, 1u, pixel_of[n] == t);
+            }
+            if (count > 0u) {
+                // Scaled before summing, as in leaf_mean: no overflow.
+                let inv = 1.0 / (f32(count) + params.pixel_prior);
+                value = m.mean * (params.pixel_prior * inv);
+                for (var n = 0u; n < own; n++) {
+                    if (pixel_of[n] == t) {
+                        value += value_of[n] * inv;
+                    }
+                }
+            }
+        }
         let word = 8u * (j * params.width + i);
         for (var c = 0u; c < 3u; c++) {
-            add_fixed(word + 2u * c, to_fixed(ldexp(m.mean[c] * w, fixed_exp)));
+            add_fixed(word + 2u * c, to_fixed(ldexp(value[c] * w, fixed_exp)));
         }
         add_fixed(word + 6u, to_fixed(ldexp(w, 60)));
     }

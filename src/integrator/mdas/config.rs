@@ -43,6 +43,11 @@ pub struct MdasParams {
     pub epsilon: f32,
     /// How a full leaf picks its split axis ([`SplitRule`]).
     pub split: SplitRule,
+    /// How leaves become pixels ([`Reconstruction`]).
+    pub reconstruction: Reconstruction,
+    /// κ of [`Reconstruction::Pixel`]: the weight, in samples, of the
+    /// leaf's mean in each pixel's estimate ([`PIXEL_PRIOR`]).
+    pub pixel_prior: f32,
     pub spp: f32,
     pub seed: u32,
 }
@@ -59,6 +64,8 @@ impl Default for MdasParams {
             max_samples_per_leaf: 4,
             epsilon: EPSILON,
             split: SplitRule::Extent,
+            reconstruction: Reconstruction::Box,
+            pixel_prior: PIXEL_PRIOR,
             spp: 8.0,
             seed: 0,
         }
@@ -105,6 +112,54 @@ impl std::str::FromStr for SplitRule {
 }
 
 impl std::fmt::Display for SplitRule {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// How the leaves' samples become pixel values.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Reconstruction {
+    /// The paper's eq. 7: each leaf splats its mean f̄ over every pixel
+    /// its film projection overlaps, weighted by the overlap. A leaf
+    /// wider than a pixel spreads one value across the film-space edges
+    /// inside it.
+    #[default]
+    Box,
+    /// Each pixel p a leaf overlaps gets (Σ_{s in p} f_s + κ·f̄)/(n_p + κ)
+    /// instead of f̄: the mean of the leaf's n_p finite samples whose film
+    /// position lies in p, pulled toward the leaf mean by κ pseudo-samples
+    /// (`pixel_prior`; f̄ alone where n_p = 0). A leaf's samples are
+    /// uniform in it, so those in p are uniform in the leaf's part of p:
+    /// the estimate of that part no longer borrows the values of the
+    /// leaf's other pixels, at the cost of fewer samples per value. Not
+    /// in the paper or its code; κ → ∞ is `Box`.
+    Pixel,
+}
+
+impl Reconstruction {
+    pub const ALL: [Reconstruction; 2] = [Reconstruction::Box, Reconstruction::Pixel];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Reconstruction::Box => "box",
+            Reconstruction::Pixel => "pixel",
+        }
+    }
+}
+
+impl std::str::FromStr for Reconstruction {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Reconstruction, String> {
+        Reconstruction::ALL
+            .into_iter()
+            .find(|r| r.name() == s)
+            .ok_or_else(|| format!("unknown reconstruction '{s}', expected 'box' or 'pixel'"))
+    }
+}
+
+impl std::fmt::Display for Reconstruction {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(self.name())
     }
@@ -161,6 +216,11 @@ pub const PIXELS_PER_PASS: u32 = 16384;
 pub const EPSILON: f32 = 1e-2;
 /// Largest ε accepted.
 pub const MAX_EPSILON: f32 = 1e6;
+/// The default κ of [`Reconstruction::Pixel`] (`pixel_prior`): the leaf
+/// mean counts as one sample in each pixel's estimate.
+pub const PIXEL_PRIOR: f32 = 1.0;
+/// Largest κ accepted (beyond it `Pixel` equals `Box` to f32 precision).
+pub const MAX_PIXEL_PRIOR: f32 = 1e6;
 
 /// A parameter out of its range: the `[mdas]` key it names and why.
 /// The scene file positions it at that key; elsewhere it reads as a
@@ -214,6 +274,13 @@ pub fn validate(p: &MdasParams) -> Result<(), ParamError> {
             "epsilon",
             &p.epsilon,
             format!("must be a number in (0, {MAX_EPSILON}]"),
+        );
+    }
+    if !(p.pixel_prior.is_finite() && (0.0..=MAX_PIXEL_PRIOR).contains(&p.pixel_prior)) {
+        return fail(
+            "pixel_prior",
+            &p.pixel_prior,
+            format!("must be a number in [0, {MAX_PIXEL_PRIOR}]"),
         );
     }
     if !(p.scale_factor.is_finite() && p.scale_factor > 0.0) {
@@ -496,8 +563,11 @@ impl Config {
     /// Whether the accumulators fit in the coordinate buffer's first
     /// page, which no kernel reads after the last placement
     /// (spp·⌈d/2⌉ ≥ 8 on one page).
+    /// `Reconstruction::Pixel` reads the coordinates while it splats, so
+    /// its accumulators get their own buffer.
     pub fn accum_in_samples(&self) -> bool {
-        self.page_bytes(1, 0) >= self.accum_bytes()
+        self.params.reconstruction == Reconstruction::Box
+            && self.page_bytes(1, 0) >= self.accum_bytes()
     }
 
     pub const COUNTERS_BYTES: u64 = 4 * super::counter::LEN as u64;
@@ -611,6 +681,10 @@ impl Config {
             .constant(
                 "SPLIT_CONTRAST",
                 (self.params.split == SplitRule::Contrast) as u32,
+            )
+            .constant(
+                "RECONSTRUCT_PIXEL",
+                (self.params.reconstruction == Reconstruction::Pixel) as u32,
             )
             .constant("COORD_WORDS", self.coord_words)
             .constant("SAMPLE_STRIDE", self.sample_stride)

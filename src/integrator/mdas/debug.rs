@@ -2,7 +2,7 @@
 //! ([`super::Mdas::render_observed`]). Decodes the storage layout of
 //! `wgsl/mdas/common.wgsl`.
 
-use super::MdasParams;
+use super::{MdasParams, Reconstruction};
 use crate::film::Film;
 
 use super::words::leaf::{self, COLLAPSED_BIT};
@@ -168,6 +168,95 @@ impl Snapshot {
             }
         }
         density.into_iter().map(|d| d as f32).collect()
+    }
+
+    /// Raster coordinate of sample s along film axis 0 or 1, in the
+    /// f32 arithmetic of `sample_raster` (`wgsl/mdas/common.wgsl`), so
+    /// that the pixel it falls in is the kernels' own.
+    pub fn sample_raster(&self, s: u32, cell: u32, axis: u32) -> f32 {
+        let c = self.cell_coords(cell)[axis as usize];
+        let q = self.sample_q(s, axis);
+        // 2^−(16 + bits), exactly (bits ≤ 32, a normal f32).
+        let scale = f32::from_bits((127 - 16 - self.axis_bits(axis)) << 23);
+        let x = ((c as f32 * 65536.0 + (q as f32 + 0.5)) * scale).min(1.0 - f32::EPSILON / 2.0);
+        let size = if axis == 0 {
+            self.film.width
+        } else {
+            self.film.height
+        } as f32;
+        (x * size).min(f32::from_bits(size.to_bits() - 1))
+    }
+
+    /// The image the reconstruction kernel (`wgsl/mdas/reconstruct.wgsl`)
+    /// makes from these leaves, in f64: for each leaf with finite samples
+    /// and each pixel its film box overlaps, the overlap area × the
+    /// non-film volume times the leaf's value for that pixel — its mean
+    /// f̄ (`Box`), or (Σ_{s in p} f_s + κ·f̄)/(n_p + κ) over its finite
+    /// samples in the pixel (`Pixel`, f̄ where there are none) — divided
+    /// by the pixel's weight sum; NaN where no leaf has a finite sample.
+    pub fn reconstruct(&self) -> Vec<[f64; 3]> {
+        let (w, h) = (self.film.width as usize, self.film.height as usize);
+        let mut sums = vec![[0.0f64; 4]; w * h];
+        let kappa = self.params.pixel_prior as f64;
+        for k in 0..self.leaf_count {
+            let Some(mean) = self.leaf_mean(k) else {
+                continue;
+            };
+            let cell = self.leaf(k).cell;
+            let finite: Vec<(usize, [f32; 3])> = self
+                .leaf_samples(k)
+                .into_iter()
+                .map(|s| {
+                    let i = self.sample_raster(s, cell, 0) as usize;
+                    let j = self.sample_raster(s, cell, 1) as usize;
+                    (j * w + i, self.value(s))
+                })
+                .filter(|(_, v)| v.iter().all(|c| c.is_finite()))
+                .collect();
+            let b = self.leaf_box(k);
+            let nonfilm: f64 = b[2..].iter().map(|(lo, hi)| hi - lo).product();
+            let (x0, x1) = (b[0].0 * w as f64, b[0].1 * w as f64);
+            let (y0, y1) = (b[1].0 * h as f64, b[1].1 * h as f64);
+            for j in (y0.floor() as usize)..(y1.ceil() as usize).min(h) {
+                let oy = y1.min(j as f64 + 1.0) - y0.max(j as f64);
+                for i in (x0.floor() as usize)..(x1.ceil() as usize).min(w) {
+                    let ox = x1.min(i as f64 + 1.0) - x0.max(i as f64);
+                    if ox <= 0.0 || oy <= 0.0 {
+                        continue;
+                    }
+                    let weight = ox * oy * nonfilm;
+                    let mut value = mean;
+                    if self.params.reconstruction == Reconstruction::Pixel {
+                        let own: Vec<&[f32; 3]> = finite
+                            .iter()
+                            .filter(|(p, _)| *p == j * w + i)
+                            .map(|(_, v)| v)
+                            .collect();
+                        if !own.is_empty() {
+                            let n = own.len() as f64;
+                            value = std::array::from_fn(|c| {
+                                (own.iter().map(|v| v[c] as f64).sum::<f64>() + kappa * mean[c])
+                                    / (n + kappa)
+                            });
+                        }
+                    }
+                    let sum = &mut sums[j * w + i];
+                    for c in 0..3 {
+                        sum[c] += weight * value[c];
+                    }
+                    sum[3] += weight;
+                }
+            }
+        }
+        sums.into_iter()
+            .map(|s| {
+                if s[3] > 0.0 {
+                    [s[0] / s[3], s[1] / s[3], s[2] / s[3]]
+                } else {
+                    [f64::NAN; 3]
+                }
+            })
+            .collect()
     }
 
     /// Mean of the finite values of leaf k (None without any).

@@ -30,7 +30,9 @@ pub struct GpuParams {
     pub scale_factor: f32,
     pub inv_alpha: f32,
     pub epsilon: f32,
-    pub _pad: [u32; 5],
+    /// κ of the per-pixel reconstruction (`pixel_prior`).
+    pub pixel_prior: f32,
+    pub _pad: [u32; 4],
 }
 
 /// Group 0 of every MDAS kernel (`wgsl/mdas/common.wgsl`): `params` at 0,

@@ -5,7 +5,11 @@
 //! The domain is the film, scaled to [0, sf·W) × [0, sf·H) (`scale_factor`,
 //! §5.1), times [0, 1)^(d−2). It is partitioned into leaves (axis-aligned
 //! boxes, no tree stored, §4) that each hold a few samples; the image is the
-//! piecewise-constant approximation integrated over every pixel (eq. 7).
+//! piecewise-constant approximation integrated over every pixel (eq. 7), or,
+//! with `reconstruction = "pixel"` ([`Reconstruction::Pixel`], not in the
+//! paper), each pixel's part of a leaf estimated from the leaf's samples in
+//! that pixel, pulled toward the leaf mean, so that a leaf wider than a
+//! pixel does not spread one value across a film-space edge inside it.
 //!
 //! | phase (`Render::times`) | kernel | paper |
 //! |---|---|---|
@@ -13,7 +17,7 @@
 //! | `evaluate` | [`evaluate`]: the integrand at new samples only | — |
 //! | `error` | [`error`]: contrast error of changed leaves, E_max | eq. 4, §4.2 |
 //! | `adaptive` | [`adapt`] + [`scan`] + [`plan`]: selection, best candidate, median split; the loop's bookkeeping | §4.2 |
-//! | `reconstruction` | [`stats`] + [`reconstruct`]: max \|f\| and non-finite count, exact-overlap splatting, fixed point | eq. 7, §4.3 |
+//! | `reconstruction` | [`stats`] + [`reconstruct`]: max \|f\| and non-finite count, exact-overlap splatting (box or per pixel), fixed point | eq. 7, §4.3 |
 //!
 //! The driver ([`Mdas::render`]) runs initial + evaluate, then iterations of
 //! error → adaptive → evaluate until the budget N = round(spp × pixels) is
@@ -117,7 +121,7 @@ use crate::gpu::Gpu;
 use crate::integrand::Integrand;
 use anyhow::Result;
 use config::Config;
-pub use config::{MdasParams, SplitRule};
+pub use config::{MdasParams, Reconstruction, SplitRule};
 use debug::Snapshot;
 use gpu_params::{GpuParams, Grid};
 use std::collections::HashMap;

@@ -1,8 +1,12 @@
 //! Reconstruction by splatting (paper eq. 7, §4.3): `wgsl/mdas/reconstruct.wgsl`.
+//! With [`super::Reconstruction::Pixel`] a leaf splats, into each pixel
+//! p, (Σ_{s in p} f_s + κ·f̄)/(n_p + κ) in place of its mean f̄; the CPU
+//! oracle of both rules is [`super::debug::Snapshot::reconstruct`].
 //!
 //! ## Precision and determinism
 //!
-//! Each term w·f̄ is formed in f32 (f̄ is a mean of ≤ 15 finite samples, w
+//! Each term w·f̄ is formed in f32 (f̄ is a mean of ≤ 15 finite samples, or
+//! the per-pixel blend, a convex combination of them; w
 //! the product of two overlap lengths and ≤ 14 extents: relative error a
 //! few 2⁻²⁴, the same on every run) and added to a 64-bit fixed-point sum
 //! with an exact integer atomic add (32-bit add plus carry). Integer

@@ -30,6 +30,7 @@ impl Mdas {
                 scale_factor: p.scale_factor,
                 inv_alpha: if p.alpha > 0.0 { 1.0 / p.alpha } else { 0.0 },
                 epsilon: p.epsilon,
+                pixel_prior: p.pixel_prior,
                 ..Default::default()
             };
             let paged = |array: usize| -> Result<Vec<wgpu::Buffer>> {
