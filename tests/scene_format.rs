@@ -500,6 +500,33 @@ fn unknown_keys_are_named_with_their_line() {
         9,
     );
     assert!(m.contains("unknown split rule 'median'"), "{m}");
+    let (_, ok) = load_text(
+        "mdas-reconstruction-ok",
+        &format!("{BASE}[mdas]\nreconstruction = \"pixel\"\npixel_prior = 0\n"),
+    );
+    let ok = ok.unwrap().mdas;
+    assert_eq!(
+        ok.reconstruction,
+        mdas::integrator::mdas::Reconstruction::Pixel
+    );
+    assert_eq!(ok.pixel_prior, 0.0);
+    let m = error_at(
+        "mdas-reconstruction",
+        &format!("{BASE}[mdas]\nreconstruction = \"gauss\"\n"),
+        13,
+        18,
+    );
+    assert!(m.contains("unknown reconstruction 'gauss'"), "{m}");
+    let m = error_at(
+        "mdas-pixel-prior",
+        &format!("{BASE}[mdas]\nreconstruction = \"pixel\"\npixel_prior = -1\n"),
+        14,
+        15,
+    );
+    assert!(
+        m.contains("pixel_prior = -1: must be a number in [0,"),
+        "{m}"
+    );
 }
 
 #[test]
