@@ -99,8 +99,9 @@ fn seed_intervals_cover_the_exact_answer() {
     );
 }
 
-/// `compare_integrand` and `sweep_integrand`: the equal-time experiment and
-/// the budget sweep on an integrand built in
+/// `compare_integrand`, `sweep_integrand` and `tune_integrand`: the
+/// equal-time experiment, the budget sweep and the grid search on an
+/// integrand built in
 /// code, against an exact image given with it (the test integrand's edge,
 /// whose pixel means are exact polygon areas). A reference of the wrong
 /// size or with a non-finite pixel is refused before the output directory
@@ -190,7 +191,8 @@ fn compare_integrand_runs_on_an_integrand_built_in_code() {
         spps: vec![4, 8],
         seeds: 2,
     };
-    let sweep = mdas::compare::sweep_integrand(gpu, &sweep_spec, &subject(exact.leak())).unwrap();
+    let sweep =
+        mdas::compare::sweep_integrand(gpu, &sweep_spec, &subject(exact.clone().leak())).unwrap();
     let points = |m: &str| sweep.rows.iter().filter(|r| r.method == m).count();
     let initial = mdas::integrator::Mdas::new(subject(short).mdas)
         .unwrap()
@@ -210,6 +212,53 @@ fn compare_integrand_runs_on_an_integrand_built_in_code() {
         .all(|r| r.relmse > 0.0 && r.relmse.is_finite()));
     for file in ["sweep.csv", "sweep.json", "sweep.png"] {
         assert!(sweep_out.join(file).is_file(), "{file} missing");
+    }
+
+    // `tune` on the same subject: one row per grid configuration, the
+    // Halton points around the budget, the reference recorded as exact.
+    // A grid with no configuration that can run is refused before the
+    // output directory exists.
+    let tune_out = dir.join("tune");
+    let tune_spec = |grid: &str| mdas::compare::TuneSpec {
+        setup: Setup::new("edge", tune_out.clone(), &identity),
+        grid: vec![mdas::compare::tune::parse_grid_entry(grid).unwrap()],
+        seeds: 2,
+        equal_samples: true,
+    };
+    let e = format!(
+        "{:#}",
+        mdas::compare::tune_integrand(
+            gpu,
+            &tune_spec("max_samples_per_leaf=1"),
+            &subject(exact.clone().leak())
+        )
+        .unwrap_err()
+    );
+    assert!(e.contains("no configuration of the grid can run"), "{e}");
+    assert!(
+        !tune_out.exists(),
+        "a refused tune created {}",
+        tune_out.display()
+    );
+    let tune = mdas::compare::tune_integrand(
+        gpu,
+        &tune_spec("reconstruction=box,pixel"),
+        &subject(exact.leak()),
+    )
+    .unwrap();
+    let mut labels: Vec<&str> = tune.rows.iter().map(|r| r.label.as_str()).collect();
+    labels.sort_unstable();
+    assert_eq!(labels, ["reconstruction=box", "reconstruction=pixel"]);
+    assert_eq!(tune.reference_exact.as_deref(), Some("polygon areas"));
+    assert_eq!((tune.reference_spp, tune.scene.as_str()), (0, "edge"));
+    assert!(tune.provenance.scene_sha256.is_none());
+    assert!(!tune.halton.is_empty());
+    assert!(tune
+        .rows
+        .iter()
+        .all(|r| r.relmse > 0.0 && r.equal_samples_ratio.is_finite()));
+    for file in ["tune.csv", "tune.json"] {
+        assert!(tune_out.join(file).is_file(), "{file} missing");
     }
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -34,3 +34,4 @@ pub use experiment::{
 pub use report::Report;
 pub use samplers::{compare_samplers, SamplersSpec};
 pub use sweep::{sweep_integrand, SweepSpec};
+pub use tune::{tune_integrand, TuneSpec};

@@ -28,7 +28,7 @@
 //! as an `[mdas]` table ready to paste into the scene file.
 
 use super::equal_time::{interpolate_log_log, TimeFit};
-use super::experiment::{bar, Setup};
+use super::experiment::{bar, check_reference, ReferenceSource, Setup, Subject};
 use super::intervals::seed_plan;
 use super::seeds::SeedStats;
 use crate::app;
@@ -252,9 +252,14 @@ pub struct TuneReport {
     pub spp: f32,
     pub mdas_seeds: Vec<u32>,
     pub halton_seeds: Vec<u32>,
+    /// The Halton reference's spp (0 for an exact reference).
     pub reference_spp: u32,
     pub reference_seed: u32,
+    /// Where the Halton reference is cached (empty for an exact one).
     pub reference_path: String,
+    /// How an exact reference was made ([`tune_integrand`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reference_exact: Option<String>,
     pub ranking: &'static str,
     pub grid: Vec<(String, Vec<f64>)>,
     pub halton: Vec<HaltonPoint>,
@@ -269,23 +274,51 @@ pub struct TuneReport {
     pub provenance: crate::provenance::Provenance,
 }
 
-/// Runs the search; writes `tune.json` and `tune.csv` in `setup.out`.
+/// Runs the search on the setup's scene; writes `tune.json` and
+/// `tune.csv` in `setup.out`.
 pub fn tune(gpu: &Gpu, spec: &TuneSpec) -> Result<TuneReport> {
-    run_tune(gpu, spec)
-}
-
-fn run_tune(gpu: &Gpu, spec: &TuneSpec) -> Result<TuneReport> {
     let setup = &spec.setup;
     setup.check()?;
     let staged = StagedDir::new(&setup.out)?;
     let prepared = app::prepare(gpu, &setup.scene, setup.scale)?;
     let integrand = prepared.integrand.as_ref();
     let base = (setup.mdas_params)(prepared.scene.mdas);
-    let (mdas_seeds, halton_seeds) =
-        seed_plan(spec.seeds, base.seed, setup.halton_seed, setup.ref_seed)?;
+    // The grid is checked before the reference is rendered.
+    let (runnable, skipped) = runnable(base, &spec.grid, integrand)?;
+    let (reference, path, cached) = setup.reference(gpu)?;
+    let subject = setup.scene_subject(integrand, base, &reference, path, cached);
+    tune_subject(gpu, spec, &subject, (runnable, skipped), staged)
+}
+
+/// [`tune`] on an integrand built in code against a reference given with
+/// it (`compare::compare_integrand` explains the [`Subject`]): the grid
+/// varies `subject.mdas`, whose spp is the budget and whose seed is
+/// MDAS's first. The setup's scene, scale, reference spp, cache and
+/// parameter mapping are not used. `tests/compare.rs` runs it on a closed
+/// form.
+pub fn tune_integrand(gpu: &Gpu, spec: &TuneSpec, subject: &Subject) -> Result<TuneReport> {
+    spec.setup.check()?;
+    check_reference(subject)?;
+    let plan = runnable(subject.mdas, &spec.grid, subject.integrand)?;
+    let staged = StagedDir::new(&spec.setup.out)?;
+    tune_subject(gpu, spec, subject, plan, staged)
+}
+
+/// A grid's configurations that can run on `integrand` (label, values,
+/// parameters), and those that cannot with why; an error when none can.
+type Plan = (
+    Vec<(String, BTreeMap<String, f64>, MdasParams)>,
+    Vec<(String, String)>,
+);
+
+fn runnable(
+    base: MdasParams,
+    grid: &[(String, Vec<f64>)],
+    integrand: &dyn Integrand,
+) -> Result<Plan> {
     let mut runnable = Vec::new();
     let mut skipped = Vec::new();
-    for (label, values, params) in configurations(base, &spec.grid)? {
+    for (label, values, params) in configurations(base, grid)? {
         match params.and_then(|p| {
             Mdas::new(p)?.config(integrand)?;
             Ok(p)
@@ -304,7 +337,24 @@ fn run_tune(gpu: &Gpu, spec: &TuneSpec) -> Result<TuneReport> {
                 .join("; ")
         );
     }
-    let (reference, ref_path, _) = setup.reference(gpu)?;
+    Ok((runnable, skipped))
+}
+
+fn tune_subject(
+    gpu: &Gpu,
+    spec: &TuneSpec,
+    subject: &Subject,
+    (runnable, skipped): Plan,
+    staged: StagedDir,
+) -> Result<TuneReport> {
+    let setup = &spec.setup;
+    let (integrand, reference, base) = (subject.integrand, subject.reference, subject.mdas);
+    let (mdas_seeds, halton_seeds) =
+        seed_plan(spec.seeds, base.seed, setup.halton_seed, setup.ref_seed)?;
+    let (reference_spp, reference_path, reference_exact) = match &subject.reference_source {
+        ReferenceSource::Halton { spp, path, .. } => (*spp, path.display().to_string(), None),
+        ReferenceSource::Exact(how) => (0, String::new(), Some(how.clone())),
+    };
 
     let k = spec.seeds as u64;
     let budgets = halton_budgets(base.spp);
@@ -324,7 +374,7 @@ fn run_tune(gpu: &Gpu, spec: &TuneSpec) -> Result<TuneReport> {
             gpu,
             &mut halton,
             integrand,
-            &reference,
+            reference,
             &halton_seeds,
             &progress,
             |h, s| h.seed = s,
@@ -359,7 +409,7 @@ fn run_tune(gpu: &Gpu, spec: &TuneSpec) -> Result<TuneReport> {
             gpu,
             &mut mdas,
             integrand,
-            &reference,
+            reference,
             &mdas_seeds,
             &progress,
             Mdas::set_seed,
@@ -394,14 +444,15 @@ fn run_tune(gpu: &Gpu, spec: &TuneSpec) -> Result<TuneReport> {
     rank(&mut rows, spec.equal_samples);
     let best_table = rows.first().map(|r| mdas_table(&r.params));
     let report = TuneReport {
-        scene: setup.scene.display().to_string(),
+        scene: subject.name.clone(),
         scale: setup.scale,
         spp: base.spp,
         mdas_seeds,
         halton_seeds,
-        reference_spp: setup.ref_spp,
+        reference_spp,
         reference_seed: setup.ref_seed,
-        reference_path: ref_path.display().to_string(),
+        reference_path,
+        reference_exact,
         ranking: if spec.equal_samples {
             "relmse at equal samples"
         } else {
@@ -414,7 +465,10 @@ fn run_tune(gpu: &Gpu, spec: &TuneSpec) -> Result<TuneReport> {
         skipped,
         best_table,
         flags,
-        provenance: crate::provenance::Provenance::new(gpu, &setup.scene, integrand, Some(base))?,
+        provenance: match subject.scene_file {
+            Some(file) => crate::provenance::Provenance::new(gpu, file, integrand, Some(base))?,
+            None => crate::provenance::Provenance::of_integrand(gpu, integrand, Some(base)),
+        },
     };
     let json = serde_json::to_string_pretty(&report)?;
     image_io::write_atomic(&staged.path().join("tune.csv"), |t| {
