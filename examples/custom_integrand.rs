@@ -89,37 +89,10 @@ impl Integrand for MovingEdge {
     }
 }
 
-/// Area of the unit pixel [x0, x0 + 1) × [y0, y0 + 1) where n·p < c: the
-/// square clipped by the half-plane (shoelace formula).
+/// Area of the unit pixel [x0, x0 + 1) × [y0, y0 + 1) where n·p < c
+/// (`mdas::analytic::half_plane_area`: the square clipped by the line).
 fn area_below(x0: f64, y0: f64, c: f64) -> f64 {
-    let corners = [
-        (x0, y0),
-        (x0 + 1.0, y0),
-        (x0 + 1.0, y0 + 1.0),
-        (x0, y0 + 1.0),
-    ];
-    let g = |(x, y): (f64, f64)| c - (NORMAL[0] * x + NORMAL[1] * y);
-    let mut poly = Vec::with_capacity(5);
-    for k in 0..4 {
-        let (a, b) = (corners[k], corners[(k + 1) % 4]);
-        let (ga, gb) = (g(a), g(b));
-        if ga >= 0.0 {
-            poly.push(a);
-        }
-        if (ga >= 0.0) != (gb >= 0.0) {
-            let s = ga / (ga - gb);
-            poly.push((a.0 + s * (b.0 - a.0), a.1 + s * (b.1 - a.1)));
-        }
-    }
-    let n = poly.len();
-    (0..n)
-        .map(|k| {
-            let (p, q) = (poly[k], poly[(k + 1) % n]);
-            p.0 * q.1 - q.0 * p.1
-        })
-        .sum::<f64>()
-        .abs()
-        / 2.0
+    mdas::analytic::half_plane_area([x0, y0], [1.0, 1.0], NORMAL, c)
 }
 
 /// The pixel's mean over the shutter: (1/V)∫ a(c) dc over [C0, C0 + V],

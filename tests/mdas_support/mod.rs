@@ -43,34 +43,9 @@ pub fn render_observed(case: u32, dims: u32, film: Film, p: MdasParams) -> (Rend
 }
 
 /// Exact area of the unit pixel (i, j) where 0.8·x + 0.6·y < 7.3 (test
-/// case 3), by clipping the square against the half-plane.
+/// case 3): the square clipped by the half-plane.
 pub fn edge_pixel_mean(i: u32, j: u32) -> f64 {
-    let f = |x: f64, y: f64| 7.3 - (0.8 * x + 0.6 * y);
-    let (x0, y0) = (i as f64, j as f64);
-    let square = [
-        (x0, y0),
-        (x0 + 1.0, y0),
-        (x0 + 1.0, y0 + 1.0),
-        (x0, y0 + 1.0),
-    ];
-    let mut poly = Vec::new();
-    for e in 0..4 {
-        let (a, b) = (square[e], square[(e + 1) % 4]);
-        let (fa, fb) = (f(a.0, a.1), f(b.0, b.1));
-        if fa >= 0.0 {
-            poly.push(a);
-        }
-        if (fa >= 0.0) != (fb >= 0.0) {
-            let t = fa / (fa - fb);
-            poly.push((a.0 + t * (b.0 - a.0), a.1 + t * (b.1 - a.1)));
-        }
-    }
-    let n = poly.len();
-    (0..n)
-        .map(|k| poly[k].0 * poly[(k + 1) % n].1 - poly[(k + 1) % n].0 * poly[k].1)
-        .sum::<f64>()
-        .abs()
-        / 2.0
+    mdas::analytic::half_plane_area([i as f64, j as f64], [1.0, 1.0], [0.8, 0.6], 7.3)
 }
 
 pub fn edge_image(film: Film) -> Vec<[f32; 3]> {
