@@ -187,12 +187,13 @@ pub struct Prepared {
 /// let scale = 0.125; // 32×32 of the Cornell box's 256×256
 /// let prepared = app::prepare(gpu, "scenes/cornell.toml".as_ref(), scale)?;
 /// let integrand = prepared.integrand.as_ref();
-/// let halton = Halton::new(4, 0).render(gpu, integrand)?;
+/// let halton = Halton::new(8, 0).render(gpu, integrand)?;
 /// let params = app::mdas_params_at_scale(prepared.scene.mdas, scale);
-/// let mdas = Mdas::new(mdas::integrator::mdas::MdasParams { spp: 4.0, ..params })?
+/// // The scene's initial grid holds 8 spp; MDAS adapts above it.
+/// let mdas = Mdas::new(mdas::integrator::mdas::MdasParams { spp: 12.0, ..params })?
 ///     .render(gpu, integrand)?;
-/// assert_eq!(halton.samples, 32 * 32 * 4);
-/// assert_eq!(mdas.samples, 32 * 32 * 4); // MDAS's budget is met exactly
+/// assert_eq!(halton.samples, 32 * 32 * 8);
+/// assert_eq!(mdas.samples, 32 * 32 * 12); // MDAS's budget is met exactly
 /// # Ok(())
 /// # }
 /// ```

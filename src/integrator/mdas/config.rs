@@ -119,8 +119,11 @@ impl std::fmt::Display for SplitRule {
 
 /// How the leaves' samples become pixel values. `Pixel` is the default
 /// ([`MdasParams::default`], scene files): at equal samples it cut MDAS's
-/// RelMSE on every scene with leaves wider than a pixel (by up to 2.2×)
-/// and tied elsewhere (BENCHMARKS.md, "Per-pixel reconstruction").
+/// RelMSE by up to 2.2× on the six paper stand-ins whose leaves are wider
+/// than a pixel and tied on the others, but where the only feature is
+/// smooth in film space the box's averaging wins (`scenes/tests/
+/// shadow_edge.toml`, a 6-pixel penumbra: 0.80 × Halton's RelMSE against
+/// 1.00; BENCHMARKS.md, "Per-pixel reconstruction").
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Reconstruction {
@@ -133,7 +136,8 @@ pub enum Reconstruction {
     /// instead of f̄: the mean of the leaf's n_p finite samples whose film
     /// position lies in p, pulled toward the leaf mean by κ pseudo-samples
     /// (`pixel_prior`; f̄ alone where n_p = 0). A leaf's samples are
-    /// uniform in it, so those in p are uniform in the leaf's part of p:
+    /// uniform in it (up to best-candidate placement), so those in p are
+    /// uniform in the leaf's part of p:
     /// the estimate of that part no longer borrows the values of the
     /// leaf's other pixels, at the cost of fewer samples per value. Not
     /// in the paper or its code; κ → ∞ is `Box`.
