@@ -948,6 +948,66 @@ fn baselines_match_their_definitions() {
         let ls = p.sample(&s, k as f32 / 1000.0).unwrap();
         assert_ne!(ls.light, 1);
     }
+    // u·n landing exactly on a zero-weight light's entry (v = 0, q = 0)
+    // must take the alias: 1/3 in f32 times 3 rounds to 1.0.
+    assert_eq!(p.sample(&s, 1.0 / 3.0).unwrap().light, 2);
+    let q = PowerSampler::from_weights(&[0.0, 1.0]);
+    assert_eq!(q.sample(&s, 0.0).unwrap().light, 1);
+}
+
+/// Vose's table over random weights with zeros, including the entries
+/// rounding leaves over: an entry reaches its own light only if that light
+/// has weight (q > 0), and its alias only if the alias has weight (q < 1);
+/// and the table reproduces the pmf exactly as a mixture: Σ over entries
+/// of q_i·[own = j] + (1 − q_i)·[alias = j], divided by n, is w_j / Σ w
+/// within f32 rounding of the q's (n · 2⁻²⁴ relative per entry).
+#[test]
+fn alias_table_never_reaches_a_zero_weight_light() {
+    let mut rng = StdRng::seed_from_u64(23);
+    for case in 0..20_000 {
+        let n = rng.random_range(1..40usize);
+        let weights: Vec<f32> = (0..n)
+            .map(|_| {
+                if rng.random_bool(0.3) {
+                    0.0
+                } else {
+                    // Magnitudes over many octaves, so that rounding in the
+                    // table's f64 sums leaves entries over.
+                    rng.random_range(0.0f32..1.0) * 10f32.powi(rng.random_range(-3..4))
+                }
+            })
+            .collect();
+        let total: f64 = weights.iter().map(|&w| w as f64).sum();
+        let p = PowerSampler::from_weights(&weights);
+        if total <= 0.0 {
+            assert!(p.table.is_empty(), "case {case}");
+            continue;
+        }
+        let mut mix = vec![0.0f64; n];
+        for (i, e) in p.table.iter().enumerate() {
+            let a = e.alias as usize;
+            assert!(
+                e.q <= 0.0 || weights[i] > 0.0,
+                "case {case}: entry {i} keeps its zero-weight light (q = {}) in {weights:?}",
+                e.q
+            );
+            assert!(
+                e.q >= 1.0 || weights[a] > 0.0,
+                "case {case}: entry {i} aliases zero-weight light {a} in {weights:?}"
+            );
+            mix[i] += e.q as f64;
+            mix[a] += 1.0 - e.q as f64;
+        }
+        for j in 0..n {
+            let want = weights[j] as f64 / total;
+            let got = mix[j] / n as f64;
+            assert!(
+                (got - want).abs()
+                    <= 4.0 * n as f64 * f64::from(f32::EPSILON) * want.max(1.0 / n as f64),
+                "case {case}: light {j} mixture {got} vs pmf {want}"
+            );
+        }
+    }
 }
 
 // ---------------------------------------------------------------- cones
