@@ -7,10 +7,10 @@ use crate::accel::GpuScene;
 use crate::film::Film;
 use crate::gpu::Gpu;
 use crate::image_io;
-use crate::integrand::IntegrandSpec;
 use crate::integrand::{
     AmbientOcclusion, AreaLight, DepthOfField, Integrand, ManyLight, MotionBlur, PathTracing,
 };
+use crate::integrand::{IntegrandSpec, ManyLightSpec};
 use crate::integrator::mdas::MdasParams;
 use crate::integrator::{Halton, Integrator, Render};
 use crate::lights::sampler::SamplerKind;
@@ -227,6 +227,54 @@ pub fn prepare_loaded(
     Ok(Prepared {
         scene,
         film,
+        integrand,
+    })
+}
+
+/// A `many_light` scene ready to render as a sequence of frames
+/// ([`ManyLight::set_frame`]).
+pub struct Sequence {
+    /// The scene file, its `integrand` with the overrides applied.
+    pub scene: SceneFile,
+    pub film: Film,
+    /// The `[integrand]` table of frame 0 (frame f is `spec.at_frame(f)`).
+    pub spec: ManyLightSpec,
+    /// Set up at the first frame asked for.
+    pub integrand: ManyLight,
+}
+
+/// [`prepare_loaded`] for a frame sequence of a `many_light` scene, set up
+/// at frame `first`; an error for other integrand types.
+pub fn prepare_sequence(
+    gpu: &Gpu,
+    mut scene: SceneFile,
+    scene_path: &Path,
+    scale: f32,
+    overrides: IntegrandOverrides,
+    first: u32,
+) -> Result<Sequence> {
+    scene.integrand = overrides.apply(&scene.integrand, scene_path)?;
+    scene.visibility = overrides.visibility(&scene);
+    let IntegrandSpec::ManyLight(spec) = scene.integrand.clone() else {
+        bail!(
+            "{}: frame sequences need a many_light scene (its lights, light tree and cuts are \
+             made again every frame); this scene's integrand is {}",
+            scene_path.display(),
+            scene.integrand.type_name()
+        );
+    };
+    let film = scaled_film(scene.scene.film, scale)?;
+    let gpu_scene = Arc::new(GpuScene::with_visibility(
+        gpu,
+        &scene.scene,
+        film,
+        scene.visibility,
+    )?);
+    let integrand = ManyLight::new_at_frame(gpu, &scene.scene, gpu_scene, film, &spec, first)?;
+    Ok(Sequence {
+        scene,
+        film,
+        spec,
         integrand,
     })
 }

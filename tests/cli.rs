@@ -144,6 +144,153 @@ fn render_png_only_json_and_quiet() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// `render --frames`: numbered EXR+PNG per frame, the per-frame times in
+/// X.frames.csv and --json, frame times `time + f·frame_duration`, and
+/// frame 2 of the sequence 1..=3 bit-identical to the sequence 2..3 alone
+/// (frames are set up in place, `ManyLight::set_frame`, with nothing left
+/// over from the frame before).
+#[test]
+fn render_frames_writes_numbered_frames_and_their_times() {
+    let dir = temp_dir("frames");
+    let out = dir.join("m.exr");
+    let scene = "scenes/tests/moving_lights.toml";
+    let o = mdas(&[
+        "--json",
+        "render",
+        scene,
+        "--frames",
+        "1..=3",
+        "--spp",
+        "2",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    for f in 1..=3 {
+        for ext in ["exr", "png"] {
+            let file = dir.join(format!("m.{f:04}.{ext}"));
+            assert!(file.is_file(), "{} missing", file.display());
+        }
+    }
+    assert!(!dir.join("m.0000.exr").exists() && !dir.join("m.0004.exr").exists());
+    let record: serde_json::Value = serde_json::from_slice(&o.stdout).expect("one JSON document");
+    let frames = record["frames"].as_array().unwrap();
+    let times: Vec<f64> = frames.iter().map(|f| f["time"].as_f64().unwrap()).collect();
+    assert_eq!(times, [0.25, 0.5, 0.75]); // frame_duration = 0.25
+    for f in frames {
+        assert_eq!(f["samples"].as_u64(), Some(48 * 32 * 2));
+        assert_eq!(f["lights"].as_u64(), Some(500 + 48 + 400));
+        let phases: Vec<&str> = f["setup_phases_ms"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|p| p[0].as_str().unwrap())
+            .collect();
+        for phase in ["many_light.vpl", "light_tree.sort", "many_light.cuts"] {
+            assert!(phases.contains(&phase), "{phase} not in {phases:?}");
+        }
+    }
+    assert_eq!(record["after_first"]["frames"].as_u64(), Some(2));
+    let csv = std::fs::read_to_string(dir.join("m.frames.csv")).unwrap();
+    let rows: Vec<&str> = csv.lines().collect();
+    assert_eq!(rows.len(), 4, "{csv}");
+    assert!(rows[0].starts_with("frame,time,lights,setup_ms,"), "{csv}");
+    assert!(rows[2].starts_with("2,0.5,948,"), "{csv}");
+    let attributes = mdas::image_io::read_exr_attributes(&dir.join("m.0002.exr")).unwrap();
+    let frame = attributes
+        .iter()
+        .find(|(n, _)| n == "frame")
+        .map(|a| a.1.to_string());
+    assert_eq!(frame.as_deref(), Some("2"));
+
+    let alone = dir.join("alone.exr");
+    let o = mdas(&[
+        "render",
+        scene,
+        "--frames",
+        "2..3",
+        "--spp",
+        "2",
+        "-o",
+        alone.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let read = |p: PathBuf| mdas::image_io::read_exr(&p).unwrap().2;
+    let (a, b) = (
+        read(dir.join("m.0002.exr")),
+        read(dir.join("alone.0002.exr")),
+    );
+    assert!(a == b, "frame 2 of 1..=3 differs from 2..3 rendered alone");
+    assert!(
+        a != read(dir.join("m.0001.exr")),
+        "frames 1 and 2 are the same image"
+    );
+
+    // Bad input fails before any output.
+    let bad = dir.join("bad.exr");
+    let b = bad.to_str().unwrap();
+    for (args, expect) in [
+        (
+            vec!["render", scene, "--frames", "3..3", "-o", b],
+            "holds no frame",
+        ),
+        (
+            vec!["render", scene, "--frames", "3", "-o", b],
+            "expected A..B",
+        ),
+        (
+            vec![
+                "render",
+                "scenes/area_light_plane.toml",
+                "--frames",
+                "0..2",
+                "-o",
+                b,
+            ],
+            "frame sequences need a many_light scene",
+        ),
+        (
+            vec!["render", scene, "--frame-duration", "0.1", "-o", b],
+            "needs --frames",
+        ),
+        (
+            vec![
+                "render",
+                scene,
+                "--frames",
+                "0..2",
+                "--frame-duration=-1",
+                "-o",
+                b,
+            ],
+            "--frame-duration must be",
+        ),
+        (
+            vec![
+                "render",
+                scene,
+                "--frames",
+                "0..2",
+                "--reference",
+                b,
+                "-o",
+                b,
+            ],
+            "--reference measures one image",
+        ),
+    ] {
+        assert_fails_cleanly(&args, &bad, &[expect]);
+        assert!(
+            !dir.join("bad.0000.exr").exists(),
+            "{args:?} left a frame behind"
+        );
+        assert!(
+            !dir.join("bad.frames.csv").exists(),
+            "{args:?} left a CSV behind"
+        );
+    }
+}
+
 #[test]
 fn output_extension_is_case_insensitive() {
     let dir = temp_dir("upper");

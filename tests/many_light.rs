@@ -364,6 +364,64 @@ time = {time}
     );
 }
 
+/// A frame sequence reuses one `ManyLight`: `set_frame(f)` (new lights at
+/// the frame time, VPLs traced again, the light structure rebuilt in the
+/// same buffers, the cut pre-pass run again) gives the image of a fresh
+/// `ManyLight::new` at `spec.at_frame(f)`, bit for bit, for every sampler
+/// kind — including after a frame that was rendered in between, so no
+/// state of the previous frame leaks. The frame must also change the
+/// image (the lights orbit, the lamp flies, the VPLs follow), or the
+/// comparison could not fail when `set_frame` did nothing.
+#[test]
+fn set_frame_equals_a_fresh_integrand_at_that_frame() {
+    let scene = load("scenes/tests/moving_lights.toml");
+    let IntegrandSpec::ManyLight(spec) = &scene.integrand else {
+        panic!("not a many_light scene")
+    };
+    let film = scene.scene.film;
+    let gpu_scene = Arc::new(mdas::accel::GpuScene::new(gpu(), &scene.scene, film).unwrap());
+    let render = |ml: &ManyLight| image_bits(&Halton::new(2, 3).render(gpu(), ml).unwrap());
+    for kind in SamplerKind::ALL {
+        let spec = mdas::integrand::ManyLightSpec {
+            sampler: kind,
+            ..spec.clone()
+        };
+        let fresh = |f: u32| {
+            let ml = ManyLight::new(
+                gpu(),
+                &scene.scene,
+                gpu_scene.clone(),
+                film,
+                &spec.at_frame(f),
+            )
+            .unwrap();
+            render(&ml)
+        };
+        let mut seq = ManyLight::new(gpu(), &scene.scene, gpu_scene.clone(), film, &spec).unwrap();
+        let first = render(&seq);
+        seq.set_frame(gpu(), &scene.scene, 3).unwrap();
+        let third = render(&seq);
+        assert_ne!(first, third, "{kind}: frame 3 renders like frame 0");
+        assert_eq!(
+            third,
+            fresh(3),
+            "{kind}: set_frame(3) differs from a fresh frame 3"
+        );
+        seq.set_frame(gpu(), &scene.scene, 5).unwrap();
+        assert_eq!(render(&seq), fresh(5), "{kind}: set_frame(5) after frame 3");
+        if kind.uses_cut() {
+            assert!(
+                seq.setup_times()
+                    .0
+                    .iter()
+                    .any(|(n, _)| n == "many_light.cuts"),
+                "{kind}: no cut pass timed for the frame: {:?}",
+                seq.setup_times()
+            );
+        }
+    }
+}
+
 /// Virtual point lights (`src/lights/vpl.rs`, `wgsl/lights/vpl.wgsl`).
 mod vpl {
     // Virtual point lights by instant radiosity (`src/lights/vpl.rs`,

@@ -456,6 +456,7 @@ fn many_light_integrand_parses_with_defaults() {
             interleave: 1,
             time: 0.0,
             frame: 0,
+            frame_duration: mdas::integrand::DEFAULT_FRAME_DURATION,
             vpl: VplSpec {
                 paths: 0,
                 bounces: 1,
@@ -478,7 +479,7 @@ fn many_light_integrand_parses_with_defaults() {
     for sampler in SamplerKind::ALL {
         let s = ok(
             &format!("ml-{sampler}"),
-            &format!("{BASE}[integrand]\ntype = \"many_light\"\nsampler = \"{sampler}\"\ncut_size = 64\nblock = 4\ninterleave = 2\ntime = 2.5\nframe = 7\n"),
+            &format!("{BASE}[integrand]\ntype = \"many_light\"\nsampler = \"{sampler}\"\ncut_size = 64\nblock = 4\ninterleave = 2\ntime = 2.5\nframe = 7\nframe_duration = 0.125\n"),
         );
         assert_eq!(
             s.integrand,
@@ -489,6 +490,7 @@ fn many_light_integrand_parses_with_defaults() {
                 interleave: 2,
                 time: 2.5,
                 frame: 7,
+                frame_duration: 0.125,
                 vpl: VplSpec::default(),
                 sst: SubstituteParams::default(),
                 lgh: LghParams::default(),
@@ -638,6 +640,11 @@ fn bad_many_light_input_is_an_error_at_its_position() {
     assert!(m.contains("frame must be at least 0"), "{m}");
     let m = error_at("time", &integrand("time = nan\n"), 14, 8);
     assert!(m.contains("finite"), "{m}");
+    let m = error_at("fd", &integrand("frame_duration = -0.5\n"), 14, 18);
+    assert!(
+        m.contains("frame_duration must be a finite scene time ≥ 0, found -0.5"),
+        "{m}"
+    );
     let m = error_at(
         "foreign",
         &format!("{BASE}[integrand]\ntype = \"path\"\ncut_size = 4\n"),

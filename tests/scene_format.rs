@@ -800,6 +800,7 @@ fn many_light_scenes_parse_their_integrand_and_light_sets() {
             interleave: 1,
             time: 0.5,
             frame: 0,
+            frame_duration: 4.0 / 512.0,
             vpl: Default::default(),
             sst: Default::default(),
             lgh: Default::default(),

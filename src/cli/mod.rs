@@ -4,6 +4,7 @@
 
 pub(crate) mod bench;
 pub(crate) mod compare;
+pub(crate) mod frames;
 pub(crate) mod reference;
 pub(crate) mod render;
 pub(crate) mod sweep;

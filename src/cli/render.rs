@@ -52,6 +52,20 @@ pub(crate) struct RenderArgs {
     /// inside the GPU timestamps of a cold render.
     #[arg(long)]
     pub(crate) warmup: bool,
+    /// Render a sequence of frames of a many_light scene: A..B (B
+    /// excluded) or A..=B. Frame f is at scene time `time + f ·
+    /// frame_duration` of the scene's [integrand] and rotates its random
+    /// choices; the lights, the light tree (or BVH, grid) and the cuts are
+    /// made again every frame, all else is reused. Writes X.NNNN.exr (and
+    /// .png) per frame for -o X.exr, and X.frames.csv with every frame's
+    /// set-up (light build, cuts, VPLs) and render times. The seed is the
+    /// same every frame.
+    #[arg(long, value_name = "A..B", value_parser = super::frames::FrameRange::parse)]
+    pub(crate) frames: Option<super::frames::FrameRange>,
+    /// Scene time between frames, overriding the scene's [integrand]
+    /// frame_duration (default 1/30); only with --frames.
+    #[arg(long, value_name = "T")]
+    pub(crate) frame_duration: Option<f32>,
     #[command(flatten)]
     pub(crate) mdas: MdasArgs,
 }
@@ -90,6 +104,14 @@ struct ErrorRecord {
 }
 
 pub(crate) fn run(args: RenderArgs, ui: Ui) -> Result<()> {
+    // Fail on bad input before any GPU work.
+    check_sampling(args.integrator, args.spp, &args.mdas)?;
+    if args.frames.is_some() {
+        return super::frames::run(args, ui);
+    }
+    if args.frame_duration.is_some() {
+        bail!("--frame-duration sets the time between frames; it needs --frames");
+    }
     let RenderArgs {
         scene,
         integrator,
@@ -101,36 +123,16 @@ pub(crate) fn run(args: RenderArgs, ui: Ui) -> Result<()> {
         sampler,
         visibility,
         warmup,
+        frames: _,
+        frame_duration: _,
         mdas,
     } = args;
     let output = output.unwrap_or_else(|| default_output(&scene, integrator.name()));
-    // Fail on bad input before any GPU work.
-    let ignored = mdas.given();
-    if integrator == IntegratorKind::Halton && !ignored.is_empty() {
-        bail!(
-            "{} set{} MDAS parameters, but --integrator is halton; add --integrator mdas",
-            ignored.join(", "),
-            if ignored.len() == 1 { "s" } else { "" }
-        );
-    }
     check_output(&output)?;
     let inputs: Vec<&Path> = std::iter::once(scene.as_path())
         .chain(reference.as_deref())
         .collect();
     check_not_input(&output, &inputs)?;
-    if let Some(s) = spp {
-        if !(s.is_finite() && s > 0.0) {
-            bail!("--spp must be positive, got {s}");
-        }
-        if integrator == IntegratorKind::Halton && s.fract() != 0.0 {
-            bail!("--spp must be a whole number of samples per pixel for Halton, got {s}");
-        }
-        // Above 2^24 an f32 no longer holds every whole number, and
-        // 4294967297 parsed as f32 would saturate to u32::MAX spp.
-        if integrator == IntegratorKind::Halton && s > MAX_HALTON_SPP as f32 {
-            bail!("--spp must be at most {MAX_HALTON_SPP} for Halton, got {s}");
-        }
-    }
     let loaded = SceneFile::load(&scene)?;
     warn_unlit(&loaded);
     let film = app::scaled_film(loaded.scene.film, scale)?;
@@ -161,29 +163,13 @@ pub(crate) fn run(args: RenderArgs, ui: Ui) -> Result<()> {
         "render {bar:40} {percent}% [{elapsed_precise} < {eta}]",
     );
     let mdas_params = mdas.params(prepared.scene.mdas, scale, spp, seed);
-    let (mut sampler, seed): (Box<dyn Integrator>, u32) = match integrator {
-        IntegratorKind::Halton => {
-            let seed = seed.unwrap_or(0);
-            let mut h = Halton::new(spp.map_or(16, |s| s as u32), seed);
-            if ui.progress() {
-                let b = bar.clone();
-                h = h.with_progress(Box::new(move |done, spp| {
-                    b.advance(done as u64 * 1000 / spp.max(1) as u64)
-                }));
-            }
-            (Box::new(h), seed)
-        }
-        IntegratorKind::Mdas => {
-            let mut m = Mdas::new(mdas_params)?;
-            if ui.progress() {
-                let b = bar.clone();
-                m = m.with_progress(Box::new(move |done, budget| {
-                    b.advance(done.min(budget) * 1000 / budget.max(1))
-                }));
-            }
-            (Box::new(m), mdas_params.seed)
-        }
-    };
+    let (mut sampler, seed) = integrator_for(
+        integrator,
+        spp,
+        seed,
+        mdas_params,
+        ui.progress().then_some(&bar),
+    )?;
     let mut light_sampler = app::light_sampler(&prepared.scene.integrand)
         .map_or_else(String::new, |k| format!(", sampler {k}"));
     if prepared.scene.visibility.is_voxel() {
@@ -267,10 +253,74 @@ pub(crate) fn run(args: RenderArgs, ui: Ui) -> Result<()> {
     })
 }
 
+/// The checks of --integrator, --spp and the MDAS flags that need no file.
+pub(crate) fn check_sampling(
+    integrator: IntegratorKind,
+    spp: Option<f32>,
+    mdas: &MdasArgs,
+) -> Result<()> {
+    let ignored = mdas.given();
+    if integrator == IntegratorKind::Halton && !ignored.is_empty() {
+        bail!(
+            "{} set{} MDAS parameters, but --integrator is halton; add --integrator mdas",
+            ignored.join(", "),
+            if ignored.len() == 1 { "s" } else { "" }
+        );
+    }
+    if let Some(s) = spp {
+        if !(s.is_finite() && s > 0.0) {
+            bail!("--spp must be positive, got {s}");
+        }
+        if integrator == IntegratorKind::Halton && s.fract() != 0.0 {
+            bail!("--spp must be a whole number of samples per pixel for Halton, got {s}");
+        }
+        // Above 2^24 an f32 no longer holds every whole number, and
+        // 4294967297 parsed as f32 would saturate to u32::MAX spp.
+        if integrator == IntegratorKind::Halton && s > MAX_HALTON_SPP as f32 {
+            bail!("--spp must be at most {MAX_HALTON_SPP} for Halton, got {s}");
+        }
+    }
+    Ok(())
+}
+
+/// The integrator of `render`, with its seed (Halton: `seed` or 0; MDAS:
+/// `params.seed`), reporting its progress in `bar` when given.
+pub(crate) fn integrator_for(
+    integrator: IntegratorKind,
+    spp: Option<f32>,
+    seed: Option<u32>,
+    params: MdasParams,
+    bar: Option<&DelayedBar>,
+) -> Result<(Box<dyn Integrator>, u32)> {
+    Ok(match integrator {
+        IntegratorKind::Halton => {
+            let seed = seed.unwrap_or(0);
+            let mut h = Halton::new(spp.map_or(16, |s| s as u32), seed);
+            if let Some(b) = bar {
+                let b = b.clone();
+                h = h.with_progress(Box::new(move |done, spp| {
+                    b.advance(done as u64 * 1000 / spp.max(1) as u64)
+                }));
+            }
+            (Box::new(h), seed)
+        }
+        IntegratorKind::Mdas => {
+            let mut m = Mdas::new(params)?;
+            if let Some(b) = bar {
+                let b = b.clone();
+                m = m.with_progress(Box::new(move |done, budget| {
+                    b.advance(done.min(budget) * 1000 / budget.max(1))
+                }));
+            }
+            (Box::new(m), params.seed)
+        }
+    })
+}
+
 /// Warnings about the image itself: every pixel 0, and pixels that are
 /// not finite (an accumulation that overflowed shows here even when every
 /// sample was finite).
-fn warn_image(render: &Render) {
+pub(crate) fn warn_image(render: &Render) {
     if render.image.iter().all(|p| *p == [0.0; 3]) {
         eprintln!("warning: every pixel of the image is 0 (black)");
     }

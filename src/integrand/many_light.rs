@@ -19,7 +19,7 @@
 //! shading normals face the viewer (two-sided reflection) and are what the
 //! sampler bounds use.
 //!
-//! # One frame
+//! # Frames
 //!
 //! [`ManyLight::new`] sets up one frame: the light primitives at the frame
 //! time ([`crate::lights::scene_lights::light_prims`]), followed, when the
@@ -37,6 +37,12 @@
 //! samples through that cut. A representative ray that hits nothing keeps
 //! the cut [root]. The set-up times are in [`ManyLight::setup_times`];
 //! integrators time only the evaluation.
+//!
+//! A sequence (`mdas render --frames`) keeps one `ManyLight` and calls
+//! [`ManyLight::set_frame`] per frame: the lights, the light structure and
+//! the cuts are made again, as the paper does every frame, into the same
+//! buffers where their size cannot change; shaders, layouts and the
+//! integrators' pipelines are reused.
 //!
 //! Interleaved sampling (paper §3.4, `interleave = m`, off by default):
 //! pixel i of each m×m sub-block samples only the cut nodes
@@ -63,7 +69,7 @@ use crate::lights::vpl::{self, VplGenerator};
 use crate::lights::{LightPrim, KIND_TRIANGLE};
 use crate::scene::Scene;
 use crate::wgsl_file;
-use anyhow::{Context, Result};
+use anyhow::{bail, Context, Result};
 use std::sync::Arc;
 
 /// Workgroup size of the cut pre-pass.
@@ -73,17 +79,34 @@ pub struct ManyLight {
     scene: Arc<GpuScene>,
     film: Film,
     kind: SamplerKind,
-    /// The frame's lights: the scene's, then the VPLs.
+    /// The `[integrand]` table of the sequence's frame 0
+    /// ([`ManyLight::new_at_frame`]).
+    spec: ManyLightSpec,
+    /// The current frame's lights: the scene's, then the VPLs.
     prims: Vec<LightPrim>,
     triangles: bool,
     sampler: GpuSamplerData,
     layout: wgpu::BindGroupLayout,
     bind_group: wgpu::BindGroup,
     setup: PhaseTimes,
-    /// Keeps the GPU-built tree's buffers alive (bound in `bind_group`).
-    _tree: Option<GpuLightTree>,
+    /// The GPU-built tree (its buffers are bound in `bind_group`); rebuilt
+    /// in place for every frame.
+    tree: Option<GpuLightTree>,
+    /// The VPL kernel, kept for the next frame.
+    vpl: Option<VplGenerator>,
+    /// The cut pre-pass's pipeline and group-0 layout, built at the first
+    /// frame and reused.
+    cut_pass: Option<(wgpu::ComputePipeline, wgpu::BindGroupLayout)>,
     /// `lgh`: the loop iterations of one evaluation.
     loop_iterations: u32,
+}
+
+/// The light structures of one frame ([`ManyLight::build_sampler`]).
+struct Built {
+    sampler: GpuSamplerData,
+    tree: Option<GpuLightTree>,
+    loop_iterations: u32,
+    cpu_build_ms: Option<f64>,
 }
 
 /// The integrand's WGSL for sampler `kind`, with or without emissive
@@ -128,7 +151,8 @@ pub fn cuts_layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
 impl ManyLight {
     /// Sets up one frame of `scene` (its `[integrand]` table is `spec`) for
     /// rendering over `film`; `gpu_scene` must be the same scene's upload
-    /// for the same film. The sampler is `spec.sampler`.
+    /// for the same film. The sampler is `spec.sampler`. Later frames of a
+    /// sequence reuse everything built here: [`ManyLight::set_frame`].
     pub fn new(
         gpu: &Gpu,
         scene: &Scene,
@@ -136,121 +160,248 @@ impl ManyLight {
         film: Film,
         spec: &ManyLightSpec,
     ) -> Result<ManyLight> {
+        Self::new_at_frame(gpu, scene, gpu_scene, film, spec, 0)
+    }
+
+    /// [`ManyLight::new`] at frame `f` of the sequence `spec` starts
+    /// (`spec.at_frame(f)`): the same image, but [`ManyLight::set_frame`]
+    /// then counts frames from `spec`, so frame `g` of a sequence started
+    /// here is bit-identical to frame `g` of one started at frame 0.
+    pub fn new_at_frame(
+        gpu: &Gpu,
+        scene: &Scene,
+        gpu_scene: Arc<GpuScene>,
+        film: Film,
+        base: &ManyLightSpec,
+        f: u32,
+    ) -> Result<ManyLight> {
+        let spec = &base.at_frame(f);
         let kind = spec.sampler;
-        let mut prims = light_prims(scene, spec.time);
-        let triangles = prims.iter().any(|l| l.kind == KIND_TRIANGLE);
-        let cuts = CutLayout::for_film(film.width, film.height, spec.block, spec.cut_size)
-            .interleaved(spec.interleave, spec.frame);
         let mut profiler = Profiler::new(gpu);
-        let mut cpu_build_ms = None;
-        if spec.vpl.paths > 0 {
-            // The frame's VPLs follow the scene's own lights.
-            let sources = vpl::sources(scene, &prims);
-            let sphere = vpl::scene_sphere(scene, spec.time);
-            let vpls = VplGenerator::new(gpu)?.generate(
-                gpu,
-                &gpu_scene,
-                &sources,
-                sphere,
-                &spec.vpl,
-                spec.time,
-                &mut profiler,
-            )?;
-            prims.extend(vpls);
-        }
-        let n = u32::try_from(prims.len()).context("more than 2^32 lights")?;
-
-        let mut loop_iterations = 0;
-        let (mut sampler, tree) = gpu.scoped("many_light set-up", || {
-            let mut tree = None;
-            let sampler = if kind == SamplerKind::Lgh {
-                // The hierarchy is sized on the host and built on the GPU
-                // from the sampler's copy of the lights.
-                let h = GpuLgh::new(gpu, &prims, &spec.lgh)?;
-                let s = GpuSamplerData::new(gpu, kind, &prims, Some(TreeSource::Lgh(&h)), cuts)?;
-                h.build(gpu, &s.prims, &mut profiler)?;
-                loop_iterations = h.loop_iterations().min(u32::MAX as u64) as u32;
-                s
-            } else if kind.uses_perfect_tree() && n > 0 {
-                // The tree is built from the sampler's own copy of the
-                // lights (one upload), into the buffers the sampler binds.
-                let mut t = if kind.uses_substitute_tree() {
-                    GpuLightTree::with_substitutes(gpu, n)?
-                } else {
-                    GpuLightTree::new(gpu, n, kind.uses_cones())?
-                };
-                let s = GpuSamplerData::new(
-                    gpu,
-                    kind,
-                    &prims,
-                    Some(TreeSource::PerfectGpu {
-                        nodes: &t.nodes,
-                        leaf_of_light: &t.leaf_of_light,
-                        cones: t.cones.as_ref(),
-                        substitutes: t.substitutes.as_ref(),
-                    }),
-                    cuts,
-                )?;
-                t.build(gpu, &s.prims, n, &mut profiler)?;
-                tree = Some(t);
-                s
-            } else {
-                // CPU-built structures (BVH, alias table) are part of the
-                // set-up time, measured on the wall clock.
-                let start = std::time::Instant::now();
-                let s = GpuSamplerData::new(gpu, kind, &prims, None, cuts)?;
-                cpu_build_ms = Some(start.elapsed().as_secs_f64() * 1e3);
-                s
-            };
-            Ok((sampler, tree))
-        })?;
-        // set_time uploads the whole parameter block, the clamp with it.
-        sampler.params.vpl_clamp2 = spec.vpl.clamp * spec.vpl.clamp;
-        sampler.set_substitute_params(&spec.sst);
-        sampler.set_time(gpu, spec.time);
-
+        let vpl = if spec.vpl.paths > 0 {
+            Some(VplGenerator::new(gpu)?)
+        } else {
+            None
+        };
+        let prims = frame_lights(gpu, scene, &gpu_scene, spec, vpl.as_ref(), &mut profiler)?;
+        let triangles = prims.iter().any(|l| l.kind == KIND_TRIANGLE);
+        let built = Self::build_sampler(gpu, spec, &prims, film, &mut profiler)?;
         let layout = gpu
             .device
             .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                 label: Some("many_light.group1"),
                 entries: &layout_entries(),
             });
-        let bind_group = {
-            let mut e = gpu_scene.bind_group_entries();
-            e.extend(sampler.bind_group_entries());
-            gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("many_light.group1"),
-                layout: &layout,
-                entries: &e,
-            })
-        };
-
-        let this = ManyLight {
+        let bind_group = Self::bind_group(gpu, &layout, &gpu_scene, &built.sampler);
+        let mut this = ManyLight {
             scene: gpu_scene,
             film,
             kind,
+            spec: base.clone(),
             prims,
             triangles,
-            sampler,
+            sampler: built.sampler,
             layout,
             bind_group,
             setup: PhaseTimes::default(),
-            _tree: tree,
-            loop_iterations,
+            tree: built.tree,
+            vpl,
+            cut_pass: None,
+            loop_iterations: built.loop_iterations,
         };
-        if kind.uses_cut() && n > 0 {
-            this.select_cuts(gpu, cuts, &mut profiler)?;
+        this.finish_frame(gpu, spec, profiler, built.cpu_build_ms)?;
+        Ok(this)
+    }
+
+    /// Moves to another frame of the same scene: `spec.at_frame(f)` for
+    /// the `spec` given to [`ManyLight::new`] or
+    /// [`ManyLight::new_at_frame`] (time `time + f ·
+    /// frame_duration`, frame number `frame + f`). The frame's lights are
+    /// recomputed at its time (VPLs traced again), the light structure is
+    /// built again and the cut pre-pass runs again, as the paper does once
+    /// per frame. The shaders, the bind group layout and, for the kinds
+    /// built on the GPU (`tree*`, `sst*`) and `uniform`, every buffer are
+    /// reused, so an integrator's pipelines stay valid; the CPU-built kinds
+    /// (`power`, `unbalanced*`) and `lgh`, whose structures change size
+    /// with the lights, upload new ones. The result is the image of
+    /// `ManyLight::new` with `spec.at_frame(f)`, bit for bit.
+    /// [`ManyLight::setup_times`] then holds this frame's set-up.
+    pub fn set_frame(&mut self, gpu: &Gpu, scene: &Scene, f: u32) -> Result<()> {
+        let spec = self.spec.at_frame(f);
+        let mut profiler = Profiler::new(gpu);
+        let prims = frame_lights(
+            gpu,
+            scene,
+            &self.scene,
+            &spec,
+            self.vpl.as_ref(),
+            &mut profiler,
+        )?;
+        if prims.len() != self.prims.len() {
+            bail!(
+                "frame {} has {} lights and the first frame {}: a sequence keeps its light count",
+                spec.frame,
+                prims.len(),
+                self.prims.len()
+            );
         }
-        let mut setup = profiler.finish()?;
+        let mut cpu_build_ms = None;
+        match &mut self.tree {
+            Some(tree) => gpu.scoped("many_light set-up", || {
+                gpu.queue
+                    .write_buffer(&self.sampler.prims, 0, bytemuck::cast_slice(&prims));
+                tree.build(gpu, &self.sampler.prims, prims.len() as u32, &mut profiler)
+            })?,
+            None if self.kind == SamplerKind::Uniform => {
+                if !prims.is_empty() {
+                    gpu.queue
+                        .write_buffer(&self.sampler.prims, 0, bytemuck::cast_slice(&prims));
+                }
+            }
+            None => {
+                let built = Self::build_sampler(gpu, &spec, &prims, self.film, &mut profiler)?;
+                self.bind_group = Self::bind_group(gpu, &self.layout, &self.scene, &built.sampler);
+                self.sampler = built.sampler;
+                self.loop_iterations = built.loop_iterations;
+                cpu_build_ms = built.cpu_build_ms;
+            }
+        }
+        self.prims = prims;
+        self.finish_frame(gpu, &spec, profiler, cpu_build_ms)
+    }
+
+    /// Frame `spec`'s parameters, its cut pre-pass and its set-up times.
+    fn finish_frame(
+        &mut self,
+        gpu: &Gpu,
+        spec: &ManyLightSpec,
+        mut profiler: Profiler,
+        cpu_build_ms: Option<f64>,
+    ) -> Result<()> {
+        self.sampler.params.frame = spec.frame;
+        // set_time uploads the whole parameter block, the clamp with it.
+        self.sampler.params.vpl_clamp2 = spec.vpl.clamp * spec.vpl.clamp;
+        self.sampler.set_substitute_params(&spec.sst);
+        self.sampler.set_time(gpu, spec.time);
+        if self.kind.uses_cut() && !self.prims.is_empty() {
+            let cuts =
+                CutLayout::for_film(self.film.width, self.film.height, spec.block, spec.cut_size);
+            self.select_cuts(gpu, cuts, &mut profiler)?;
+        }
+        self.setup = profiler.finish()?;
         if let Some(ms) = cpu_build_ms {
-            setup.add("many_light.cpu_build", ms);
+            self.setup.add("many_light.cpu_build", ms);
         }
-        Ok(ManyLight { setup, ..this })
+        Ok(())
+    }
+
+    /// Builds the light structure of `spec.sampler` over one frame's
+    /// lights, timed into `profiler` (GPU builds) or the returned
+    /// `cpu_build_ms` (CPU builds, on the wall clock).
+    fn build_sampler(
+        gpu: &Gpu,
+        spec: &ManyLightSpec,
+        prims: &[LightPrim],
+        film: Film,
+        profiler: &mut Profiler,
+    ) -> Result<Built> {
+        let kind = spec.sampler;
+        let n = u32::try_from(prims.len()).context("more than 2^32 lights")?;
+        let cuts = CutLayout::for_film(film.width, film.height, spec.block, spec.cut_size)
+            .interleaved(spec.interleave, spec.frame);
+        gpu.scoped("many_light set-up", || {
+            if kind == SamplerKind::Lgh {
+                // The hierarchy is sized on the host and built on the GPU
+                // from the sampler's copy of the lights.
+                let h = GpuLgh::new(gpu, prims, &spec.lgh)?;
+                let sampler =
+                    GpuSamplerData::new(gpu, kind, prims, Some(TreeSource::Lgh(&h)), cuts)?;
+                h.build(gpu, &sampler.prims, profiler)?;
+                Ok(Built {
+                    sampler,
+                    tree: None,
+                    loop_iterations: h.loop_iterations().min(u32::MAX as u64) as u32,
+                    cpu_build_ms: None,
+                })
+            } else if kind.uses_perfect_tree() && n > 0 {
+                // The tree is built from the sampler's own copy of the
+                // lights (one upload), into the buffers the sampler binds.
+                let mut tree = if kind.uses_substitute_tree() {
+                    GpuLightTree::with_substitutes(gpu, n)?
+                } else {
+                    GpuLightTree::new(gpu, n, kind.uses_cones())?
+                };
+                let sampler = GpuSamplerData::new(
+                    gpu,
+                    kind,
+                    prims,
+                    Some(TreeSource::PerfectGpu {
+                        nodes: &tree.nodes,
+                        leaf_of_light: &tree.leaf_of_light,
+                        cones: tree.cones.as_ref(),
+                        substitutes: tree.substitutes.as_ref(),
+                    }),
+                    cuts,
+                )?;
+                tree.build(gpu, &sampler.prims, n, profiler)?;
+                Ok(Built {
+                    sampler,
+                    tree: Some(tree),
+                    loop_iterations: 0,
+                    cpu_build_ms: None,
+                })
+            } else {
+                // CPU-built structures (BVH, alias table) are part of the
+                // set-up time, measured on the wall clock.
+                let start = std::time::Instant::now();
+                let sampler = GpuSamplerData::new(gpu, kind, prims, None, cuts)?;
+                Ok(Built {
+                    sampler,
+                    tree: None,
+                    loop_iterations: 0,
+                    cpu_build_ms: Some(start.elapsed().as_secs_f64() * 1e3),
+                })
+            }
+        })
+    }
+
+    /// Group 1: the scene's bindings, then the sampler's.
+    fn bind_group(
+        gpu: &Gpu,
+        layout: &wgpu::BindGroupLayout,
+        scene: &GpuScene,
+        sampler: &GpuSamplerData,
+    ) -> wgpu::BindGroup {
+        let mut e = scene.bind_group_entries();
+        e.extend(sampler.bind_group_entries());
+        gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("many_light.group1"),
+            layout,
+            entries: &e,
+        })
     }
 
     /// The cut-sharing pre-pass: fills the cut buffer, one cut per block.
-    fn select_cuts(&self, gpu: &Gpu, cuts: CutLayout, profiler: &mut Profiler) -> Result<()> {
+    /// Its pipeline is built at the first frame and kept.
+    fn select_cuts(&mut self, gpu: &Gpu, cuts: CutLayout, profiler: &mut Profiler) -> Result<()> {
         gpu.scoped("many_light cut selection", || {
+            if self.cut_pass.is_none() {
+                let layout0 =
+                    gpu.device
+                        .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                            label: Some("many_light.cuts.group0"),
+                            entries: &cuts_layout_entries(),
+                        });
+                let source = cuts_source(self.wgsl(), cuts.blocks());
+                let pipeline = gpu.compute_pipeline(
+                    "many_light.cuts",
+                    &source,
+                    "select_cuts",
+                    &[&layout0, &self.layout],
+                )?;
+                self.cut_pass = Some((pipeline, layout0));
+            }
+            let (pipeline, layout0) = self.cut_pass.as_ref().expect("built above");
             // Group 1 as for sampling, except that the cut buffer (written
             // here through group 0) is replaced by a dummy at its binding.
             let dummy = gpu.buffer_zeroed("many_light.cuts.dummy", 4, STORAGE)?;
@@ -267,34 +418,21 @@ impl ManyLight {
                 layout: &self.layout,
                 entries: &e,
             });
-            let layout0 = gpu
-                .device
-                .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                    label: Some("many_light.cuts.group0"),
-                    entries: &cuts_layout_entries(),
-                });
             let group0 = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("many_light.cuts.group0"),
-                layout: &layout0,
+                layout: layout0,
                 entries: &[wgpu::BindGroupEntry {
                     binding: 0,
                     resource: self.sampler.cuts.as_entire_binding(),
                 }],
             });
-            let source = cuts_source(self.wgsl(), cuts.blocks());
-            let pipeline = gpu.compute_pipeline(
-                "many_light.cuts",
-                &source,
-                "select_cuts",
-                &[&layout0, &self.layout],
-            )?;
             let (gx, gy) = gpu.dispatch_dims(cuts.blocks().div_ceil(CUT_WG));
             profiler.phase("many_light.cuts", |encoder, timestamps| {
                 let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                     label: Some("many_light.cuts"),
                     timestamp_writes: timestamps,
                 });
-                pass.set_pipeline(&pipeline);
+                pass.set_pipeline(pipeline);
                 pass.set_bind_group(0, &group0, &[]);
                 pass.set_bind_group(1, &group1, &[]);
                 pass.dispatch_workgroups(gx, gy, 1);
@@ -321,6 +459,29 @@ impl ManyLight {
     pub fn setup_times(&self) -> &PhaseTimes {
         &self.setup
     }
+}
+
+/// One frame's light list: the scene's lights at `spec.time`, then, when
+/// `spec` asks for VPLs, the VPLs traced from them on the GPU (profiler
+/// phase `many_light.vpl`; read back and appended).
+fn frame_lights(
+    gpu: &Gpu,
+    scene: &Scene,
+    gpu_scene: &GpuScene,
+    spec: &ManyLightSpec,
+    generator: Option<&VplGenerator>,
+    profiler: &mut Profiler,
+) -> Result<Vec<LightPrim>> {
+    let mut prims = light_prims(scene, spec.time);
+    if let Some(generator) = generator {
+        let sources = vpl::sources(scene, &prims);
+        let sphere = vpl::scene_sphere(scene, spec.time);
+        let vpls = generator.generate(
+            gpu, gpu_scene, &sources, sphere, &spec.vpl, spec.time, profiler,
+        )?;
+        prims.extend(vpls);
+    }
+    Ok(prims)
 }
 
 impl Integrand for ManyLight {

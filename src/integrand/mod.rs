@@ -50,7 +50,7 @@ pub use depth_of_field::DepthOfField;
 pub use many_light::ManyLight;
 pub use motion_blur::MotionBlur;
 pub use path::PathTracing;
-pub use spec::{IntegrandSpec, ManyLightSpec};
+pub use spec::{IntegrandSpec, ManyLightSpec, DEFAULT_FRAME_DURATION};
 
 /// Most dimensions (film included) any integrand may use.
 pub const MAX_DIMS: u32 = 16;

@@ -168,6 +168,10 @@ pub struct ManyLightSpec {
     pub time: f32,
     /// Frame number, rotates the per-frame random choices.
     pub frame: u32,
+    /// Scene time between two frames of a sequence (`render --frames`):
+    /// frame f of a sequence is at `time + f · frame_duration` with frame
+    /// number `frame + f` ([`ManyLightSpec::at_frame`]).
+    pub frame_duration: f32,
     /// Virtual point lights generated per frame by instant radiosity
     /// (`paths = 0`: none).
     pub vpl: VplSpec,
@@ -176,6 +180,23 @@ pub struct ManyLightSpec {
     /// `lgh`'s levels, α, level 0 and shadow samples (`lgh_levels`,
     /// `lgh_alpha`, `lgh_level0`, `lgh_shadows`).
     pub lgh: LghParams,
+}
+
+/// `frame_duration` when a scene file does not set it: 30 frames per
+/// scene time unit.
+pub const DEFAULT_FRAME_DURATION: f32 = 1.0 / 30.0;
+
+impl ManyLightSpec {
+    /// Frame `f` of a sequence that starts at this spec's frame: time
+    /// `time + f · frame_duration`, frame number `frame + f` (wrapping).
+    /// `at_frame(0)` is the spec itself.
+    pub fn at_frame(&self, f: u32) -> ManyLightSpec {
+        ManyLightSpec {
+            time: self.time + f as f32 * self.frame_duration,
+            frame: self.frame.wrapping_add(f),
+            ..self.clone()
+        }
+    }
 }
 
 impl Default for ManyLightSpec {
@@ -187,9 +208,34 @@ impl Default for ManyLightSpec {
             interleave: 1,
             time: 0.0,
             frame: 0,
+            frame_duration: DEFAULT_FRAME_DURATION,
             vpl: VplSpec::default(),
             sst: SubstituteParams::default(),
             lgh: LghParams::default(),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn frames_step_time_and_number_from_the_spec() {
+        let spec = ManyLightSpec {
+            time: 0.5,
+            frame: u32::MAX - 1,
+            frame_duration: 0.25,
+            ..ManyLightSpec::default()
+        };
+        assert_eq!(spec.at_frame(0), spec);
+        let f = spec.at_frame(3);
+        assert_eq!((f.time, f.frame), (1.25, 1)); // the number wraps
+        assert_eq!(f.frame_duration, 0.25);
+        let still = ManyLightSpec {
+            frame_duration: 0.0,
+            ..spec
+        };
+        assert_eq!(still.at_frame(7).time, 0.5);
     }
 }

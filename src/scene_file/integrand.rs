@@ -87,6 +87,12 @@ impl Ctx<'_> {
                     interleave,
                     time: r.time.as_ref().map_or(d.time, |v| v.get_ref().0),
                     frame: self.u32(&r.frame, "frame", 0, d.frame)?,
+                    frame_duration: self.finite_nonneg(
+                        &r.frame_duration,
+                        "frame_duration",
+                        "scene time",
+                        d.frame_duration,
+                    )?,
                     vpl: self.vpl(r)?,
                     sst: self.sst(r)?,
                     lgh: self.lgh(r)?,

@@ -233,6 +233,7 @@ pub(super) struct RawIntegrand {
     pub(super) interleave: Option<S<i64>>,
     pub(super) time: Option<S<Num>>,
     pub(super) frame: Option<S<i64>>,
+    pub(super) frame_duration: Option<S<Num>>,
     pub(super) vpls: Option<S<i64>>,
     pub(super) vpl_bounces: Option<S<i64>>,
     pub(super) vpl_seed: Option<S<i64>>,
@@ -254,6 +255,7 @@ pub(super) struct RawIntegrand {
 impl RawIntegrand {
     pub(super) fn type_keys(&self) -> Vec<(&'static str, Range<usize>)> {
         present_keys!(self; max_bounces, radius, sampler, cut_size, block, interleave, time, frame,
+            frame_duration,
             vpls, vpl_bounces, vpl_seed, vpl_clamp, sst_nu_min, sst_sigma_max, lgh_levels,
             lgh_alpha, lgh_level0, lgh_shadows, lgh_clamp)
     }
@@ -274,6 +276,7 @@ pub(super) const INTEGRAND_TYPES: [(&str, &[&str]); 6] = [
             "interleave",
             "time",
             "frame",
+            "frame_duration",
             "vpls",
             "vpl_bounces",
             "vpl_seed",
