@@ -45,6 +45,7 @@ fn main() -> Result<()> {
         out: out.clone(),
         progress: true,
         mdas_params: &at_scale,
+        frame: None,
     };
     let report = compare(gpu, &CompareSpec::new(setup, Budget::MdasSpp))?;
     print!("{}", report::table(&report));

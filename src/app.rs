@@ -99,6 +99,9 @@ pub struct IntegrandOverrides {
     /// `--visibility`: how shadow rays are answered (voxel parameters from
     /// the scene's `voxel_*` keys).
     pub visibility: Option<VisibilityKind>,
+    /// `--frames`: frame f of the sequence a `many_light` integrand's table
+    /// starts ([`ManyLightSpec::at_frame`]).
+    pub frame: Option<u32>,
 }
 
 impl IntegrandOverrides {
@@ -106,7 +109,7 @@ impl IntegrandOverrides {
     pub fn sampler(kind: SamplerKind) -> IntegrandOverrides {
         IntegrandOverrides {
             sampler: Some(kind),
-            visibility: None,
+            ..IntegrandOverrides::default()
         }
     }
 
@@ -132,37 +135,51 @@ impl IntegrandOverrides {
         }
     }
 
-    /// `spec` with the overrides applied. A sampler override on an
-    /// integrand other than `many_light` is an error; `scene` names the
+    /// `spec` with the overrides applied. A sampler or frame override on
+    /// an integrand other than `many_light` is an error; `scene` names the
     /// scene in messages.
-    /// The sampler override only; [`IntegrandOverrides::visibility`] gives
-    /// the visibility.
+    /// The sampler and frame overrides only;
+    /// [`IntegrandOverrides::visibility`] gives the visibility.
     pub fn apply(&self, spec: &IntegrandSpec, scene: &Path) -> Result<IntegrandSpec> {
-        let Some(kind) = self.sampler else {
+        if self.sampler.is_none() && self.frame.is_none() {
             return Ok(spec.clone());
-        };
+        }
         match spec {
             IntegrandSpec::ManyLight(m) => {
-                let mut m = m.clone();
-                m.sampler = kind;
+                let mut m = m.at_frame(self.frame.unwrap_or(0));
+                m.sampler = self.sampler.unwrap_or(m.sampler);
                 Ok(IntegrandSpec::ManyLight(m))
             }
-            other => bail!(
-                "--sampler {kind} applies only to the many_light integrand, but {} uses '{}' (light samplers: {})",
-                scene.display(),
-                other.type_name(),
-                SamplerKind::names()
-            ),
+            other => match self.sampler {
+                Some(kind) => bail!(
+                    "--sampler {kind} applies only to the many_light integrand, but {} uses '{}' (light samplers: {})",
+                    scene.display(),
+                    other.type_name(),
+                    SamplerKind::names()
+                ),
+                None => bail!(
+                    "frame sequences need a many_light scene (its lights, light tree and cuts \
+                     are made again every frame), but {} uses '{}'",
+                    scene.display(),
+                    other.type_name()
+                ),
+            },
         }
     }
 
     /// What the overrides add to a reference's cache key: nothing when
     /// they leave `spec` (the scene file's own table) as it is.
     pub fn cache_key(&self, spec: &IntegrandSpec) -> Result<String> {
-        Ok(match (self.sampler, light_sampler(spec)) {
+        let mut key = match (self.sampler, light_sampler(spec)) {
             (Some(kind), Some(own)) if kind != own => format!("|sampler={kind}"),
             _ => String::new(),
-        })
+        };
+        if let (Some(f), IntegrandSpec::ManyLight(m)) = (self.frame, spec) {
+            if m.at_frame(f) != *m {
+                key += &format!("|frame={f}");
+            }
+        }
+        Ok(key)
     }
 }
 
@@ -510,7 +527,10 @@ pub fn reference_overrides(
 ) -> (IntegrandOverrides, Option<String>) {
     match (overrides.sampler, spec) {
         (None, IntegrandSpec::ManyLight(m)) if m.sampler.is_biased() => (
-            IntegrandOverrides::sampler(SamplerKind::Tree),
+            IntegrandOverrides {
+                sampler: Some(SamplerKind::Tree),
+                ..overrides
+            },
             Some(format!(
                 "the scene's light sampler '{}' is biased: its reference uses 'tree'",
                 m.sampler
@@ -655,6 +675,40 @@ mod tests {
         assert_eq!(mdas_params_at_scale(p, 1.0 / 16.0).extra_image_bits, 4);
         assert_eq!(mdas_params_at_scale(p, 1.0 / 1024.0).extra_image_bits, 0);
         assert_eq!(mdas_params_at_scale(p, 2.0).extra_image_bits, 8);
+    }
+
+    #[test]
+    fn frame_overrides_move_the_table_and_key_the_reference() {
+        use crate::integrand::ManyLightSpec;
+        let m = ManyLightSpec {
+            time: 1.0,
+            frame_duration: 0.5,
+            sampler: SamplerKind::Sst,
+            ..ManyLightSpec::default()
+        };
+        let spec = IntegrandSpec::ManyLight(m.clone());
+        let at = |frame| IntegrandOverrides {
+            frame: Some(frame),
+            ..IntegrandOverrides::default()
+        };
+        let path = Path::new("s.toml");
+        assert_eq!(
+            at(3).apply(&spec, path).unwrap(),
+            IntegrandSpec::ManyLight(m.at_frame(3))
+        );
+        assert_eq!(at(3).cache_key(&spec).unwrap(), "|frame=3");
+        // Frame 0 is the scene's own table: the same cache entry.
+        assert_eq!(at(0).cache_key(&spec).unwrap(), "");
+        let both = IntegrandOverrides {
+            sampler: Some(SamplerKind::Tree),
+            ..at(2)
+        };
+        assert_eq!(both.cache_key(&spec).unwrap(), "|sampler=tree|frame=2");
+        // A biased sampler's reference uses tree at the same frame.
+        assert_eq!(reference_overrides(&spec, at(2)).0, both);
+        let other = IntegrandSpec::PathTracing { max_bounces: 1 };
+        let e = at(1).apply(&other, path).unwrap_err().to_string();
+        assert!(e.contains("frame sequences need a many_light scene"), "{e}");
     }
 
     #[test]

@@ -556,6 +556,67 @@ fn compare_json_goes_to_stdout_and_matches_the_report() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// `compare --frames`: one full comparison per frame in OUT/frame-NNNN,
+/// each against its own reference (the frame is part of the reference's
+/// cache key), and OUT/frames.csv with a row per frame and method.
+#[test]
+fn compare_frames_compares_each_frame_against_its_own_reference() {
+    let dir = temp_dir("compare-frames");
+    let out = dir.join("cmp");
+    let cache = dir.join("cache");
+    let o = mdas(&[
+        "--json",
+        "--quiet",
+        "compare",
+        "scenes/tests/moving_lights.toml",
+        "--frames",
+        "1..=2",
+        "--samplers",
+        "uniform,tree",
+        "--scale",
+        "0.5",
+        "--ref-spp",
+        "16",
+        "--repeats",
+        "1",
+        "--cache",
+        cache.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let record: serde_json::Value = serde_json::from_slice(&o.stdout).expect("one JSON document");
+    let frames = record["frames"].as_array().unwrap();
+    assert_eq!(frames.len(), 2);
+    let mut references = Vec::new();
+    for (f, frame) in [1, 2].iter().zip(frames) {
+        assert_eq!(frame["frame"].as_u64(), Some(*f));
+        let report = out.join(format!("frame-{f:04}")).join("report.json");
+        assert!(report.is_file(), "{} missing", report.display());
+        references.push(
+            frame["report"]["reference"]["path"]
+                .as_str()
+                .unwrap()
+                .to_string(),
+        );
+    }
+    assert_ne!(references[0], references[1], "two frames share a reference");
+    let methods: Vec<&str> = record["means"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| m["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(methods, ["mdas+tree", "halton+uniform", "halton+tree"]);
+    let csv = std::fs::read_to_string(out.join("frames.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 1 + 2 * 3, "{csv}");
+    assert!(
+        csv.lines().nth(4).unwrap().starts_with("2,mdas+tree,"),
+        "{csv}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 #[test]
 fn compare_bad_input_fails_without_a_report() {
     let dir = temp_dir("compare-bad");

@@ -69,6 +69,7 @@ fn setup<'a>(
         out: out.to_path_buf(),
         progress: false,
         mdas_params: params,
+        frame: None,
     }
 }
 

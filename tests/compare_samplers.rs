@@ -52,6 +52,7 @@ fn spec<'a>(
             out: out.to_path_buf(),
             progress: false,
             mdas_params: params,
+            frame: None,
         },
         budget: Budget::MdasSpp,
         max_spp: 1 << 12,
@@ -424,6 +425,7 @@ fn reference_sampler_override_is_part_of_the_cache_key() {
             mdas::app::IntegrandOverrides {
                 sampler: k,
                 visibility: None,
+                frame: None,
             },
             &cache,
             None,

@@ -49,6 +49,13 @@ pub(crate) struct CompareArgs {
     /// seeds, and report what adaptivity buys (RelMSE MDAS/MDAS-uniform).
     #[arg(long, conflicts_with = "samplers")]
     pub(crate) uniform: bool,
+    /// Compare on each frame of a many_light scene's sequence: A..B (B
+    /// excluded) or A..=B, frame f at scene time `time + f ·
+    /// frame_duration` (as `render --frames`). Each frame gets its own
+    /// reference and a full comparison in OUT/frame-NNNN/; OUT/frames.csv
+    /// and the printed summary give each method's means over the frames.
+    #[arg(long, value_name = "A..B", value_parser = super::frames::FrameRange::parse)]
+    pub(crate) frames: Option<super::frames::FrameRange>,
     #[command(flatten)]
     pub(crate) common: ExperimentArgs,
 }
@@ -68,6 +75,7 @@ pub(crate) fn run(args: CompareArgs, ui: Ui) -> Result<()> {
         seeds,
         crop,
         uniform,
+        frames,
         common,
     } = args;
     let out = common
@@ -79,37 +87,47 @@ pub(crate) fn run(args: CompareArgs, ui: Ui) -> Result<()> {
             .mdas
             .params(p, common.reference.scale, spp, common.seed)
     };
-    let setup = common.setup(ui, scene, out.clone(), &mdas_params);
     let budget = time_ms.map_or(
         mdas::compare::Budget::MdasSpp,
         mdas::compare::Budget::TimeMs,
     );
-    let report = match samplers {
-        Some(samplers) => mdas::compare::compare_samplers(
-            Gpu::shared()?,
-            &mdas::compare::SamplersSpec {
-                setup,
-                budget,
-                max_spp: common.max_spp,
-                samplers,
-            },
-        )?,
-        None => mdas::compare::compare_with(
-            Gpu::shared()?,
-            &mdas::compare::CompareSpec {
-                setup,
-                budget,
-                max_spp: common.max_spp,
-                seeds,
-                crops: crop,
-                uniform,
-            },
-            IntegrandOverrides {
-                sampler,
-                visibility,
-            },
-        )?,
+    let compare_at = |frame: Option<u32>, out: PathBuf| -> Result<mdas::compare::Report> {
+        let setup = mdas::compare::Setup {
+            frame,
+            ..common.setup(ui, scene.clone(), out, &mdas_params)
+        };
+        match &samplers {
+            Some(samplers) => mdas::compare::compare_samplers(
+                Gpu::shared()?,
+                &mdas::compare::SamplersSpec {
+                    setup,
+                    budget,
+                    max_spp: common.max_spp,
+                    samplers: samplers.clone(),
+                },
+            ),
+            None => mdas::compare::compare_with(
+                Gpu::shared()?,
+                &mdas::compare::CompareSpec {
+                    setup,
+                    budget,
+                    max_spp: common.max_spp,
+                    seeds,
+                    crops: crop.clone(),
+                    uniform,
+                },
+                IntegrandOverrides {
+                    sampler,
+                    visibility,
+                    frame: None,
+                },
+            ),
+        }
     };
+    if let Some(frames) = frames {
+        return compare_frames(frames, &out, compare_at, ui);
+    }
+    let report = compare_at(None, out.clone())?;
     ui.result(mdas::compare::report::table(&report));
     ui.note(format!(
         "wrote {} files to {}",
@@ -117,4 +135,157 @@ pub(crate) fn run(args: CompareArgs, ui: Ui) -> Result<()> {
         out.display()
     ));
     ui.json(&report)
+}
+
+/// A comparison per frame (`compare --frames`).
+#[derive(serde::Serialize)]
+struct FramesRecord {
+    frames: Vec<FrameReport>,
+    /// Each method's means over the frames, in the first report's order.
+    means: Vec<MethodMeans>,
+    /// Geometric mean over the frames of the equal-time RelMSE ratio
+    /// (MDAS / Halton; `--samplers`: MDAS / the baseline's).
+    relmse_ratio_geomean: f64,
+    csv: String,
+}
+
+#[derive(serde::Serialize)]
+struct FrameReport {
+    frame: u32,
+    dir: String,
+    report: mdas::compare::Report,
+}
+
+#[derive(serde::Serialize)]
+struct MethodMeans {
+    name: String,
+    frames: usize,
+    spp: f64,
+    time_ms: f64,
+    relmse: f64,
+    mse: f64,
+}
+
+/// Runs `compare_at` on every frame (its output in `out/frame-NNNN`, as
+/// one unit each: a failed frame leaves the finished ones), then writes
+/// `out/frames.csv` and prints each method's means.
+fn compare_frames(
+    frames: super::frames::FrameRange,
+    out: &Path,
+    compare_at: impl Fn(Option<u32>, PathBuf) -> Result<mdas::compare::Report>,
+    ui: Ui,
+) -> Result<()> {
+    std::fs::create_dir_all(out)
+        .map_err(|e| anyhow::anyhow!("cannot create {}: {e}", out.display()))?;
+    let csv = out.join("frames.csv");
+    mdas::atomic::check_writable(&csv)?;
+    let mut done: Vec<FrameReport> = Vec::new();
+    for f in frames.iter() {
+        let dir = out.join(format!("frame-{f:04}"));
+        ui.note(format!("frame {f} → {}", dir.display()));
+        let report = compare_at(Some(f), dir.clone())?;
+        ui.result(format!(
+            "frame {f}\n{}",
+            mdas::compare::report::table(&report)
+        ));
+        done.push(FrameReport {
+            frame: f,
+            dir: dir.display().to_string(),
+            report,
+        });
+        let text = frames_csv(&done);
+        mdas::atomic::write_atomic(&csv, |p| Ok(std::fs::write(p, text.as_bytes())?))?;
+    }
+    let means = method_means(&done);
+    let ratios: Vec<f64> = done
+        .iter()
+        .map(|d| d.report.equal_time.relmse_ratio)
+        .collect();
+    let relmse_ratio_geomean =
+        (ratios.iter().map(|r| r.ln()).sum::<f64>() / ratios.len() as f64).exp();
+    let mut table = format!(
+        "means over {} frame{} of each method's reported run (Halton: the bracketing run nearer \
+         to equal time):\n{:<24} {:>10} {:>12} {:>14} {:>14}\n",
+        done.len(),
+        if done.len() == 1 { "" } else { "s" },
+        "method",
+        "spp",
+        "time ms",
+        "RelMSE",
+        "MSE"
+    );
+    for m in &means {
+        table += &format!(
+            "{:<24} {:>10.2} {:>12.2} {:>14.6e} {:>14.6e}\n",
+            m.name, m.spp, m.time_ms, m.relmse, m.mse
+        );
+    }
+    table += &format!(
+        "equal-time RelMSE ratio, geometric mean over the frames: {relmse_ratio_geomean:.3}\n"
+    );
+    ui.result(table);
+    ui.note(format!(
+        "wrote {} frame comparisons and {}",
+        done.len(),
+        csv.display()
+    ));
+    ui.json(&FramesRecord {
+        frames: done,
+        means,
+        relmse_ratio_geomean,
+        csv: csv.display().to_string(),
+    })
+}
+
+/// One row per frame and method.
+fn frames_csv(done: &[FrameReport]) -> String {
+    let mut out = String::from("frame,method,spp,time_ms,relmse,mse,relmse_ratio\n");
+    for d in done {
+        for m in &d.report.methods {
+            out += &format!(
+                "{},{},{},{},{},{},{}\n",
+                d.frame,
+                m.name,
+                m.spp,
+                m.time_ms.get("total").copied().unwrap_or(f64::NAN),
+                m.relmse,
+                m.mse,
+                d.report.equal_time.relmse_ratio
+            );
+        }
+    }
+    out
+}
+
+/// Each method's means over the frames that have it.
+fn method_means(done: &[FrameReport]) -> Vec<MethodMeans> {
+    let mut names: Vec<String> = Vec::new();
+    for d in done {
+        for m in &d.report.methods {
+            if !names.contains(&m.name) {
+                names.push(m.name.clone());
+            }
+        }
+    }
+    names
+        .into_iter()
+        .map(|name| {
+            let runs: Vec<_> = done
+                .iter()
+                .flat_map(|d| d.report.methods.iter().filter(|m| m.name == name))
+                .collect();
+            let n = runs.len() as f64;
+            let mean = |f: &dyn Fn(&mdas::compare::report::MethodReport) -> f64| {
+                runs.iter().map(|m| f(m)).sum::<f64>() / n
+            };
+            MethodMeans {
+                frames: runs.len(),
+                spp: mean(&|m| m.spp),
+                time_ms: mean(&|m| m.time_ms.get("total").copied().unwrap_or(f64::NAN)),
+                relmse: mean(&|m| m.relmse),
+                mse: mean(&|m| m.mse),
+                name,
+            }
+        })
+        .collect()
 }

@@ -248,6 +248,7 @@ pub(crate) fn run(args: RenderArgs, ui: Ui) -> Result<()> {
     let overrides = IntegrandOverrides {
         sampler,
         visibility,
+        frame: None,
     };
     // The first frame's set-up is inside the scene upload: timed with it.
     let start = std::time::Instant::now();

@@ -335,6 +335,7 @@ impl ReferenceArgs {
             out,
             progress: ui.progress(),
             mdas_params,
+            frame: None,
         }
     }
 }

@@ -94,6 +94,7 @@ pub(crate) fn run(args: ReferenceArgs, ui: Ui) -> Result<()> {
         IntegrandOverrides {
             sampler,
             visibility,
+            frame: None,
         },
         &cache,
         Some(Box::new(move |done, _| b.set_position(done as u64))),

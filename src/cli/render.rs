@@ -144,6 +144,7 @@ pub(crate) fn run(args: RenderArgs, ui: Ui) -> Result<()> {
     let overrides = IntegrandOverrides {
         sampler,
         visibility,
+        frame: None,
     };
     if let mdas::accel::Visibility::Voxel(p) = overrides.visibility(&loaded) {
         // The array is built with the scene upload: seconds to minutes on

@@ -70,6 +70,10 @@ pub struct Setup<'a> {
     /// The scene's `[mdas]` table → the parameters to run (scaling to
     /// `--scale`, CLI overrides).
     pub mdas_params: &'a dyn Fn(MdasParams) -> MdasParams,
+    /// Frame f of a `many_light` scene's sequence (`compare --frames`;
+    /// [`crate::integrand::ManyLightSpec::at_frame`]), for the compared
+    /// renders and the reference alike; `None`: the scene's own table.
+    pub frame: Option<u32>,
 }
 
 impl Setup<'_> {
@@ -116,7 +120,17 @@ impl Setup<'_> {
             scale: self.scale,
             seed: self.ref_seed,
         };
-        load_reference(gpu, &self.scene, spec, &self.cache_dir, self.progress)
+        load_reference(
+            gpu,
+            &self.scene,
+            spec,
+            IntegrandOverrides {
+                frame: self.frame,
+                ..IntegrandOverrides::default()
+            },
+            &self.cache_dir,
+            self.progress,
+        )
     }
 }
 
@@ -141,6 +155,7 @@ impl<'a> Setup<'a> {
             out,
             progress: false,
             mdas_params,
+            frame: None,
         }
     }
 }
@@ -349,6 +364,7 @@ pub(crate) fn load_reference(
     gpu: &Gpu,
     scene: &Path,
     spec: ReferenceSpec,
+    overrides: IntegrandOverrides,
     cache_dir: &Path,
     progress: bool,
 ) -> Result<(Vec<[f32; 3]>, PathBuf, bool)> {
@@ -358,10 +374,11 @@ pub(crate) fn load_reference(
         "reference {bar:40} {pos}/{len} spp [{elapsed_precise} < {eta}]",
     );
     let b2 = b.clone();
-    let reference = app::reference(
+    let reference = app::reference_with(
         gpu,
         scene,
         spec,
+        overrides,
         cache_dir,
         Some(Box::new(move |done, _| b2.set_position(done as u64))),
     )?;
@@ -461,6 +478,10 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
     // 1. Validation, before any render or file.
     spec.setup.check()?;
     check_budget(spec.budget)?;
+    let overrides = IntegrandOverrides {
+        frame: spec.setup.frame,
+        ..overrides
+    };
     let scene = SceneFile::load(&spec.setup.scene)?;
     for w in scene.integrand.light_warnings(&scene.scene) {
         eprintln!("warning: {w}");

@@ -123,7 +123,11 @@ fn run(gpu: &Gpu, spec: &SamplersSpec) -> Result<Report> {
     let original = scene.integrand.clone();
     let mut integrands: Vec<(SamplerKind, Box<dyn Integrand>)> = Vec::new();
     for &kind in &kinds {
-        scene.integrand = app::IntegrandOverrides::sampler(kind).apply(&original, &setup.scene)?;
+        let overrides = app::IntegrandOverrides {
+            frame: setup.frame,
+            ..app::IntegrandOverrides::sampler(kind)
+        };
+        scene.integrand = overrides.apply(&original, &setup.scene)?;
         integrands.push((
             kind,
             app::integrand_on(gpu, &scene, gpu_scene.clone(), film)?,
