@@ -24,6 +24,7 @@ use mdas::lights::importance::{node_importance, ONE_MINUS_EPSILON};
 use mdas::lights::morton::{codes, exponent, morton30, quantize_axis};
 use mdas::lights::perfect::{self, gather, PerfectTree};
 use mdas::lights::substitute::{self, SstSampler, Stop, Substitute, SubstituteParams};
+use mdas::lights::two_level;
 use mdas::lights::{
     new_sampler, select_cut, LightSampler, PowerSampler, SamplerKind, Shading, TreeSampler,
     UniformSampler,
@@ -116,11 +117,31 @@ fn samplers(
                     new_sampler(kind, prims, Some((rep, size))),
                 ));
             }
+            if kind == SamplerKind::Tree2 {
+                // The factory's tree2 has one group; scenes have several.
+                let t = two_level::build(prims, &chunks(prims.len(), 3)).unwrap();
+                v.push((
+                    "tree2/groups".into(),
+                    Box::new(TreeSampler::new(t.clone(), Importance::Cones)),
+                ));
+                v.push((
+                    "tree2/groups/cut8".into(),
+                    Box::new(TreeSampler::with_cut_at(t, Importance::Cones, rep, 8)),
+                ));
+            }
         } else {
             v.push((kind.to_string(), new_sampler(kind, prims, None)));
         }
     }
     v
+}
+
+/// `0..n` in `k` contiguous groups of nearly equal size (empty ones
+/// included when `n < k`).
+fn chunks(n: usize, k: usize) -> Vec<std::ops::Range<u32>> {
+    (0..k)
+        .map(|i| (i * n / k) as u32..((i + 1) * n / k) as u32)
+        .collect()
 }
 
 /// `Σ_lights pmf`.
@@ -390,6 +411,93 @@ fn bvh_invariants() {
         let b = bvh::build(&same, cost).unwrap();
         check_bvh(&same, &b);
         assert_eq!(b.depth, 7);
+    }
+}
+
+// ---------------------------------------------------------------- two-level tree
+
+/// The two-level tree (`tree2`) is a valid light BVH whatever the groups
+/// (one, many, singletons, empty ones), deterministic, with cones bounding
+/// every light below; and each group's lights fill one subtree: the
+/// lowest common ancestor of a group's leaves has exactly that group's
+/// lights below it.
+#[test]
+fn two_level_tree_invariants_and_groups_stay_together() {
+    assert!(two_level::build(&[], &[]).is_none());
+    assert!(two_level::build(&[], &[0..0, 0..0]).is_none());
+    let mut rng = StdRng::seed_from_u64(17);
+    for n in [1usize, 2, 3, 7, 300, 1000] {
+        let mut prims = random_triangles(&mut rng, n);
+        prims.extend(random_scene(&mut rng, n / 3));
+        let n = prims.len();
+        let singletons: Vec<_> = (0..n as u32).map(|i| i..i + 1).collect();
+        for groups in [
+            vec![0..n as u32],
+            chunks(n, 2),
+            chunks(n, 5),
+            chunks(n, 9),
+            singletons,
+        ] {
+            let what = format!("{n} lights, {} groups", groups.len());
+            let t = two_level::build(&prims, &groups).unwrap();
+            check_bvh(&prims, &t);
+            check_cones_bound_their_lights(&prims, &t, &what);
+            assert_eq!(two_level::build(&prims, &groups).unwrap(), t, "{what}");
+            let below = |node: usize| -> Vec<u32> {
+                let mut out = Vec::new();
+                let mut stack = vec![node];
+                while let Some(x) = stack.pop() {
+                    match t.children(x) {
+                        Some((l, r)) => stack.extend([l, r]),
+                        None => out.push(t.nodes[x].id),
+                    }
+                }
+                out
+            };
+            for g in groups.iter().filter(|g| !g.is_empty()) {
+                // Walk up from the group's first leaf until the subtree
+                // holds all of the group.
+                let mut node = t.leaf_of_light(g.start).unwrap();
+                while below(node).len() < g.len() {
+                    node = t.parent(node).unwrap();
+                }
+                let mut ids = below(node);
+                ids.sort_unstable();
+                assert_eq!(ids, g.clone().collect::<Vec<_>>(), "{what}: group {g:?}");
+            }
+        }
+    }
+}
+
+#[test]
+#[should_panic(expected = "groups must partition")]
+fn two_level_groups_must_partition_the_ids() {
+    let prims = vec![LightPrim::point(Vec3::ZERO, Vec3::ONE); 4];
+    two_level::build(&prims, &[0..2, 3..4]);
+}
+
+/// Over one group the two-level tree is the perfect tree with its bogus
+/// leaves dropped: every light's pmf equals `tree_cone`'s without a cut,
+/// exactly (the same nodes, cones and decisions), at random shading
+/// points, for light counts that are and are not powers of two.
+#[test]
+fn tree2_over_one_group_samples_like_tree_cone() {
+    let mut rng = StdRng::seed_from_u64(23);
+    for n in [1usize, 2, 5, 64, 300] {
+        let mut prims = random_triangles(&mut rng, n);
+        prims.extend(random_scene(&mut rng, n / 2));
+        let n = prims.len();
+        let two = TreeSampler::new(
+            two_level::build(&prims, &[0..n as u32]).unwrap(),
+            Importance::Cones,
+        );
+        let perfect = TreeSampler::new(perfect::build(&prims).unwrap(), Importance::Cones);
+        for _ in 0..8 {
+            let s = random_shading(&mut rng);
+            for i in 0..n as u32 {
+                assert_eq!(two.pmf(&s, i), perfect.pmf(&s, i), "{n} lights, light {i}");
+            }
+        }
     }
 }
 

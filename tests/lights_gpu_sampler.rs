@@ -28,6 +28,7 @@ use mdas::lights::perfect;
 use mdas::lights::substitute::{
     self, SstSampler, Substitute, SubstituteParams, SubstituteTree, SUBSTITUTE_BIT,
 };
+use mdas::lights::two_level;
 use mdas::lights::{
     select_cut, LightSampler, PowerSampler, SamplerKind, Shading, TreeSampler, UniformSampler,
 };
@@ -471,7 +472,15 @@ fn gpu_samplers_match_the_cpu() {
                 let data = GpuSamplerData::new(gpu, kind, &s.prims, source, cut_layout()).unwrap();
                 check_substitutes(gpu, &h, &name, &data, &t, &s, 0);
             } else if kind.uses_bvh() {
-                let bvh = bvh::build(&s.prims, kind.bvh_cost()).unwrap();
+                let bvh = if kind == SamplerKind::Tree2 {
+                    // Three groups of lights (empty ones for n < 3).
+                    let groups: Vec<_> = (0..3)
+                        .map(|i| (i * n / 3) as u32..((i + 1) * n / 3) as u32)
+                        .collect();
+                    two_level::build(&s.prims, &groups).unwrap()
+                } else {
+                    bvh::build(&s.prims, kind.bvh_cost()).unwrap()
+                };
                 let source = Some(TreeSource::Bvh(&bvh));
                 let data = GpuSamplerData::new(gpu, kind, &s.prims, source, cut_layout()).unwrap();
                 check_kind(gpu, &h, &name, &data, &bvh, &s);

@@ -576,7 +576,7 @@ fn bad_many_light_input_is_an_error_at_its_position() {
     let integrand = |body: &str| format!("{BASE}[integrand]\ntype = \"many_light\"\n{body}");
     let m = error_at("sampler", &integrand("sampler = \"bvh\"\n"), 14, 11);
     assert!(
-        m.contains("unknown sampler 'bvh', expected one of 'uniform', 'power', 'tree_nocut', 'tree', 'tree_cone', 'unbalanced', 'unbalanced_nocut', 'unbalanced_nocone', 'sst', 'sst_nosub', 'lgh'"),
+        m.contains("unknown sampler 'bvh', expected one of 'uniform', 'power', 'tree_nocut', 'tree', 'tree_cone', 'unbalanced', 'unbalanced_nocut', 'unbalanced_nocone', 'tree2', 'sst', 'sst_nosub', 'lgh'"),
         "{m}"
     );
     let m = error_at("vpls", &integrand("vpls = -1\n"), 14, 8);

@@ -28,7 +28,7 @@ pub(crate) struct CompareArgs {
     pub(crate) visibility: Option<VisibilityKind>,
     /// Compare these light samplers (comma-separated: uniform, power,
     /// tree_nocut, tree, tree_cone, unbalanced, unbalanced_nocut,
-    /// unbalanced_nocone, sst, sst_nosub, lgh) under Halton at
+    /// unbalanced_nocone, tree2, sst, sst_nosub, lgh) under Halton at
     /// equal time; MDAS with `tree` sets the target (or --time-ms). The
     /// scene's integrand must be many_light.
     #[arg(long, value_name = "NAMES", value_delimiter = ',')]

@@ -27,9 +27,12 @@
 //! ([`crate::lights::vpl`], profiler phase `many_light.vpl`; read back and
 //! appended), are uploaded; the tree kinds build their perfect light tree
 //! **on the GPU** ([`GpuLightTree`], with cones for `tree_cone`), the
-//! `unbalanced` kinds build their BVH on the CPU, `power` its alias table.
+//! `unbalanced` kinds build their BVH on the CPU, `tree2` its two-level
+//! tree on the CPU (one bottom level per light group of
+//! [`crate::lights::scene_lights::light_groups`], the VPLs as one more),
+//! `power` its alias table.
 //! Kinds with cuts (`tree`, `tree_cone`, `unbalanced`,
-//! `unbalanced_nocone`) then run
+//! `unbalanced_nocone`, `tree2`) then run
 //! the cut-sharing pre-pass (paper §3.3): one invocation per k×k pixel
 //! block picks a representative pixel at random (a hash of the block and
 //! the frame number), traces its primary ray through the pixel centre and
@@ -64,7 +67,8 @@ use crate::lights::gpu_build::GpuLightTree;
 use crate::lights::gpu_lgh::GpuLgh;
 use crate::lights::gpu_sampler::{CutLayout, GpuSamplerData, TreeSource, FIRST_BINDING};
 use crate::lights::sampler::SamplerKind;
-use crate::lights::scene_lights::light_prims;
+use crate::lights::scene_lights::{light_groups, light_prims};
+use crate::lights::two_level;
 use crate::lights::vpl::{self, VplGenerator};
 use crate::lights::{LightPrim, KIND_TRIANGLE};
 use crate::scene::Scene;
@@ -185,7 +189,7 @@ impl ManyLight {
         };
         let prims = frame_lights(gpu, scene, &gpu_scene, spec, vpl.as_ref(), &mut profiler)?;
         let triangles = prims.iter().any(|l| l.kind == KIND_TRIANGLE);
-        let built = Self::build_sampler(gpu, spec, &prims, film, &mut profiler)?;
+        let built = Self::build_sampler(gpu, spec, scene, &prims, film, &mut profiler)?;
         let layout = gpu
             .device
             .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -259,7 +263,8 @@ impl ManyLight {
                 }
             }
             None => {
-                let built = Self::build_sampler(gpu, &spec, &prims, self.film, &mut profiler)?;
+                let built =
+                    Self::build_sampler(gpu, &spec, scene, &prims, self.film, &mut profiler)?;
                 self.bind_group = Self::bind_group(gpu, &self.layout, &self.scene, &built.sampler);
                 self.sampler = built.sampler;
                 self.loop_iterations = built.loop_iterations;
@@ -301,6 +306,7 @@ impl ManyLight {
     fn build_sampler(
         gpu: &Gpu,
         spec: &ManyLightSpec,
+        scene: &Scene,
         prims: &[LightPrim],
         film: Film,
         profiler: &mut Profiler,
@@ -351,10 +357,22 @@ impl ManyLight {
                     cpu_build_ms: None,
                 })
             } else {
-                // CPU-built structures (BVH, alias table) are part of the
-                // set-up time, measured on the wall clock.
+                // CPU-built structures (BVH, two-level tree, alias table)
+                // are part of the set-up time, measured on the wall clock.
                 let start = std::time::Instant::now();
-                let sampler = GpuSamplerData::new(gpu, kind, prims, None, cuts)?;
+                let sampler = if kind == SamplerKind::Tree2 && n > 0 {
+                    // One bottom level per light group of the scene, and
+                    // the frame's VPLs as one more.
+                    let mut groups = light_groups(scene);
+                    let scene_lights = groups.last().map_or(0, |g| g.end);
+                    if n > scene_lights {
+                        groups.push(scene_lights..n);
+                    }
+                    let tree = two_level::build(prims, &groups).expect("n > 0 lights");
+                    GpuSamplerData::new(gpu, kind, prims, Some(TreeSource::Bvh(&tree)), cuts)?
+                } else {
+                    GpuSamplerData::new(gpu, kind, prims, None, cuts)?
+                };
                 Ok(Built {
                     sampler,
                     tree: None,

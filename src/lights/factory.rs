@@ -8,6 +8,7 @@ use super::importance::Shading;
 use super::perfect::{self, PerfectTree};
 use super::sampler::{LightSample, LightSampler, SamplerKind};
 use super::substitute::{self, SstSampler, SubstituteParams};
+use super::two_level;
 use super::LightPrim;
 
 /// Every light with probability `1/N`.
@@ -89,6 +90,13 @@ pub fn new_sampler(
                 cut_at,
             )
         }
+        // Without group information: one group, the perfect tree's order
+        // (`two_level::build` with the scene's groups is what renders use).
+        SamplerKind::Tree2 => tree::<LightBvh>(
+            two_level::build(prims, &[0..prims.len() as u32]).unwrap(),
+            kind.importance(),
+            cut_at,
+        ),
         SamplerKind::Sst | SamplerKind::SstNoSub => Box::new(SstSampler {
             tree: substitute::build(prims).unwrap(),
             params: (kind == SamplerKind::Sst).then(SubstituteParams::default),

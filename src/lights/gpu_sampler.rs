@@ -27,6 +27,7 @@ use super::lgh::{self, GridLight};
 use super::perfect::{self, PerfectTree};
 use super::sampler::SamplerKind;
 use super::substitute::{self, Substitute, SubstituteParams, SubstituteTree};
+use super::two_level;
 use super::{gpu_build, LightCone, LightPrim, TreeNode, NO_LIGHT};
 use crate::gpu::buffer::STORAGE;
 use crate::gpu::shader::{storage_entry, uniform_entry, Wgsl};
@@ -362,10 +363,16 @@ impl GpuSamplerData {
                 }
                 SamplerKind::Unbalanced
                 | SamplerKind::UnbalancedNoCut
-                | SamplerKind::UnbalancedNoCone => {
+                | SamplerKind::UnbalancedNoCone
+                | SamplerKind::Tree2 => {
                     let built;
                     let b = match tree {
                         Some(TreeSource::Bvh(b)) => b,
+                        // tree2 without groups: one group (factory.rs).
+                        None if kind == SamplerKind::Tree2 => {
+                            built = two_level::build(prims, &[0..n]).unwrap();
+                            &built
+                        }
                         None => {
                             built = bvh::build(prims, kind.bvh_cost()).unwrap();
                             &built

@@ -56,6 +56,7 @@ pub mod perfect;
 pub mod sampler;
 pub mod scene_lights;
 pub mod substitute;
+pub mod two_level;
 pub mod vpl;
 
 pub use alias::{AliasEntry, PowerSampler};

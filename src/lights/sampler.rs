@@ -14,6 +14,7 @@
 //! | `unbalanced_nocut` | [`TreeSampler`](super::cut::TreeSampler) with cones over a SAOH [`LightBvh`](super::bvh::LightBvh), cut = root | §4, pbrt-v4 |
 //! | `unbalanced` | same, with a greedy cut | §4, pbrt-v4 |
 //! | `unbalanced_nocone` | a cone-free SAH BVH with a greedy cut | §4 |
+//! | `tree2` | [`TreeSampler`](super::cut::TreeSampler) with cones and a greedy cut over the two-level perfect tree ([`super::two_level`]: a perfect tree per mesh / light set, one over them), in the BVH's layout | §3.1 |
 //! | `sst` | [`SstSampler`](super::substitute::SstSampler): a perfect tree sorted with normal codes, `tree_cone` descent from the root, stopping at the first suitable substitute (biased) | Tatzgern et al. 2020 |
 //! | `sst_nosub` | the same with substitution off: a leaf-only (unbiased) tree sampler | Tatzgern et al. 2020 |
 //! | `lgh` | no picker: the lighting grid hierarchy ([`super::lgh`]) sums over grid lights and picks S shadow samples (biased) | Lin & Yuksel 2019 |
@@ -54,6 +55,7 @@ pub enum SamplerKind {
     Unbalanced,
     UnbalancedNoCut,
     UnbalancedNoCone,
+    Tree2,
     Sst,
     SstNoSub,
     Lgh,
@@ -61,8 +63,8 @@ pub enum SamplerKind {
 
 impl SamplerKind {
     /// Every kind: the pickers, then `lgh`.
-    pub const ALL: [SamplerKind; 11] = {
-        let mut all = [SamplerKind::Lgh; 11];
+    pub const ALL: [SamplerKind; 12] = {
+        let mut all = [SamplerKind::Lgh; 12];
         let mut i = 0;
         while i < Self::PICKERS.len() {
             all[i] = Self::PICKERS[i];
@@ -74,7 +76,7 @@ impl SamplerKind {
     /// The kinds that pick one light per sample with a probability (the
     /// [`LightSampler`] contract): all but `lgh`, which sums over grid
     /// lights ([`super::lgh`]).
-    pub const PICKERS: [SamplerKind; 10] = [
+    pub const PICKERS: [SamplerKind; 11] = [
         SamplerKind::Uniform,
         SamplerKind::Power,
         SamplerKind::TreeNoCut,
@@ -83,6 +85,7 @@ impl SamplerKind {
         SamplerKind::Unbalanced,
         SamplerKind::UnbalancedNoCut,
         SamplerKind::UnbalancedNoCone,
+        SamplerKind::Tree2,
         SamplerKind::Sst,
         SamplerKind::SstNoSub,
     ];
@@ -97,6 +100,7 @@ impl SamplerKind {
             SamplerKind::Unbalanced => "unbalanced",
             SamplerKind::UnbalancedNoCut => "unbalanced_nocut",
             SamplerKind::UnbalancedNoCone => "unbalanced_nocone",
+            SamplerKind::Tree2 => "tree2",
             SamplerKind::Sst => "sst",
             SamplerKind::SstNoSub => "sst_nosub",
             SamplerKind::Lgh => "lgh",
@@ -126,6 +130,7 @@ impl SamplerKind {
                 | SamplerKind::TreeCone
                 | SamplerKind::Unbalanced
                 | SamplerKind::UnbalancedNoCone
+                | SamplerKind::Tree2
         )
     }
 
@@ -156,11 +161,15 @@ impl SamplerKind {
         matches!(self, SamplerKind::Sst | SamplerKind::Lgh)
     }
 
-    /// Whether the kind samples the unbalanced BVH.
+    /// Whether the kind samples a tree in the unbalanced BVH's layout
+    /// (explicit children): the BVH kinds and `tree2`.
     pub fn uses_bvh(self) -> bool {
         matches!(
             self,
-            SamplerKind::Unbalanced | SamplerKind::UnbalancedNoCut | SamplerKind::UnbalancedNoCone
+            SamplerKind::Unbalanced
+                | SamplerKind::UnbalancedNoCut
+                | SamplerKind::UnbalancedNoCone
+                | SamplerKind::Tree2
         )
     }
 
@@ -171,6 +180,7 @@ impl SamplerKind {
             SamplerKind::TreeCone
                 | SamplerKind::Unbalanced
                 | SamplerKind::UnbalancedNoCut
+                | SamplerKind::Tree2
                 | SamplerKind::Sst
                 | SamplerKind::SstNoSub
         )

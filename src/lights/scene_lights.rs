@@ -75,6 +75,33 @@ pub fn light_counts(scene: &Scene) -> LightCounts {
     }
 }
 
+/// The groups of [`light_prims`]' ids that the two-level tree (`tree2`,
+/// [`super::two_level`]) builds one bottom-level tree each over, in id
+/// order: the `[[light]]` points together, each `[[light_set]]`, each
+/// emissive mesh. Empty groups are left out.
+pub fn light_groups(scene: &Scene) -> Vec<std::ops::Range<u32>> {
+    let counts = light_counts(scene);
+    let mut sizes = vec![counts.points];
+    sizes.extend(scene.point_light_sets.iter().map(|s| s.len()));
+    sizes.extend(
+        scene
+            .meshes
+            .iter()
+            .filter(|m| is_emissive(scene, m))
+            .map(|m| m.indices.len()),
+    );
+    let mut start = 0u32;
+    let mut groups = Vec::new();
+    for size in sizes {
+        let end = start + size as u32;
+        if end > start {
+            groups.push(start..end);
+        }
+        start = end;
+    }
+    groups
+}
+
 /// Total number of lights of [`light_prims`] (at any time).
 pub fn light_count(scene: &Scene) -> usize {
     light_counts(scene).total()

@@ -54,17 +54,19 @@ fn light_no_pick() -> LightPick {
 
 fn light_uses_bvh() -> bool {
     let k = light_params.kind;
-    return k == LIGHT_KIND_UNBALANCED || k == LIGHT_KIND_UNBALANCED_NOCUT || k == LIGHT_KIND_UNBALANCED_NOCONE;
+    return k == LIGHT_KIND_UNBALANCED || k == LIGHT_KIND_UNBALANCED_NOCUT || k == LIGHT_KIND_UNBALANCED_NOCONE
+        || k == LIGHT_KIND_TREE2;
 }
 
 fn light_uses_cut() -> bool {
     let k = light_params.kind;
-    return k == LIGHT_KIND_TREE || k == LIGHT_KIND_TREE_CONE || k == LIGHT_KIND_UNBALANCED || k == LIGHT_KIND_UNBALANCED_NOCONE;
+    return k == LIGHT_KIND_TREE || k == LIGHT_KIND_TREE_CONE || k == LIGHT_KIND_UNBALANCED || k == LIGHT_KIND_UNBALANCED_NOCONE
+        || k == LIGHT_KIND_TREE2;
 }
 
 fn light_uses_cones() -> bool {
     let k = light_params.kind;
-    return k == LIGHT_KIND_TREE_CONE || k == LIGHT_KIND_UNBALANCED || k == LIGHT_KIND_UNBALANCED_NOCUT
+    return k == LIGHT_KIND_TREE_CONE || k == LIGHT_KIND_UNBALANCED || k == LIGHT_KIND_UNBALANCED_NOCUT || k == LIGHT_KIND_TREE2
         || k == LIGHT_KIND_SST || k == LIGHT_KIND_SST_NOSUB;
 }
 
@@ -508,7 +510,7 @@ fn light_pmf(s_p: vec3<f32>, s_n: vec3<f32>, cut_base: u32, light: u32) -> Light
         case LIGHT_KIND_LGH: {
             return LightPmf(0.0, 0);
         }
-        case LIGHT_KIND_UNBALANCED, LIGHT_KIND_UNBALANCED_NOCUT, LIGHT_KIND_UNBALANCED_NOCONE: {
+        case LIGHT_KIND_UNBALANCED, LIGHT_KIND_UNBALANCED_NOCUT, LIGHT_KIND_UNBALANCED_NOCONE, LIGHT_KIND_TREE2: {
             return light_pmf_bvh(s_p, s_n, cut_base, light);
         }
         default: {
