@@ -432,7 +432,7 @@ fn two_level_tree_invariants_and_groups_stay_together() {
         let n = prims.len();
         let singletons: Vec<_> = (0..n as u32).map(|i| i..i + 1).collect();
         for groups in [
-            vec![0..n as u32],
+            chunks(n, 1),
             chunks(n, 2),
             chunks(n, 5),
             chunks(n, 9),
@@ -488,7 +488,7 @@ fn tree2_over_one_group_samples_like_tree_cone() {
         prims.extend(random_scene(&mut rng, n / 2));
         let n = prims.len();
         let two = TreeSampler::new(
-            two_level::build(&prims, &[0..n as u32]).unwrap(),
+            two_level::build(&prims, &chunks(n, 1)).unwrap(),
             Importance::Cones,
         );
         let perfect = TreeSampler::new(perfect::build(&prims).unwrap(), Importance::Cones);

@@ -93,7 +93,7 @@ pub fn new_sampler(
         // Without group information: one group, the perfect tree's order
         // (`two_level::build` with the scene's groups is what renders use).
         SamplerKind::Tree2 => tree::<LightBvh>(
-            two_level::build(prims, &[0..prims.len() as u32]).unwrap(),
+            two_level::build(prims, std::slice::from_ref(&(0..prims.len() as u32))).unwrap(),
             kind.importance(),
             cut_at,
         ),

@@ -370,7 +370,7 @@ impl GpuSamplerData {
                         Some(TreeSource::Bvh(b)) => b,
                         // tree2 without groups: one group (factory.rs).
                         None if kind == SamplerKind::Tree2 => {
-                            built = two_level::build(prims, &[0..n]).unwrap();
+                            built = two_level::build(prims, std::slice::from_ref(&(0..n))).unwrap();
                             &built
                         }
                         None => {
