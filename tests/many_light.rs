@@ -270,13 +270,15 @@ fn renders_are_deterministic() {
 /// The many-light scenes render at a small scale under Halton and MDAS
 /// (the scene's sampler, `tree`) with no non-finite sample and a non-black
 /// image; the light tree is built on the GPU (1M lights for `lights_1m`,
-/// 100,000 VPLs generated on the GPU for `vpl_atrium`).
+/// 100,000 VPLs generated on the GPU for `vpl_atrium`), or for
+/// `street_lights` (`tree2`) on the CPU over 56 light groups.
 #[test]
 fn many_light_scenes_render_under_halton_and_mdas() {
     for (file, scale) in [
         ("scenes/cornell_lights.toml", 1.0 / 8.0),
         ("scenes/vpl_atrium.toml", 1.0 / 8.0),
         ("scenes/lights_1m.toml", 1.0 / 8.0),
+        ("scenes/street_lights.toml", 1.0 / 8.0),
     ] {
         let p = app::prepare(gpu(), Path::new(file), scale).unwrap();
         assert_eq!(p.integrand.name(), "many_light");
