@@ -454,6 +454,20 @@ fn two_level_tree_invariants_and_groups_stay_together() {
                 }
                 out
             };
+            // `depth` is the longest root-to-leaf path, in nodes.
+            let longest = (0..n as u32)
+                .map(|i| {
+                    let mut node = t.leaf_of_light(i);
+                    let mut d = 0;
+                    while let Some(x) = node {
+                        d += 1;
+                        node = t.parent(x);
+                    }
+                    d
+                })
+                .max()
+                .unwrap();
+            assert_eq!(t.depth, longest, "{what}");
             for g in groups.iter().filter(|g| !g.is_empty()) {
                 // Walk up from the group's first leaf until the subtree
                 // holds all of the group.
@@ -467,6 +481,38 @@ fn two_level_tree_invariants_and_groups_stay_together() {
             }
         }
     }
+}
+
+/// The top level pairs groups that are near each other, not neighbours
+/// in the group order: groups at x ≈ 0, 10, 0.5 and 10.5 (two lights
+/// each) pair as {0, 2} and {1, 3} under the root.
+#[test]
+fn two_level_top_level_pairs_near_groups() {
+    let pair = |x: f32| {
+        [
+            LightPrim::point(Vec3::new(x, 0.0, 0.0), Vec3::ONE),
+            LightPrim::point(Vec3::new(x + 0.2, 0.1, 0.0), Vec3::ONE),
+        ]
+    };
+    let prims: Vec<LightPrim> = [0.0, 10.0, 0.5, 10.5].into_iter().flat_map(pair).collect();
+    let t = two_level::build(&prims, &chunks(8, 4)).unwrap();
+    let (l, r) = t.children(0).unwrap();
+    let below = |node: usize| -> Vec<u32> {
+        let mut out = Vec::new();
+        let mut stack = vec![node];
+        while let Some(x) = stack.pop() {
+            match t.children(x) {
+                Some((a, b)) => stack.extend([a, b]),
+                None => out.push(t.nodes[x].id / 2),
+            }
+        }
+        out.sort_unstable();
+        out.dedup();
+        out
+    };
+    let mut halves = [below(l), below(r)];
+    halves.sort();
+    assert_eq!(halves, [vec![0, 2], vec![1, 3]]);
 }
 
 #[test]
