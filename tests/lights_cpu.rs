@@ -483,18 +483,24 @@ fn two_level_tree_invariants_and_groups_stay_together() {
     }
 }
 
-/// The top level pairs groups that are near each other, not neighbours
-/// in the group order: groups at x ≈ 0, 10, 0.5 and 10.5 (two lights
-/// each) pair as {0, 2} and {1, 3} under the root.
+/// The top level pairs groups by the Morton order of their box centres:
+/// four groups of two point lights spanning x ∈ [4.7, 5.4], [−9.1, −8.5],
+/// [3.9, 6.3] and [4.5, 5.5] (centres 5.05, −8.8, 5.1, 5.0) sort as
+/// 1, 3, 0, 2 and pair as {1, 3} and {0, 2} under the root. (The spans
+/// were chosen so that a centre computed from the bounds any other way —
+/// min − max, min·max, one term without its ½ — pairs them differently.)
 #[test]
-fn two_level_top_level_pairs_near_groups() {
-    let pair = |x: f32| {
-        [
-            LightPrim::point(Vec3::new(x, 0.0, 0.0), Vec3::ONE),
-            LightPrim::point(Vec3::new(x + 0.2, 0.1, 0.0), Vec3::ONE),
-        ]
-    };
-    let prims: Vec<LightPrim> = [0.0, 10.0, 0.5, 10.5].into_iter().flat_map(pair).collect();
+fn two_level_top_level_pairs_groups_by_their_centres() {
+    let spans = [(4.7, 5.4), (-9.1, -8.5), (3.9, 6.3), (4.5, 5.5)];
+    let prims: Vec<LightPrim> = spans
+        .into_iter()
+        .flat_map(|(a, b)| {
+            [
+                LightPrim::point(Vec3::new(a, 0.0, 0.0), Vec3::ONE),
+                LightPrim::point(Vec3::new(b, 0.0, 0.0), Vec3::ONE),
+            ]
+        })
+        .collect();
     let t = two_level::build(&prims, &chunks(8, 4)).unwrap();
     let (l, r) = t.children(0).unwrap();
     let below = |node: usize| -> Vec<u32> {
