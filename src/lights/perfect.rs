@@ -187,5 +187,10 @@ mod tests {
         assert_eq!(t.nodes[0].max, [1.0, 1.0, 0.0]);
         assert!((t.nodes[0].intensity - 6.0).abs() < 1e-5);
         assert!(build(&[]).is_none());
+        // Levels: the root, then 2, then the 4 leaves (the bogus one last).
+        assert_eq!(t.level(0), &t.nodes[0..1]);
+        assert_eq!(t.level(1), &t.nodes[1..3]);
+        assert_eq!(t.level(2), &t.nodes[3..7]);
+        assert_eq!(t.level(2)[3], TreeNode::EMPTY);
     }
 }
