@@ -226,8 +226,9 @@ impl ManyLight {
     /// per frame. The shaders, the bind group layout and, for the kinds
     /// built on the GPU (`tree*`, `sst*`) and `uniform`, every buffer are
     /// reused, so an integrator's pipelines stay valid; the CPU-built kinds
-    /// (`power`, `unbalanced*`) and `lgh`, whose structures change size
-    /// with the lights, upload new ones. The result is the image of
+    /// (`power`, `unbalanced*`, `tree2`) and `lgh`, whose structures change
+    /// size with the lights, upload new ones. The VPLs keep their seed
+    /// (`vpl_seed`): they move with the lights, not with the frame number. The result is the image of
     /// `ManyLight::new` with `spec.at_frame(f)`, bit for bit.
     /// [`ManyLight::setup_times`] then holds this frame's set-up.
     pub fn set_frame(&mut self, gpu: &Gpu, scene: &Scene, f: u32) -> Result<()> {
