@@ -416,6 +416,19 @@ fn bvh_invariants() {
 
 // ---------------------------------------------------------------- two-level tree
 
+/// The light ids of the leaves below `node` of a light BVH.
+fn lights_below(t: &LightBvh, node: usize) -> Vec<u32> {
+    let mut out = Vec::new();
+    let mut stack = vec![node];
+    while let Some(x) = stack.pop() {
+        match t.children(x) {
+            Some((l, r)) => stack.extend([l, r]),
+            None => out.push(t.nodes[x].id),
+        }
+    }
+    out
+}
+
 /// The two-level tree (`tree2`) is a valid light BVH whatever the groups
 /// (one, many, singletons, empty ones), deterministic, with cones bounding
 /// every light below; and each group's lights fill one subtree: the
@@ -443,17 +456,7 @@ fn two_level_tree_invariants_and_groups_stay_together() {
             check_bvh(&prims, &t);
             check_cones_bound_their_lights(&prims, &t, &what);
             assert_eq!(two_level::build(&prims, &groups).unwrap(), t, "{what}");
-            let below = |node: usize| -> Vec<u32> {
-                let mut out = Vec::new();
-                let mut stack = vec![node];
-                while let Some(x) = stack.pop() {
-                    match t.children(x) {
-                        Some((l, r)) => stack.extend([l, r]),
-                        None => out.push(t.nodes[x].id),
-                    }
-                }
-                out
-            };
+            let below = |node: usize| lights_below(&t, node);
             // `depth` is the longest root-to-leaf path, in nodes.
             let longest = (0..n as u32)
                 .map(|i| {
@@ -503,18 +506,12 @@ fn two_level_top_level_pairs_groups_by_their_centres() {
         .collect();
     let t = two_level::build(&prims, &chunks(8, 4)).unwrap();
     let (l, r) = t.children(0).unwrap();
+    // The groups (lights 2g and 2g + 1) below a node.
     let below = |node: usize| -> Vec<u32> {
-        let mut out = Vec::new();
-        let mut stack = vec![node];
-        while let Some(x) = stack.pop() {
-            match t.children(x) {
-                Some((a, b)) => stack.extend([a, b]),
-                None => out.push(t.nodes[x].id / 2),
-            }
-        }
-        out.sort_unstable();
-        out.dedup();
-        out
+        let mut groups: Vec<u32> = lights_below(&t, node).iter().map(|id| id / 2).collect();
+        groups.sort_unstable();
+        groups.dedup();
+        groups
     };
     let mut halves = [below(l), below(r)];
     halves.sort();
