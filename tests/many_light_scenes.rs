@@ -9,7 +9,9 @@ use mdas::integrand::IntegrandSpec;
 use mdas::integrand::ManyLightSpec;
 use mdas::lights::lgh::LghParams;
 use mdas::lights::sampler::SamplerKind;
-use mdas::lights::scene_lights::{light_count, light_counts, light_prims, LightCounts};
+use mdas::lights::scene_lights::{
+    light_count, light_counts, light_groups, light_prims, LightCounts,
+};
 use mdas::lights::substitute::SubstituteParams;
 use mdas::lights::vpl::VplSpec;
 use mdas::lights::{LightPrim, KIND_POINT, KIND_TRIANGLE};
@@ -88,6 +90,25 @@ fn cornell_lights_has_twelve_animated_mesh_lights_of_1000_triangles() {
             }
         }
     }
+}
+
+/// `street_lights` (the two-level tree's scene): 56 light groups, one per
+/// emissive mesh in file order — 38 windows of 2 triangles, 12 lamps of
+/// 224 (16 segments × 7 ring bands × 2) and 6 neon boxes of 12 — covering
+/// its 2,836 lights; no points, no light sets.
+#[test]
+fn street_lights_has_one_group_per_emissive_mesh() {
+    let s = scene_file::load(&scene_path("street_lights.toml")).unwrap();
+    let groups = light_groups(&s.scene);
+    let sizes: Vec<u32> = groups.iter().map(|g| g.end - g.start).collect();
+    let mut expected = vec![2; 38];
+    expected.extend([224; 12]);
+    expected.extend([12; 6]);
+    assert_eq!(sizes, expected);
+    assert_eq!(groups[0].start, 0);
+    assert!(groups.windows(2).all(|w| w[0].end == w[1].start));
+    assert_eq!(groups.last().unwrap().end as usize, light_count(&s.scene));
+    assert_eq!(light_count(&s.scene), 2836);
 }
 
 #[test]
@@ -309,6 +330,9 @@ fn light_sets_orbit_and_order_is_points_then_sets_then_emissive_triangles() {
         }
     );
     assert_eq!((c.total(), c.first_triangle()), (9, 6));
+    // tree2's groups: the point, each set, each emissive mesh (the floor
+    // does not emit).
+    assert_eq!(light_groups(&s.scene), [0..1, 1..4, 4..6, 6..7, 7..9]);
     let p0 = light_prims(&s.scene, 0.0);
     let p1 = light_prims(&s.scene, 1.0);
     assert_eq!(p0.len(), 9);
