@@ -107,16 +107,9 @@ struct Summary {
 impl Summary {
     fn of(records: &[FrameRecord]) -> Summary {
         let stats = |f: fn(&FrameRecord) -> f64| {
-            let mut v: Vec<f64> = records.iter().map(f).collect();
-            v.sort_by(f64::total_cmp);
-            let n = v.len();
-            let mean = v.iter().sum::<f64>() / n.max(1) as f64;
-            let median = match n {
-                0 => f64::NAN,
-                _ if n % 2 == 1 => v[n / 2],
-                _ => 0.5 * (v[n / 2 - 1] + v[n / 2]),
-            };
-            (mean, median)
+            let v: Vec<f64> = records.iter().map(f).collect();
+            let mean = v.iter().sum::<f64>() / v.len().max(1) as f64;
+            (mean, mdas::compare::equal_time::median(&v))
         };
         let (setup_ms_mean, setup_ms_median) = stats(|r| r.setup_ms);
         let (render_ms_mean, render_ms_median) = stats(|r| r.render_ms);
