@@ -47,6 +47,7 @@ fn mesh(name: &str, m: TriMesh, material: u32) -> Mesh {
         name: name.into(),
         positions: m.positions,
         indices: m.indices,
+        normals: m.normals,
         material,
         motion: Vec::new(),
     }

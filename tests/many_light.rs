@@ -571,6 +571,71 @@ mod vpl {
         }
     }
 
+    /// Issue 19: VPLs take the shading normal. A 4 × 4 OBJ floor whose
+    /// vertex normals all lean θ from its geometric normal (cos θ = 0.6),
+    /// a tiny lamp facing down at height 0.1 and a large white ceiling at
+    /// height 1. Every first-bounce VPL on the floor carries the tilted
+    /// normal; its path goes on about that normal, and the part of the
+    /// cosine lobe behind the floor, (1 − cos θ)/2 = 0.2 (see
+    /// `tilted_vertex_normals_lose_the_lobe_behind_the_surface` in
+    /// tests/integrands.rs), ends the path, so 0.8 of the floor VPLs'
+    /// paths leave a second VPL on the ceiling (1 with flat shading).
+    /// Binomial over n floor VPLs: within 5·√(0.8·0.2/n).
+    #[test]
+    fn vpls_on_smooth_meshes_follow_the_shading_normal() {
+        let dir = std::env::temp_dir().join(format!("mdas-vpl-smooth-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let obj = dir.join("floor.obj");
+        std::fs::write(
+            &obj,
+            "v -2 0 -2\nv -2 0 2\nv 2 0 2\nv 2 0 -2\nvn 0.8 0.6 0\nf 1//1 2//1 3//1\nf 1//1 3//1 4//1\n",
+        )
+        .unwrap();
+        let scene = parse(&format!(
+            "[film]\nwidth = 8\nheight = 8\n[camera]\nposition = [0, 0.5, -10]\nlook_at = [0, 0, 0]\nup = [0, 1, 0]\nfov_y = 40\n\
+             [[material]]\nname = \"white\"\nalbedo = [1, 1, 1]\n\
+             [[material]]\nname = \"lamp\"\nalbedo = [0, 0, 0]\nemission = [2, 2, 2]\n\
+             [[shape]]\ntype = \"mesh\"\nname = \"floor\"\nmaterial = \"white\"\nfile = \"{}\"\n\
+             [[shape]]\ntype = \"quad\"\nname = \"ceiling\"\nmaterial = \"white\"\ncorners = [[-1e4, 1, -1e4], [1e4, 1, -1e4], [1e4, 1, 1e4], [-1e4, 1, 1e4]]\n\
+             [[shape]]\ntype = \"quad\"\nname = \"lamp\"\nmaterial = \"lamp\"\ncorners = [[-0.001, 0.1, -0.001], [0.001, 0.1, -0.001], [0.001, 0.1, 0.001], [-0.001, 0.1, 0.001]]\n\
+             [integrand]\ntype = \"many_light\"\n",
+            obj.display()
+        ));
+        let spec = VplSpec {
+            paths: 4096,
+            bounces: 2,
+            seed: 3,
+            clamp: 0.0,
+        };
+        let vpls = generate(&scene, &spec);
+        let tilted = Vec3::new(0.8, 0.6, 0.0);
+        let (mut floor, mut second) = (0usize, 0usize);
+        for path in vpls.chunks_exact(2) {
+            if path[0].emission == [0.0; 3] {
+                continue; // missed the floor (r > 2: probability 1/401)
+            }
+            let (p, n) = (Vec3::from(path[0].p0), Vec3::from(path[0].p1));
+            assert!(p.y.abs() < 1e-3, "first hit off the floor: {p}");
+            assert!(n.abs_diff_eq(tilted, 1e-5), "floor VPL normal {n}");
+            floor += 1;
+            if path[1].emission != [0.0; 3] {
+                let (p, n) = (Vec3::from(path[1].p0), Vec3::from(path[1].p1));
+                assert!(
+                    (p.y - 1.0).abs() < 1e-3 && n.abs_diff_eq(-Vec3::Y, 1e-5),
+                    "{p} {n}"
+                );
+                second += 1;
+            }
+        }
+        assert!(floor > 4000, "{floor} floor VPLs");
+        let fraction = second as f64 / floor as f64;
+        let tol = 5.0 * (0.8 * 0.2 / floor as f64).sqrt();
+        assert!(
+            (fraction - 0.8).abs() < tol,
+            "{second} of {floor} floor paths went on: {fraction}, expected 0.8 ± {tol}"
+        );
+    }
+
     /// A small emissive square (two triangles) facing down at height `h` above
     /// a large floor (albedo 1), nothing else.
     fn triangle_over_floor(h: f32) -> String {

@@ -365,6 +365,76 @@ fn obj_material_errors_are_named_at_the_file_key() {
     assert!(m.contains("a quad shape needs 'material'"), "{m}");
 }
 
+/// Vertex normals through the scene loader (issue 19 item 4): with the
+/// OBJ's materials each part keeps its own vertices' normals, a
+/// `transform` maps them by its inverse transpose (a squashed y-scale
+/// tips them toward +y), and with a `material` the merged mesh keeps them
+/// too. A file mixing faces with and without normals is an error at the
+/// `file` key naming both lines.
+#[test]
+fn obj_vertex_normals_reach_the_scene_meshes() {
+    let (path, _) = load_text("obj-normals", "");
+    let dir = path.parent().unwrap().to_path_buf();
+    let write = |name: &str, text: &str| std::fs::write(dir.join(name), text).unwrap();
+    write(
+        "two.mtl",
+        "newmtl a\nKd 0.5 0.5 0.5\nnewmtl b\nKd 0.2 0.2 0.2\n",
+    );
+    write(
+        "smooth.obj",
+        "mtllib two.mtl\nv 0 0 0\nv 1 0 0\nv 1 0 -1\nv 0 0 -1\n\
+         vn 1 1 0\nvn 0 1 0\nvn -1 1 0\n\
+         o left\nusemtl a\nf 1//1 2//2 3//2\no right\nusemtl b\nf 1//3 3//3 4//3\n",
+    );
+    let shape =
+        |extra: &str| format!("{BASE}[[shape]]\ntype = \"mesh\"\nfile = \"smooth.obj\"\n{extra}");
+    let s = ok("obj-normals", &shape(""));
+    let meshes = &s.scene.meshes;
+    assert_eq!(meshes.len(), 2);
+    let h = std::f32::consts::FRAC_1_SQRT_2;
+    for (mesh, want) in meshes.iter().zip([
+        vec![Vec3::new(h, h, 0.0), Vec3::Y, Vec3::Y],
+        vec![Vec3::new(-h, h, 0.0); 3],
+    ]) {
+        let got: Vec<Vec3> = mesh.indices[0]
+            .iter()
+            .map(|&i| mesh.normals[i as usize].normalize())
+            .collect();
+        assert!(
+            got.iter().zip(&want).all(|(g, w)| g.abs_diff_eq(*w, 1e-6)),
+            "{}: {got:?}",
+            mesh.name
+        );
+        assert_eq!(mesh.normals.len(), mesh.positions.len());
+    }
+    // Scaling y by 1/4 makes the 45° normal (1, 1, 0) steeper: (1, 4, 0).
+    let squashed = ok(
+        "obj-normals",
+        &shape("material = \"white\"\ntransform = { scale = [1, 0.25, 1] }\n"),
+    );
+    let m = &squashed.scene.meshes[0];
+    assert_eq!(squashed.scene.meshes.len(), 1);
+    let first = m.normals[m.indices[0][0] as usize];
+    assert!(
+        first.abs_diff_eq(Vec3::new(1.0, 4.0, 0.0).normalize(), 1e-6),
+        "{first}"
+    );
+    write(
+        "mixed.obj",
+        "v 0 0 0\nv 1 0 0\nv 1 0 -1\nv 0 0 -1\nvn 0 1 0\nf 1//1 2//1 3//1\nf 1 3 4\n",
+    );
+    let m = error_at(
+        "obj-normals",
+        &format!("{BASE}[[shape]]\ntype = \"mesh\"\nmaterial = \"white\"\nfile = \"mixed.obj\"\n"),
+        15,
+        8,
+    );
+    assert!(
+        m.contains("line 7: the face on line 6 gives normals (vn) and the face on line 7 does not"),
+        "{m}"
+    );
+}
+
 #[test]
 fn message_format_names_file_line_column() {
     let text = format!("{BASE}[[material]]\nname = \"red\"\nalbdo = [1, 0, 0]\n");

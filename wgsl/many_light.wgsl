@@ -34,7 +34,7 @@ fn ml_direct(s: Surface, px: vec2<u32>, u: vec4<f32>, time: f32) -> vec3<f32> {
     if (all(s.rho == vec3<f32>(0.0))) {
         return vec3<f32>(0.0);
     }
-    let pick = light_sample(s.x, s.n, light_cut_base(px), u.x);
+    let pick = light_sample(s.x, s.ns, light_cut_base(px), u.x);
     if (pick.light == NO_LIGHT || !(pick.pmf_m > 0.0)) {
         return vec3<f32>(0.0);
     }
@@ -75,7 +75,7 @@ fn ml_light(s: Surface, l: LightPrim, u2: vec2<f32>, time: f32) -> vec3<f32> {
     }
     let dist = sqrt(dist2);
     let wi = to_light / dist;
-    let cos_x = dot(s.n, wi);
+    let cos_x = cos_reflect(s, wi);
     if (cos_x <= 0.0) {
         return vec3<f32>(0.0);
     }
@@ -127,7 +127,7 @@ fn ml_lgh(s: Surface, u: vec4<f32>, u_tri: vec3<f32>, time: f32) -> vec3<f32> {
         tri = s.rho * INV_PI * f32(t) * ml_light(s, light_prims[id], u_tri.yz, time);
     }
     let origin = offset_origin(s.x, s.n);
-    lgh_sum(origin, s.n);
+    lgh_sum(origin, s.ns);
     if (!(lgh_total > 0.0)) {
         return tri;
     }
@@ -135,7 +135,7 @@ fn ml_lgh(s: Surface, u: vec4<f32>, u_tri: vec3<f32>, time: f32) -> vec3<f32> {
     if (count == 0u) {
         return tri + s.rho * INV_PI * lgh_u;
     }
-    lgh_pick(origin, s.n, u.x);
+    lgh_pick(origin, s.ns, u.x);
     var sum = vec3<f32>(0.0);
     for (var k = 0u; k < count; k++) {
         let j = fract(u.yzw + f32(k) * LGH_JITTER_STEP);

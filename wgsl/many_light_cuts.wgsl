@@ -29,7 +29,7 @@ fn select_cuts(@builtin(global_invocation_id) gid: vec3<u32>,
     let hit = scene_closest(ray.origin, ray.dir, RAY_T_MAX, time);
     if (hit.prim != BVH_MISS) {
         let s = surface_at(hit, ray.dir, time);
-        len = select_cut(s.x, s.n, &cut);
+        len = select_cut(s.x, s.ns, &cut);
     }
     let base = block * light_params.cut_size;
     for (var i = 0u; i < light_params.cut_size; i++) {

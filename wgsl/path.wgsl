@@ -13,6 +13,9 @@
 // escape). β_0 = 1, β_{k+1} = β_k · ρ(x_k): cosine-weighted bounces make
 // f·cosθ/pdf = ρ. Emission reached by a bounce ray is not added: the NEE
 // at the vertex before it accounts for it. See src/integrand/path.rs.
+// Bounces are cosine-weighted about the shading normal; one that leaves
+// behind the geometric surface ends the path (`cos_reflect` is 0 there).
+
 
 const PATH_VERTEX_DIMS: u32 = 2u + 2u * PATH_AREA_NEE;
 
@@ -39,7 +42,10 @@ fn integrand(p: ptr<function, IntegrandPoint>) -> vec3<f32> {
         }
         // Cosine-weighted bounce on the side of x_k the ray arrived from.
         let b = base + 2u * PATH_AREA_NEE;
-        let wi = frame_from_normal(s.n) * sample_cosine_hemisphere(vec2<f32>((*p).u[b], (*p).u[b + 1u]));
+        let wi = frame_from_normal(s.ns) * sample_cosine_hemisphere(vec2<f32>((*p).u[b], (*p).u[b + 1u]));
+        if (dot(s.n, wi) <= 0.0) {
+            break;
+        }
         beta *= s.rho;
         hit = scene_closest(offset_origin(s.x, s.n), wi, RAY_T_MAX, time);
         if (hit.prim == BVH_MISS) {

@@ -30,6 +30,13 @@
 //! The traversal stack must hold one entry per level of the TLAS and of a
 //! BLAS plus one (see bvh.wgsl); [`BuiltScene::stack_depth`] is that bound
 //! and [`BuiltScene::new`] fails if it exceeds [`super::BVH_STACK_SIZE`].
+//!
+//! **Shading normals.** A triangle of a mesh with shading normals
+//! ([`crate::scene::Mesh::normals`]) has a record of three rows in
+//! [`BuiltScene::normals`], its corners' normals in the space of its
+//! vertices; `v2.w` holds the record's index + 1 (0: none, the geometric
+//! normal shades). On the device the records follow the triangles in the
+//! same buffer (`triangle_shading_normal` in scene.wgsl).
 
 use anyhow::{bail, Result};
 use glam::{Vec3, Vec3A};
@@ -54,9 +61,12 @@ pub struct BuiltScene {
     /// TLAS then every BLAS, offsets rebased (see module docs).
     pub nodes: Vec<CwBvhNode>,
     /// Three per triangle: v0.xyz | bitcast material, v1.xyz | bitcast
-    /// instance, v2.xyz | 0. World space for the static instance, object
-    /// space for moving ones.
+    /// instance, v2.xyz | bitcast (shading-normal record + 1, or 0). World
+    /// space for the static instance, object space for moving ones.
     pub triangles: Vec<[f32; 4]>,
+    /// Three rows per triangle with shading normals: n0.xyz | 0, n1, n2
+    /// (unit, in the space of the triangle's vertices).
+    pub normals: Vec<[f32; 4]>,
     /// Per global triangle: (mesh index in the scene, triangle index in
     /// that mesh).
     pub source: Vec<[u32; 2]>,
@@ -84,6 +94,8 @@ struct Group {
     /// Scene mesh of each triangle and its index there.
     source: Vec<[u32; 2]>,
     tris: Vec<Triangle>,
+    /// Corner shading normals of each triangle, if it has them.
+    normals: Vec<Option<[Vec3; 3]>>,
     motion: Vec<Keyframe>,
 }
 
@@ -177,11 +189,19 @@ impl BuiltScene {
                 let [mesh, tri] = group.source[p as usize];
                 let Triangle { v0, v1, v2 } = group.tris[p as usize];
                 let material = scene.meshes[mesh as usize].material;
+                let record = match group.normals[p as usize] {
+                    Some(ns) => {
+                        out.normals.extend(ns.map(|n| [n.x, n.y, n.z, 0.0]));
+                        u32::try_from(out.normals.len() / 3)?
+                    }
+                    None => 0,
+                };
                 out.triangles
                     .push([v0.x, v0.y, v0.z, f32::from_bits(material)]);
                 out.triangles
                     .push([v1.x, v1.y, v1.z, f32::from_bits(instance as u32)]);
-                out.triangles.push([v2.x, v2.y, v2.z, 0.0]);
+                out.triangles
+                    .push([v2.x, v2.y, v2.z, f32::from_bits(record)]);
                 out.source.push([mesh, tri]);
             }
             max_blas_depth = max_blas_depth.max(depth(blas));
@@ -214,6 +234,14 @@ impl BuiltScene {
     /// Material of global triangle `prim`.
     pub fn triangle_material(&self, prim: u32) -> u32 {
         self.triangles[3 * prim as usize][3].to_bits()
+    }
+
+    /// Stored (world or object space) corner shading normals of global
+    /// triangle `prim`, if it has them.
+    pub fn triangle_normals(&self, prim: u32) -> Option<[Vec3; 3]> {
+        let record = self.triangles[3 * prim as usize + 2][3].to_bits() as usize;
+        let rows = self.normals.get(3 * record.checked_sub(1)?..3 * record)?;
+        Some([0, 1, 2].map(|i| Vec3::new(rows[i][0], rows[i][1], rows[i][2])))
     }
 
     /// Stored (world or object space) vertices of global triangle `prim`.
@@ -253,12 +281,38 @@ impl BuiltScene {
     }
 }
 
+impl BuiltScene {
+    /// Unit shading normal of global triangle `prim` at barycentrics
+    /// `bary` (the weights of v1 and v2) in world space at scene time
+    /// `time`; the unit geometric normal where it has none or the
+    /// interpolation vanishes (the CPU twin of `triangle_shading_normal`
+    /// in scene.wgsl).
+    pub fn shading_normal(&self, prim: u32, bary: [f32; 2], time: f32) -> Vec3 {
+        let [a, b, c] = self.triangle_world(prim, time);
+        let geometric = (b - a).cross(c - a).normalize();
+        let Some(ns) = self.triangle_normals(prim) else {
+            return geometric;
+        };
+        let mut n = ns[0] * (1.0 - bary[0] - bary[1]) + ns[1] * bary[0] + ns[2] * bary[1];
+        let inst = self.triangle_instance(prim);
+        if self.instances[inst as usize].key_count != 0 {
+            n = self.instance_transform_at(inst, time).apply_vector(n);
+        }
+        if n.length_squared() > 1e-12 {
+            n.normalize()
+        } else {
+            geometric
+        }
+    }
+}
+
 /// Splits the scene's triangles into BLAS groups: all static meshes
 /// together, then one group per moving mesh. Empty groups are dropped.
 fn groups(scene: &Scene) -> Result<Vec<Group>> {
     let mut fixed = Group {
         source: Vec::new(),
         tris: Vec::new(),
+        normals: Vec::new(),
         motion: Vec::new(),
     };
     let mut moving = Vec::new();
@@ -274,12 +328,24 @@ fn groups(scene: &Scene) -> Result<Vec<Group>> {
         if let Some(p) = mesh.positions.iter().find(|p| !p.is_finite()) {
             bail!("mesh '{}' has a non-finite vertex {p}", mesh.name);
         }
+        if !mesh.normals.is_empty() && mesh.normals.len() != mesh.positions.len() {
+            bail!(
+                "mesh '{}' has {} shading normals for {} vertices",
+                mesh.name,
+                mesh.normals.len(),
+                mesh.positions.len()
+            );
+        }
+        if let Some(n) = mesh.normals.iter().find(|n| !n.is_finite()) {
+            bail!("mesh '{}' has a non-finite shading normal {n}", mesh.name);
+        }
         let mut group = if mesh.motion.is_empty() {
             None
         } else {
             Some(Group {
                 source: Vec::new(),
                 tris: Vec::new(),
+                normals: Vec::new(),
                 motion: motion::normalized_keys(&mesh.motion),
             })
         };
@@ -301,6 +367,7 @@ fn groups(scene: &Scene) -> Result<Vec<Group>> {
                 v2: vertex(idx[2])?,
             });
             target.source.push([m as u32, t as u32]);
+            target.normals.push(shading_normals(&mesh.normals, *idx));
         }
         if let Some(g) = group.filter(|g| !g.tris.is_empty()) {
             moving.push(g);
@@ -317,6 +384,16 @@ fn groups(scene: &Scene) -> Result<Vec<Group>> {
         bail!("too many triangles for 32-bit indices");
     }
     Ok(out)
+}
+
+/// The unit corner normals of the triangle with vertices `idx`, if the mesh
+/// has normals and not all three are zero (a zero corner stays zero: the
+/// shader falls back to the geometric normal where the interpolation
+/// vanishes). The vertex indices were checked by the caller.
+fn shading_normals(normals: &[Vec3], idx: [u32; 3]) -> Option<[Vec3; 3]> {
+    let ns = idx.map(|i| normals.get(i as usize).map(|n| n.normalize_or_zero()));
+    let ns = [ns[0]?, ns[1]?, ns[2]?];
+    ns.iter().any(|n| *n != Vec3::ZERO).then_some(ns)
 }
 
 /// Levels of internal nodes on the longest root-to-leaf path.

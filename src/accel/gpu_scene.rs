@@ -128,9 +128,14 @@ impl GpuScene {
         );
 
         let n = built.triangle_count();
+        // The triangles, then their shading-normal records (build.rs).
+        let geometry = [built.triangles.as_slice(), built.normals.as_slice()].concat();
         gpu.check_binding_size(
-            &format!("mdas.scene.triangles ({n} triangles, 48 bytes each)"),
-            std::mem::size_of_val(built.triangles.as_slice()) as u64,
+            &format!(
+                "mdas.scene.triangles ({n} triangles, 48 bytes each, {} with shading normals, 48 more each)",
+                built.normals.len() / 3
+            ),
+            std::mem::size_of_val(geometry.as_slice()) as u64,
         )?;
         gpu.check_binding_size(
             &format!(
@@ -141,11 +146,8 @@ impl GpuScene {
         )?;
 
         gpu.scoped("uploading the scene", || {
-            let triangles = gpu.buffer_from(
-                "mdas.scene.triangles",
-                &non_empty(&built.triangles),
-                STORAGE,
-            )?;
+            let triangles =
+                gpu.buffer_from("mdas.scene.triangles", &non_empty(&geometry), STORAGE)?;
             let voxels = match voxel_layout {
                 Some(layout) => {
                     let v = GpuVoxels::build(gpu, built, &triangles, layout)?;

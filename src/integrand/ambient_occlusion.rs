@@ -1,10 +1,13 @@
 //! Ambient occlusion — a 4D integrand with one occlusion ray per sample.
 //!
 //! At the surface point x seen through the lens centre at shutter-open
-//! time, with n the geometric normal turned toward the camera (two-sided
-//! surfaces), the value is the cosine-weighted unoccluded fraction
+//! time, with n the shading normal turned toward the camera (two-sided
+//! surfaces; the geometric normal unless the mesh has vertex normals), the
+//! value is the cosine-weighted unoccluded fraction
 //!
 //! A(x) = (1/π) ∫_{H(n)} V_r(x, ω) cosθ dω ∈ [0, 1],
+//!
+//! where directions behind the geometric surface count as occluded.
 //!
 //! V_r(x, ω) = 1 when the ray from x (offset along n against
 //! self-intersection) in direction ω hits nothing closer than `radius`,

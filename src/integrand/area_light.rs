@@ -9,7 +9,9 @@
 //! with p(y) = pmf(triangle)/area(triangle): one shadow ray, both cosines,
 //! the inverse squared distance and the area pdf (DESIGN.md "Lights").
 //! Emission is one-sided (the side the geometric normal faces); reflection
-//! is two-sided. Camera rays use the lens centre and shutter-open time.
+//! is two-sided, with cosθ_x from the shading normal (vertex normals, if
+//! the mesh has them) and 0 for light behind the geometric surface.
+//! Camera rays use the lens centre and shutter-open time.
 //!
 //! The estimator lives in `wgsl/shared/shading.wgsl` (`direct_area_light`),
 //! shared with the path tracer's NEE.

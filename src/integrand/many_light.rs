@@ -16,7 +16,8 @@
 //! (one-sided: 0 behind it) and C = I_0·cosθ_v/max(d², clamp²) for a VPL
 //! (a cosine lobe about its normal, 0 behind it). The camera ray is a
 //! pinhole ray at the frame time `time` of the `[integrand]` table;
-//! shading normals face the viewer (two-sided reflection) and are what the
+//! shading normals (the geometric normal, or the mesh's interpolated vertex
+//! normals) face the viewer (two-sided reflection) and are what the
 //! sampler bounds use.
 //!
 //! # Frames

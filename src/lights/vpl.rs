@@ -14,11 +14,13 @@
 //! | directional light | uniform on a disk of the scene's bounding radius R, upstream | the light's | `π·R²·E` |
 //!
 //! A path carries `Φ / (pmf · paths)` (RGB). At each of its first
-//! `bounces` diffuse hits `x` (albedo ρ, normal `n` facing the arriving
-//! ray) it deposits one VPL: position `x`, normal `n`, on-axis intensity
+//! `bounces` diffuse hits `x` (albedo ρ, shading normal `n` facing the
+//! arriving ray: the geometric normal unless the mesh has vertex normals)
+//! it deposits one VPL: position `x`, normal `n`, on-axis intensity
 //! `ρ·Φ_k/π` (its cosine lobe then emits `ρ·Φ_k` in all, the flux the
 //! surface reflects), and goes on in a cosine-distributed direction about
-//! `n` with `Φ_{k+1} = ρ·Φ_k` (the Lambertian throughput `f·cos/pdf = ρ`).
+//! `n` with `Φ_{k+1} = ρ·Φ_k` (the Lambertian throughput `f·cos/pdf = ρ`);
+//! a direction behind the geometric surface ends the path there.
 //! Path `i` writes slots `i·bounces .. (i+1)·bounces`; a path that leaves
 //! the scene fills its remaining slots with dark VPLs (zero intensity, at
 //! the last ray's origin), so the light ids never depend on the geometry.

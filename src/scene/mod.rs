@@ -80,6 +80,9 @@ pub struct Mesh {
     pub positions: Vec<Vec3>,
     /// Counter-clockwise triangles: geometric normal (v1 − v0) × (v2 − v0).
     pub indices: Vec<[u32; 3]>,
+    /// Shading normals, one per position, or empty (see
+    /// [`shapes::TriMesh::normals`]).
+    pub normals: Vec<Vec3>,
     pub material: u32,
     /// Keyframes sorted by time; empty = static.
     pub motion: Vec<Keyframe>,

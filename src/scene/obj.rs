@@ -1,10 +1,12 @@
 //! Wavefront OBJ meshes for `[[shape]] type = "mesh"`, read with tobj.
 //!
-//! Vertex positions and faces are used: polygons are fan-triangulated
-//! (tobj), points and lines are ignored, and face winding is kept as
-//! written, so the OBJ's counter-clockwise faces keep their normals (and
-//! emit on that side). Vertex normals (`vn`) and texture coordinates are
-//! not used.
+//! Vertex positions, vertex normals and faces are used: polygons are
+//! fan-triangulated (tobj), points and lines are ignored, and face winding
+//! is kept as written, so the OBJ's counter-clockwise faces keep their
+//! geometric normals (and emit on that side). Vertex normals (`vn`) become
+//! the mesh's shading normals ([`TriMesh::normals`]; a vertex used with two
+//! normals is split in two); every face must give them at every corner or
+//! none do. Texture coordinates are not used.
 //!
 //! * [`load_obj`]: the whole file as one mesh (a shape whose scene-file
 //!   `material` overrides the OBJ's).
@@ -93,7 +95,7 @@ pub fn load_obj_parts(path: &Path) -> Result<ObjFile, String> {
             tobj::LoadError::OpenFileFailed
         })
     };
-    let (models, materials) = parse_models(&bytes, loader).map_err(in_file)?;
+    let (models, materials, normals) = parse_models(&bytes, loader).map_err(in_file)?;
     if let Some(e) = mtl_error.into_inner() {
         return Err(in_file(e));
     }
@@ -139,7 +141,7 @@ pub fn load_obj_parts(path: &Path) -> Result<ObjFile, String> {
     let mut parts = Vec::with_capacity(models.len());
     for model in &models {
         let mut mesh = TriMesh::default();
-        append_model(&mut mesh, model).map_err(in_file)?;
+        append_model(&mut mesh, model, normals).map_err(in_file)?;
         if !mesh.indices.is_empty() {
             parts.push(ObjPart {
                 name: model.name.clone(),
@@ -158,30 +160,49 @@ pub fn load_obj_parts(path: &Path) -> Result<ObjFile, String> {
     })
 }
 
-/// Checks the `v` and `f` records line by line, so that the common errors
-/// name their line (tobj's errors do not): a vertex without three finite
-/// coordinates, a face with fewer than three corners, or a corner that is
-/// not an index of a vertex defined before it (1-based, or negative:
-/// relative to the last).
-fn check_lines(text: &str) -> Result<(), String> {
+/// Whether an OBJ index (1-based, or negative: relative to the last) names
+/// one of the `defined` records before it.
+fn index_valid(index: &str, defined: i64) -> bool {
+    match index.parse::<i64>() {
+        Ok(i) if i > 0 => i <= defined,
+        Ok(i) if i < 0 => -i <= defined,
+        _ => false,
+    }
+}
+
+/// Checks the `v`, `vn` and `f` records line by line, so that the common
+/// errors name their line (tobj's errors do not): a vertex or normal
+/// without three finite coordinates, a face with fewer than three corners,
+/// a corner that is not an index of a vertex (or normal) defined before it
+/// (1-based, or negative: relative to the last), or faces of which some
+/// give normals and some do not. Returns whether the faces give normals.
+fn check_lines(text: &str) -> Result<bool, String> {
     let mut vertices: i64 = 0;
+    let mut normals: i64 = 0;
+    // The first face's line and whether it gave normals.
+    let mut first_face: Option<(usize, bool)> = None;
     for (n, line) in text.lines().enumerate() {
         let at = |what: String| format!("line {}: {what}", n + 1);
         let mut fields = line.split_whitespace();
         match fields.next() {
-            Some("v") => {
+            Some(record @ ("v" | "vn")) => {
                 let coords: Vec<&str> = fields.collect();
                 let finite = coords
                     .iter()
                     .take(3)
                     .all(|c| c.parse::<f32>().is_ok_and(f32::is_finite));
+                let what = if record == "v" { "vertex" } else { "normal" };
                 if coords.len() < 3 || !finite {
                     return Err(at(format!(
-                        "a vertex needs three finite coordinates: '{}'",
+                        "a {what} needs three finite coordinates: '{}'",
                         line.trim()
                     )));
                 }
-                vertices += 1;
+                if record == "v" {
+                    vertices += 1;
+                } else {
+                    normals += 1;
+                }
             }
             Some("f") => {
                 let corners: Vec<&str> = fields.collect();
@@ -191,40 +212,67 @@ fn check_lines(text: &str) -> Result<(), String> {
                         line.trim()
                     )));
                 }
-                for corner in corners {
-                    let index = corner.split('/').next().unwrap_or("");
-                    let valid = match index.parse::<i64>() {
-                        Ok(i) if i > 0 => i <= vertices,
-                        Ok(i) if i < 0 => -i <= vertices,
-                        _ => false,
-                    };
-                    if !valid {
+                let mut with_normal = 0;
+                for &corner in &corners {
+                    let mut indices = corner.split('/');
+                    if !index_valid(indices.next().unwrap_or(""), vertices) {
                         return Err(at(format!(
                             "face corner '{corner}' is not one of the {vertices} vertices defined so far"
                         )));
                     }
+                    match indices.nth(1) {
+                        None | Some("") => {}
+                        Some(normal) if index_valid(normal, normals) => with_normal += 1,
+                        Some(_) => {
+                            return Err(at(format!(
+                                "face corner '{corner}' names a normal that is not one of the {normals} defined so far"
+                            )))
+                        }
+                    }
+                }
+                if with_normal != 0 && with_normal != corners.len() {
+                    return Err(at(format!(
+                        "some corners of this face give a normal (vn) and some do not: '{}'",
+                        line.trim()
+                    )));
+                }
+                let has = with_normal != 0;
+                match first_face {
+                    None => first_face = Some((n + 1, has)),
+                    Some((first, had)) if had != has => {
+                        let (yes, no) = if has { (n + 1, first) } else { (first, n + 1) };
+                        return Err(at(format!(
+                            "the face on line {yes} gives normals (vn) and the face on line {no} does not; \
+                             give every face normals or none"
+                        )));
+                    }
+                    Some(_) => {}
                 }
             }
             _ => {}
         }
     }
-    Ok(())
+    Ok(first_face.is_some_and(|(_, has)| has))
 }
 
-/// What tobj returns: the models and the material library's result.
+/// What tobj returns: the models and the material library's result; and
+/// whether the faces give normals.
 type Models = (
     Vec<tobj::Model>,
     Result<Vec<tobj::Material>, tobj::LoadError>,
+    bool,
 );
 
 /// The line checks, then tobj (a panic inside it comes back as an error).
+/// A file that is not UTF-8 is left to tobj, and its normals are not used.
 fn parse_models<ML>(bytes: &[u8], material_loader: ML) -> Result<Models, String>
 where
     ML: Fn(&Path) -> tobj::MTLLoadResult,
 {
-    if let Ok(text) = std::str::from_utf8(bytes) {
-        check_lines(text)?;
-    }
+    let normals = match std::str::from_utf8(bytes) {
+        Ok(text) => check_lines(text)?,
+        Err(_) => false,
+    };
     let options = tobj::LoadOptions {
         triangulate: true,
         ignore_points: true,
@@ -237,19 +285,25 @@ where
         tobj::load_obj_buf(&mut &bytes[..], &options, material_loader)
     }))
     .map_err(|_| "the OBJ parser failed on this file".to_string())?;
-    loaded.map_err(|e| format!("invalid OBJ: {e}"))
+    let (models, materials) = loaded.map_err(|e| format!("invalid OBJ: {e}"))?;
+    Ok((models, materials, normals))
 }
 
-/// Appends one tobj model's finite vertices and in-range faces.
-fn append_model(mesh: &mut TriMesh, model: &tobj::Model) -> Result<(), String> {
+/// Appends one tobj model's finite vertices and in-range faces, and with
+/// `normals` its vertex normals (a vertex used with two normals becomes two
+/// vertices).
+fn append_model(mesh: &mut TriMesh, model: &tobj::Model, normals: bool) -> Result<(), String> {
     let m = &model.mesh;
-    let base = mesh.positions.len();
-    if m.positions.len() % 3 != 0 || m.indices.len() % 3 != 0 {
-        return Err(format!(
+    let malformed = || {
+        format!(
             "object '{}' has malformed position or face data",
             model.name
-        ));
+        )
+    };
+    if m.positions.len() % 3 != 0 || m.indices.len() % 3 != 0 {
+        return Err(malformed());
     }
+    let mut positions = Vec::with_capacity(m.positions.len() / 3);
     for p in m.positions.chunks_exact(3) {
         let p = Vec3::new(p[0], p[1], p[2]);
         if !p.is_finite() {
@@ -258,30 +312,77 @@ fn append_model(mesh: &mut TriMesh, model: &tobj::Model) -> Result<(), String> {
                 model.name
             ));
         }
-        mesh.positions.push(p);
+        positions.push(p);
     }
-    let count = m.positions.len() / 3;
-    for t in m.indices.chunks_exact(3) {
-        if t.iter().any(|&i| i as usize >= count) {
-            return Err(format!(
-                "object '{}' has a face index out of range",
-                model.name
-            ));
+    if m.indices.iter().any(|&i| i as usize >= positions.len()) {
+        return Err(format!(
+            "object '{}' has a face index out of range",
+            model.name
+        ));
+    }
+    let index = |i: usize| u32::try_from(i).map_err(|_| "too many vertices".to_string());
+    if !normals {
+        if !mesh.normals.is_empty() {
+            return Err(malformed());
         }
-        let offset =
-            |i: u32| u32::try_from(base + i as usize).map_err(|_| "too many vertices".to_string());
-        mesh.indices
-            .push([offset(t[0])?, offset(t[1])?, offset(t[2])?]);
+        let base = mesh.positions.len();
+        mesh.positions.extend_from_slice(&positions);
+        for t in m.indices.chunks_exact(3) {
+            mesh.indices.push([
+                index(base + t[0] as usize)?,
+                index(base + t[1] as usize)?,
+                index(base + t[2] as usize)?,
+            ]);
+        }
+        return Ok(());
+    }
+    if m.normals.len() % 3 != 0 || m.normal_indices.len() != m.indices.len() {
+        return Err(format!("object '{}' has malformed normal data", model.name));
+    }
+    let vn: Vec<Vec3> = m
+        .normals
+        .chunks_exact(3)
+        .map(|n| Vec3::new(n[0], n[1], n[2]))
+        .collect();
+    if m.normal_indices.iter().any(|&i| i as usize >= vn.len()) {
+        return Err(format!(
+            "object '{}' has a normal index out of range",
+            model.name
+        ));
+    }
+    mesh.normals.resize(mesh.positions.len(), Vec3::ZERO);
+    let mut vertex_of = std::collections::HashMap::new();
+    for (t, n) in m
+        .indices
+        .chunks_exact(3)
+        .zip(m.normal_indices.chunks_exact(3))
+    {
+        let mut tri = [0u32; 3];
+        for c in 0..3 {
+            let key = (t[c], n[c]);
+            tri[c] = match vertex_of.get(&key) {
+                Some(&v) => v,
+                None => {
+                    let v = index(mesh.positions.len())?;
+                    mesh.positions.push(positions[t[c] as usize]);
+                    mesh.normals.push(vn[n[c] as usize]);
+                    vertex_of.insert(key, v);
+                    v
+                }
+            };
+        }
+        mesh.indices.push(tri);
     }
     Ok(())
 }
 
 /// Parse OBJ text as one mesh (see [`load_obj`]).
 pub fn parse_obj(bytes: &[u8]) -> Result<TriMesh, String> {
-    let (models, _materials) = parse_models(bytes, |_| Ok((Vec::new(), Default::default())))?;
+    let (models, _materials, normals) =
+        parse_models(bytes, |_| Ok((Vec::new(), Default::default())))?;
     let mut mesh = TriMesh::default();
     for model in &models {
-        append_model(&mut mesh, model)?;
+        append_model(&mut mesh, model, normals)?;
     }
     if mesh.indices.is_empty() {
         return Err("it contains no faces".into());
@@ -332,6 +433,94 @@ mod tests {
         }
         let relative = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -3 -2 -1\n";
         assert_eq!(parse_obj(relative.as_bytes()).unwrap().indices, [[0, 1, 2]]);
+    }
+
+    /// Issue 19: `vn` normals follow their corners. The shared edge's
+    /// vertices appear with two normals (one per face), so they are split:
+    /// 4 positions become 6 vertices, and each triangle's corners carry the
+    /// normals its face named, whatever tobj's own index order.
+    #[test]
+    fn vertex_normals_follow_their_corners_and_split_shared_vertices() {
+        let text = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n\
+                    vn 0 0 1\nvn 0.6 0 0.8\nvn 0 0.6 0.8\n\
+                    f 1//1 2//1 3//2\nf 1//3 3//3 4//3\n";
+        let m = parse_obj(text.as_bytes()).unwrap();
+        assert_eq!(m.indices.len(), 2);
+        assert_eq!(
+            m.positions.len(),
+            6,
+            "corners 1 and 3 each have two normals"
+        );
+        assert_eq!(m.normals.len(), m.positions.len());
+        let corner = |t: usize, c: usize| {
+            let v = m.indices[t][c] as usize;
+            (m.positions[v], m.normals[v])
+        };
+        let (z, x, y) = (
+            Vec3::new(0.0, 0.0, 1.0),
+            Vec3::new(0.6, 0.0, 0.8),
+            Vec3::new(0.0, 0.6, 0.8),
+        );
+        assert_eq!(corner(0, 0), (Vec3::ZERO, z));
+        assert_eq!(corner(0, 1), (Vec3::X, z));
+        assert_eq!(corner(0, 2), (Vec3::new(1.0, 1.0, 0.0), x));
+        for (c, p) in [Vec3::ZERO, Vec3::new(1.0, 1.0, 0.0), Vec3::Y]
+            .into_iter()
+            .enumerate()
+        {
+            assert_eq!(corner(1, c), (p, y));
+        }
+        // The winding (geometric normal) is the file's, not the normals'.
+        assert!(m.face_normal(0).z > 0.0 && m.face_normal(1).z > 0.0);
+        // Without vn (a texture index alone included) there are no normals
+        // and no split vertices, even when the file defines vn records.
+        for text in [
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/1 2/1 3/1\n",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1 2 3\n",
+        ] {
+            let m = parse_obj(text.as_bytes()).unwrap();
+            assert!(m.normals.is_empty(), "{text:?}");
+            assert_eq!(m.positions.len(), 3);
+        }
+        // v/vt/vn corners give normals too.
+        let m = parse_obj(b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvn 0 0 1\nf 1/1/1 2/1/1 3/1/1\n")
+            .unwrap();
+        assert_eq!(m.normals, vec![Vec3::Z; 3]);
+    }
+
+    #[test]
+    fn bad_normals_name_their_line() {
+        let head = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvn 0 0 1\n";
+        for (tail, error) in [
+            (
+                "vn 0 inf 1\n",
+                "line 6: a normal needs three finite coordinates",
+            ),
+            (
+                "vn 0 1\n",
+                "line 6: a normal needs three finite coordinates",
+            ),
+            (
+                "f 1//1 2//2 3//1\n",
+                "line 6: face corner '2//2' names a normal",
+            ),
+            (
+                "f 1//1 2 3//1\n",
+                "line 6: some corners of this face give a normal",
+            ),
+            (
+                "f 1//1 2//1 3//1\nf 2 4 3\n",
+                "line 7: the face on line 6 gives normals (vn) and the face on line 7 does not",
+            ),
+            (
+                "f 2 4 3\nf 1//1 2//1 3//1\n",
+                "line 7: the face on line 7 gives normals (vn) and the face on line 6 does not",
+            ),
+        ] {
+            let text = format!("{head}{tail}");
+            let e = parse_obj(text.as_bytes()).unwrap_err();
+            assert!(e.starts_with(error), "{text:?}: {e}");
+        }
     }
 
     #[test]

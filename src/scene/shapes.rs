@@ -32,9 +32,23 @@ use std::hash::{BuildHasherDefault, Hasher};
 pub struct TriMesh {
     pub positions: Vec<Vec3>,
     pub indices: Vec<[u32; 3]>,
+    /// Shading normals, one per position (an OBJ's `vn`), or empty: the
+    /// geometric normal shades. They change only how a surface reflects;
+    /// the geometric normal still decides which side emits (DESIGN.md
+    /// "Materials").
+    pub normals: Vec<Vec3>,
 }
 
 impl TriMesh {
+    /// A mesh without shading normals.
+    pub fn new(positions: Vec<Vec3>, indices: Vec<[u32; 3]>) -> TriMesh {
+        TriMesh {
+            positions,
+            indices,
+            normals: Vec::new(),
+        }
+    }
+
     /// Vertices of triangle `t`.
     pub fn triangle(&self, t: usize) -> [Vec3; 3] {
         let [a, b, c] = self.indices[t];
@@ -80,9 +94,15 @@ impl TriMesh {
     /// Apply an affine map to every vertex. A mirroring map (negative
     /// determinant) would turn the normals inside out, so the winding is
     /// reversed to keep them on the same side of the surface.
+    /// Shading normals go through the inverse transpose and are normalized
+    /// again (a zero normal stays zero).
     pub fn transform(&mut self, m: &Affine3A) {
         for p in &mut self.positions {
             *p = m.transform_point3(*p);
+        }
+        let normal_map = m.matrix3.inverse().transpose();
+        for n in &mut self.normals {
+            *n = (normal_map * *n).normalize_or_zero();
         }
         if m.matrix3.determinant() < 0.0 {
             for tri in &mut self.indices {
@@ -160,18 +180,12 @@ impl std::fmt::Display for CoincidentTriangles {
 
 /// Two triangles (c0, c1, c2), (c0, c2, c3); normal (c1 − c0) × (c2 − c0).
 pub fn quad(corners: [Vec3; 4]) -> TriMesh {
-    TriMesh {
-        positions: corners.to_vec(),
-        indices: vec![[0, 1, 2], [0, 2, 3]],
-    }
+    TriMesh::new(corners.to_vec(), vec![[0, 1, 2], [0, 2, 3]])
 }
 
 /// One triangle; normal (v1 − v0) × (v2 − v0).
 pub fn triangle(vertices: [Vec3; 3]) -> TriMesh {
-    TriMesh {
-        positions: vertices.to_vec(),
-        indices: vec![[0, 1, 2]],
-    }
+    TriMesh::new(vertices.to_vec(), vec![[0, 1, 2]])
 }
 
 /// Axis-aligned box, 12 triangles, normals outward.
@@ -199,7 +213,7 @@ pub fn cuboid(min: Vec3, max: Vec3) -> TriMesh {
         .iter()
         .flat_map(|&[a, b, c, d]| [[a, b, c], [a, c, d]])
         .collect();
-    TriMesh { positions, indices }
+    TriMesh::new(positions, indices)
 }
 
 pub fn uv_sphere_triangles(segments: u64, rings: u64) -> u64 {
@@ -245,7 +259,7 @@ pub fn uv_sphere(center: Vec3, radius: f32, segments: u32, rings: u32) -> TriMes
     for j in 0..s {
         indices.push([ring(r - 1, j), south, ring(r - 1, j + 1)]);
     }
-    TriMesh { positions, indices }
+    TriMesh::new(positions, indices)
 }
 
 /// Flat disk, a fan of `segments` triangles around the center, facing
@@ -264,7 +278,7 @@ pub fn disk(center: Vec3, normal: Vec3, radius: f32, segments: u32) -> TriMesh {
     let indices = (0..s)
         .map(|j| [0, 1 + j as u32, 1 + ((j + 1) % s) as u32])
         .collect();
-    TriMesh { positions, indices }
+    TriMesh::new(positions, indices)
 }
 
 pub fn lathe_triangles(points: u64, segments: u64) -> u64 {
@@ -315,7 +329,7 @@ pub fn lathe(profile: &[Vec2], segments: u32, center: Vec3) -> TriMesh {
             }
         }
     }
-    TriMesh { positions, indices }
+    TriMesh::new(positions, indices)
 }
 
 /// Which procedural height function a heightfield uses.
@@ -375,7 +389,7 @@ pub fn heightfield(h: &Heightfield) -> TriMesh {
             indices.push([v(i, k), v(i + 1, k + 1), v(i + 1, k)]);
         }
     }
-    TriMesh { positions, indices }
+    TriMesh::new(positions, indices)
 }
 
 pub fn icosphere_triangles(subdivisions: u32) -> u64 {
@@ -434,7 +448,7 @@ pub fn icosphere(subdivisions: u32) -> TriMesh {
         }
         indices = next;
     }
-    TriMesh { positions, indices }
+    TriMesh::new(positions, indices)
 }
 
 /// Noise displacement of a [`blob`].
@@ -743,5 +757,41 @@ mod tests {
         let mut m = cuboid(Vec3::ZERO, Vec3::ONE);
         m.transform(&Affine3A::from_scale(Vec3::new(-1.0, 2.0, 1.0)));
         assert!(all_outward(&m, Vec3::new(-0.5, 1.0, 0.5)));
+    }
+
+    /// Shading normals go through the inverse transpose: under a
+    /// non-uniform scale and a mirror, a normal stays perpendicular to the
+    /// transformed surface, unit, and on the same side as the (rewound)
+    /// geometric normal; a zero normal stays zero.
+    #[test]
+    fn transform_maps_shading_normals_by_the_inverse_transpose() {
+        // A tilted triangle whose vertex normals are its face normal, and a
+        // fourth, unused vertex with a zero normal.
+        let mut m = triangle([
+            Vec3::ZERO,
+            Vec3::new(1.0, 0.0, 1.0),
+            Vec3::new(0.0, 1.0, 0.5),
+        ]);
+        let n = m.face_normal(0).normalize();
+        m.positions.push(Vec3::ONE);
+        m.normals = vec![n, n, n, Vec3::ZERO];
+        for matrix in [
+            Affine3A::from_scale(Vec3::new(3.0, 0.5, 1.0)),
+            Affine3A::from_scale_rotation_translation(
+                Vec3::new(-2.0, 1.0, 0.25),
+                glam::Quat::from_rotation_y(0.7),
+                Vec3::new(1.0, 2.0, 3.0),
+            ),
+        ] {
+            let mut t = m.clone();
+            t.transform(&matrix);
+            let face = t.face_normal(0).normalize();
+            for v in 0..3 {
+                let ns = t.normals[v];
+                assert!((ns.length() - 1.0).abs() < 1e-6, "{ns}");
+                assert!(ns.dot(face) > 1.0 - 1e-5, "{ns} vs face normal {face}");
+            }
+            assert_eq!(t.normals[3], Vec3::ZERO);
+        }
     }
 }

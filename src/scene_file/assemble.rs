@@ -61,6 +61,7 @@ impl Ctx<'_> {
                         name: name.clone(),
                         positions: mesh.positions,
                         indices: mesh.indices,
+                        normals: Vec::new(),
                         material: materials.len() as u32,
                         motion: Vec::new(),
                     });

@@ -37,10 +37,16 @@ fn split_parts(
         let tris = &mesh.indices[*first..end];
         let lo = tris.iter().flatten().copied().min().unwrap_or(0);
         let hi = tris.iter().flatten().copied().max().map_or(0, |m| m + 1);
+        let normals = if mesh.normals.is_empty() {
+            Vec::new()
+        } else {
+            mesh.normals[lo as usize..hi as usize].to_vec()
+        };
         out.push(Mesh {
             name: format!("{shape}/{name}"),
             positions: mesh.positions[lo as usize..hi as usize].to_vec(),
             indices: tris.iter().map(|t| t.map(|i| i - lo)).collect(),
+            normals,
             material: *material,
             motion: motion.to_vec(),
         });
@@ -361,11 +367,16 @@ impl Ctx<'_> {
         let Some(material) = material else {
             return Ok(split_parts(mesh, &parts, &name, &motion));
         };
-        let TriMesh { positions, indices } = mesh;
+        let TriMesh {
+            positions,
+            indices,
+            normals,
+        } = mesh;
         Ok(vec![Mesh {
             name,
             positions,
             indices,
+            normals,
             material,
             motion,
         }])
@@ -433,6 +444,8 @@ impl Ctx<'_> {
             };
             parts.push((part.name.clone(), mesh.indices.len(), index));
             let base = mesh.positions.len() as u32;
+            // Every part of one OBJ has normals or none does (obj.rs).
+            mesh.normals.extend_from_slice(&part.mesh.normals);
             mesh.positions.extend_from_slice(&part.mesh.positions);
             mesh.indices
                 .extend(part.mesh.indices.iter().map(|t| t.map(|i| i + base)));

@@ -120,11 +120,17 @@ fn generate_vpls(@builtin(workgroup_id) wid: vec3<u32>,
             break;
         }
         let s = surface_at(hit, dir, time);
-        vpls[first + k] = LightPrim(s.x, KIND_VPL, s.n, 0u, s.x, 0u, flux * s.rho * INV_PI, 0u);
+        // The VPL's lobe and the path's next direction follow the shading
+        // normal; a direction behind the geometric surface ends the path.
+        vpls[first + k] = LightPrim(s.x, KIND_VPL, s.ns, 0u, s.x, 0u, flux * s.rho * INV_PI, 0u);
         flux *= s.rho;
         let u = vec2<f32>(vpl_rand(path, 5u + 2u * k), vpl_rand(path, 6u + 2u * k));
-        dir = frame_from_normal(s.n) * sample_cosine_hemisphere(u);
+        dir = frame_from_normal(s.ns) * sample_cosine_hemisphere(u);
         origin = offset_origin(s.x, s.n);
+        if (dot(s.n, dir) <= 0.0) {
+            k++;
+            break;
+        }
     }
     for (; k < vpl_params.bounces; k++) {
         vpls[first + k] = vpl_dark(origin);

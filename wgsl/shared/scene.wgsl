@@ -6,8 +6,10 @@
 //
 // Geometry layout (src/accel/build.rs): `triangles` holds 3 vec4 per
 // triangle in BVH leaf order — v0.xyz | bitcast material, v1.xyz | bitcast
-// instance, v2.xyz | unused — in world space for the static instance and
-// object space for moving ones. `nodes` holds the top-level CWBVH (root at
+// instance, v2.xyz | bitcast shading-normal record + 1 (0: none) — in world
+// space for the static instance and object space for moving ones. After
+// the `scene.triangle_count` triangles come the shading-normal records,
+// 3 vec4 each: the corners' normals n0, n1, n2 in .xyz, in the same space. `nodes` holds the top-level CWBVH (root at
 // `scene.tlas_root`) followed by every bottom-level CWBVH, with all child
 // and primitive indices already global.
 //
@@ -184,4 +186,27 @@ fn triangle_world(prim: u32, time: f32) -> array<vec3<f32>, 3> {
   }
   let x = instance_transform_at(inst, time);
   return array<vec3<f32>, 3>(rigid_point(x, v[0]), rigid_point(x, v[1]), rigid_point(x, v[2]));
+}
+
+// Unit shading normal of global triangle `prim` at barycentrics `bary`
+// (weights of v1 and v2), world space at scene time `time`: its corner
+// normals interpolated and normalized. `ng` (the unit geometric normal)
+// where the triangle has none or the interpolation vanishes.
+fn triangle_shading_normal(prim: u32, bary: vec2<f32>, time: f32, ng: vec3<f32>) -> vec3<f32> {
+  let record = bitcast<u32>(triangles[3u * prim + 2u].w);
+  if record == 0u {
+    return ng;
+  }
+  let base = 3u * (scene.triangle_count + record - 1u);
+  var n = triangles[base].xyz * (1.0 - bary.x - bary.y) + triangles[base + 1u].xyz * bary.x
+    + triangles[base + 2u].xyz * bary.y;
+  let inst = triangle_instance(prim);
+  if instances[inst].key_count != 0u {
+    n = rigid_vector(instance_transform_at(inst, time), n);
+  }
+  let len2 = dot(n, n);
+  if !(len2 > 1e-12) {
+    return ng;
+  }
+  return n * inverseSqrt(len2);
 }

@@ -5,6 +5,10 @@
 // area-light (emissive triangle) estimate. Lambertian materials: outgoing
 // radiance ρ/π · irradiance; emission one-sided (toward the geometric
 // normal), reflection two-sided (DESIGN.md "Materials", "Lights").
+// Reflection takes its cosine from the shading normal (an OBJ's vertex
+// normals; the geometric normal elsewhere) and only light from the side the
+// geometric normal faces (`cos_reflect`); emission sides, ray offsets and
+// shadow-ray ends use the geometric normal.
 // Needs GpuScene::wgsl() (scene.wgsl, bvh.wgsl) and shared/sampling.wgsl.
 
 // Relative offset of secondary-ray origins along the normal, and the
@@ -55,6 +59,7 @@ fn scene_occluded(origin: vec3<f32>, dir: vec3<f32>, t_max: f32, time: f32,
 struct Surface {
     x: vec3<f32>,        // hit point (world, at the ray's time)
     n: vec3<f32>,        // unit geometric normal, turned to face the ray's origin side
+    ns: vec3<f32>,       // unit shading normal, turned with n (= n without vertex normals)
     rho: vec3<f32>,      // albedo at x (checker applied)
     emitted: vec3<f32>,  // L_e toward the ray: the emission if the front side is seen, else 0
 }
@@ -77,7 +82,19 @@ fn surface_at(hit: Hit, dir: vec3<f32>, time: f32) -> Surface {
     let ng = normalize(cross(tri[1] - tri[0], tri[2] - tri[0]));
     let m = materials[triangle_material(hit.prim)];
     let front = dot(ng, dir) < 0.0;
-    return Surface(x, select(-ng, ng, front), albedo_at(m, x), select(vec3<f32>(0.0), m.emission, front));
+    let side = select(-1.0, 1.0, front);
+    let ns = triangle_shading_normal(hit.prim, hit.bary, time, ng);
+    return Surface(x, side * ng, side * ns, albedo_at(m, x), select(vec3<f32>(0.0), m.emission, front));
+}
+
+// The cosine a Lambertian reflection at s weights light arriving from
+// direction wi (unit, pointing away from s) by: max(ns·wi, 0), and 0 for
+// light from behind the geometric surface (it cannot pass through).
+fn cos_reflect(s: Surface, wi: vec3<f32>) -> f32 {
+    if (dot(s.n, wi) <= 0.0) {
+        return 0.0;
+    }
+    return max(dot(s.ns, wi), 0.0);
 }
 
 // Origin of a secondary ray leaving x on the side n faces: offset against
@@ -115,7 +132,7 @@ fn direct_delta_lights(s: Surface, time: f32) -> vec3<f32> {
         } else {
             wi = -light.position;  // `position` holds the direction of travel
         }
-        let cos_x = dot(s.n, wi);
+        let cos_x = cos_reflect(s, wi);
         if (cos_x <= 0.0 || all(e == vec3<f32>(0.0))) {
             continue;
         }
@@ -186,7 +203,7 @@ fn direct_area_light(s: Surface, u: vec2<f32>, time: f32) -> vec3<f32> {
     }
     let dist = sqrt(dist2);
     let wi = to_light / dist;
-    let cos_x = dot(s.n, wi);
+    let cos_x = cos_reflect(s, wi);
     let cos_y = -dot(l.n, wi);
     if (cos_x <= 0.0 || cos_y <= 0.0) {
         return vec3<f32>(0.0);
