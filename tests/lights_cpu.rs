@@ -486,14 +486,46 @@ fn two_level_tree_invariants_and_groups_stay_together() {
     }
 }
 
-/// The top level pairs groups by the Morton order of their box centres:
-/// four groups of two point lights spanning x ∈ [4.7, 5.4], [−9.1, −8.5],
-/// [3.9, 6.3] and [4.5, 5.5] (centres 5.05, −8.8, 5.1, 5.0) sort as
-/// 1, 3, 0, 2 and pair as {1, 3} and {0, 2} under the root. (The spans
-/// were chosen so that a centre computed from the bounds any other way —
-/// min − max, min·max, one term without its ½ — pairs them differently.)
+/// The top level is the SAOH BVH over the groups' roots: with one point
+/// light per group (a root's box is its light's point, its centre the
+/// light's centroid) the two-level tree samples exactly like the
+/// `unbalanced` SAOH BVH over the lights — every light's pmf equal bit for
+/// bit at random shading points (the same splits, nodes, cones and
+/// decisions, only stored in another order).
 #[test]
-fn two_level_top_level_pairs_groups_by_their_centres() {
+fn tree2_over_singleton_groups_samples_like_the_saoh_bvh() {
+    let mut rng = StdRng::seed_from_u64(29);
+    for n in [1usize, 2, 3, 17, 200] {
+        let prims: Vec<LightPrim> = random_scene(&mut rng, n)
+            .into_iter()
+            .filter(|p| p.kind == mdas::lights::KIND_POINT)
+            .collect();
+        let n = prims.len();
+        if n == 0 {
+            continue;
+        }
+        let two = TreeSampler::new(
+            two_level::build(&prims, &chunks(n, n)).unwrap(),
+            Importance::Cones,
+        );
+        let saoh = TreeSampler::new(bvh::build(&prims, Cost::Saoh).unwrap(), Importance::Cones);
+        for _ in 0..8 {
+            let s = random_shading(&mut rng);
+            for i in 0..n as u32 {
+                assert_eq!(two.pmf(&s, i), saoh.pmf(&s, i), "{n} lights, light {i}");
+            }
+        }
+    }
+}
+
+/// The top level keeps a distant group apart: four groups of two point
+/// lights spanning x ∈ [4.7, 5.4], [−9.1, −8.5], [3.9, 6.3] and [4.5, 5.5]
+/// (centres 5.05, −8.8, 5.1, 5.0). The SAOH splits the far group 1 from
+/// the three near x = 5 at the root (a perfect tree in Morton order of the
+/// centres, the paper's top level, paired {1, 3} and {0, 2}, putting a node
+/// 14 m wide above group 3).
+#[test]
+fn two_level_top_level_splits_off_a_distant_group() {
     let spans = [(4.7, 5.4), (-9.1, -8.5), (3.9, 6.3), (4.5, 5.5)];
     let prims: Vec<LightPrim> = spans
         .into_iter()
@@ -515,7 +547,7 @@ fn two_level_top_level_pairs_groups_by_their_centres() {
     };
     let mut halves = [below(l), below(r)];
     halves.sort();
-    assert_eq!(halves, [vec![0, 2], vec![1, 3]]);
+    assert_eq!(halves, [vec![0, 2, 3], vec![1]]);
 }
 
 #[test]

@@ -36,8 +36,8 @@ pub(crate) struct RenderArgs {
     pub(crate) reference: Option<PathBuf>,
     /// Light sampler of a many_light scene, overriding its [integrand]
     /// sampler: uniform, power, tree_nocut, tree, tree_cone, unbalanced,
-    /// unbalanced_nocut, unbalanced_nocone, tree2 (two-level perfect
-    /// tree), sst (stochastic substitute trees; biased), sst_nosub or lgh
+    /// unbalanced_nocut, unbalanced_nocone, tree2 (two-level tree:
+    /// perfect per mesh, SAOH on top), sst (stochastic substitute trees; biased), sst_nosub or lgh
     /// (lighting grid hierarchy; biased) (an error for other integrands;
     /// docs/light-sampling.md).
     #[arg(long, value_name = "NAME")]

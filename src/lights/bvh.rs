@@ -106,13 +106,39 @@ pub fn build(prims: &[LightPrim], cost: Cost) -> Option<LightBvh> {
         return None;
     }
     assert!(n < INTERNAL_BIT as usize, "at most 2^31 − 1 lights");
+    let leaves: Vec<TreeNode> = (0..n as u32)
+        .map(|id| leaf_node(&prims[id as usize], id))
+        .collect();
     let centroid: Vec<Vec3> = prims.iter().map(|p| p.centroid()).collect();
-    let leaf_cones: Vec<LightCone> = prims.iter().map(LightCone::of_prim).collect();
+    let cones: Vec<LightCone> = prims.iter().map(LightCone::of_prim).collect();
+    Some(build_over(&leaves, &cones, &centroid, cost, SAH_DEPTH))
+}
+
+/// The BVH over items with the leaf nodes `leaves` (bounds and intensity;
+/// `leaves[i].id` must be `i`), orientation bounds `cones` and split
+/// points `centroid`, as [`build`] builds it over lights but splitting at
+/// the median from depth `sah_depth` on (so the depth is at most
+/// `sah_depth + 33`): the two-level tree builds its top level over the
+/// groups' roots with it.
+///
+/// # Panics
+///
+/// When the slices are empty or their lengths differ.
+pub(crate) fn build_over(
+    leaves: &[TreeNode],
+    cones: &[LightCone],
+    centroid: &[Vec3],
+    cost: Cost,
+    sah_depth: u32,
+) -> LightBvh {
+    let n = leaves.len();
+    assert!(n > 0 && cones.len() == n && centroid.len() == n);
     let info = Info {
-        prims,
-        centroid: &centroid,
-        cones: &leaf_cones,
+        leaves,
+        centroid,
+        cones,
         cost,
+        sah_depth,
     };
     let mut order: Vec<u32> = (0..n as u32).collect();
     let mut nodes = vec![TreeNode::EMPTY; 2 * n - 1];
@@ -141,7 +167,7 @@ pub fn build(prims: &[LightPrim], cost: Cost) -> Option<LightBvh> {
     }
     debug_assert_eq!(next, 2 * n - 1);
     // Children always follow their parent: gather in reverse index order.
-    let mut cones = vec![LightCone::EMPTY; nodes.len()];
+    let mut node_cones = vec![LightCone::EMPTY; nodes.len()];
     for i in (0..nodes.len()).rev() {
         let id = nodes[i].id;
         if id & INTERNAL_BIT != 0 {
@@ -150,27 +176,28 @@ pub fn build(prims: &[LightPrim], cost: Cost) -> Option<LightBvh> {
                 id,
                 ..gather(&nodes[l], &nodes[l + 1])
             };
-            cones[i] = cones[l].union(&cones[l + 1]);
+            node_cones[i] = node_cones[l].union(&node_cones[l + 1]);
         } else {
-            nodes[i] = leaf_node(&prims[id as usize], id);
-            cones[i] = leaf_cones[id as usize];
+            nodes[i] = leaves[id as usize];
+            node_cones[i] = cones[id as usize];
         }
     }
-    Some(LightBvh {
+    LightBvh {
         nodes,
         parent,
         leaf_of_light,
         depth: max_depth,
-        cones,
-    })
+        cones: node_cones,
+    }
 }
 
 /// What a split looks at.
 struct Info<'a> {
-    prims: &'a [LightPrim],
+    leaves: &'a [TreeNode],
     centroid: &'a [Vec3],
     cones: &'a [LightCone],
     cost: Cost,
+    sah_depth: u32,
 }
 
 /// The lights of one bin, or of one side of a split.
@@ -229,12 +256,12 @@ fn split(info: &Info, ids: &mut [u32], depth: u32) -> usize {
     let mut nb = Aabb::EMPTY;
     for &i in ids.iter() {
         cb.grow(centroid[i as usize], centroid[i as usize]);
-        let p = &info.prims[i as usize];
-        nb.grow(p.bounds_min(), p.bounds_max());
+        let leaf = &info.leaves[i as usize];
+        nb.grow(leaf.min.into(), leaf.max.into());
     }
     let extent = cb.max - cb.min;
     let axis = extent.max_position();
-    if extent[axis] <= 0.0 || depth >= SAH_DEPTH {
+    if extent[axis] <= 0.0 || depth >= info.sah_depth {
         return median_split(centroid, ids, axis);
     }
     let pad = extent[axis] / BINS as f32;
@@ -252,13 +279,13 @@ fn split(info: &Info, ids: &mut [u32], depth: u32) -> usize {
         let k_r = node_extent.max_element() / node_extent[a];
         let mut bins = [Side::EMPTY; BINS];
         for &i in ids.iter() {
-            let p = &info.prims[i as usize];
+            let leaf = &info.leaves[i as usize];
             let mut bounds = Aabb::EMPTY;
-            bounds.grow(p.bounds_min(), p.bounds_max());
+            bounds.grow(leaf.min.into(), leaf.max.into());
             bins[bin_of(centroid[i as usize], a)].add(&Side {
                 bounds,
                 count: 1,
-                intensity: p.intensity(),
+                intensity: leaf.intensity,
                 cone: info.cones[i as usize],
             });
         }
@@ -357,6 +384,32 @@ mod tests {
         assert!(bvh.nodes[l].max[0] < 1.0 && bvh.nodes[r].min[0] > 9.0);
         assert_eq!(bvh.nodes[0].intensity, 8.0);
         assert_eq!(bvh.depth, 4);
+    }
+
+    /// From depth `sah_depth` on, `build_over` splits at the median: a
+    /// chain of lights at x = 16^i, which the binned SAOH peels one light
+    /// per level (12 deep over 12 lights), is a balanced tree of depth
+    /// ⌈log2 12⌉ + 1 = 5 with `sah_depth` 1, and deeper than that but at
+    /// most `sah_depth` + ⌈log2 12⌉ + 1 in between.
+    #[test]
+    fn build_over_splits_at_the_median_from_its_sah_depth() {
+        let prims: Vec<LightPrim> = (0..12)
+            .map(|i| LightPrim::point(Vec3::new(16f32.powi(i), 0.0, 0.0), Vec3::ONE))
+            .collect();
+        let leaves: Vec<TreeNode> = (0..12).map(|i| leaf_node(&prims[i], i as u32)).collect();
+        let cones: Vec<LightCone> = prims.iter().map(LightCone::of_prim).collect();
+        let centroid: Vec<Vec3> = prims.iter().map(|p| p.centroid()).collect();
+        let depth = |sah_depth| build_over(&leaves, &cones, &centroid, Cost::Saoh, sah_depth).depth;
+        assert_eq!(build(&prims, Cost::Saoh).unwrap().depth, 12);
+        assert_eq!(depth(SAH_DEPTH), 12);
+        assert_eq!(depth(1), 5);
+        for sah_depth in 2..8 {
+            let d = depth(sah_depth);
+            assert!(
+                d > 5 && d <= sah_depth + 5,
+                "sah_depth {sah_depth}: depth {d}"
+            );
+        }
     }
 
     #[test]

@@ -14,7 +14,7 @@
 //! | `unbalanced_nocut` | [`TreeSampler`](super::cut::TreeSampler) with cones over a SAOH [`LightBvh`](super::bvh::LightBvh), cut = root | §4, pbrt-v4 |
 //! | `unbalanced` | same, with a greedy cut | §4, pbrt-v4 |
 //! | `unbalanced_nocone` | a cone-free SAH BVH with a greedy cut | §4 |
-//! | `tree2` | [`TreeSampler`](super::cut::TreeSampler) with cones and a greedy cut over the two-level perfect tree ([`super::two_level`]: a perfect tree per mesh / light set, one over them), in the BVH's layout | §3.1 |
+//! | `tree2` | [`TreeSampler`](super::cut::TreeSampler) with cones and a greedy cut over the two-level tree ([`super::two_level`]: a perfect tree per mesh / light set, a SAOH BVH over their roots), in the BVH's layout | §3.1 |
 //! | `sst` | [`SstSampler`](super::substitute::SstSampler): a perfect tree sorted with normal codes, `tree_cone` descent from the root, stopping at the first suitable substitute (biased) | Tatzgern et al. 2020 |
 //! | `sst_nosub` | the same with substitution off: a leaf-only (unbiased) tree sampler | Tatzgern et al. 2020 |
 //! | `lgh` | no picker: the lighting grid hierarchy ([`super::lgh`]) sums over grid lights and picks S shadow samples (biased) | Lin & Yuksel 2019 |
