@@ -384,7 +384,24 @@ pub fn reference_cache_path(
     spec: ReferenceSpec,
 ) -> Result<PathBuf> {
     let scene = SceneFile::load(scene_path)?;
-    reference_cache_path_keyed(cache_dir, scene_path, &scene.inputs, spec, "")
+    reference_cache_path_keyed(
+        cache_dir,
+        scene_path,
+        &scene.inputs,
+        spec,
+        shading_key(&scene),
+    )
+}
+
+/// What a scene's shading adds to its references' cache key: OBJ vertex
+/// normals shade since version 0.1.0 had entries rendered without them, so
+/// a scene with any gets keys of its own (its older entries are never hit).
+fn shading_key(scene: &SceneFile) -> &'static str {
+    if scene.scene.meshes.iter().any(|m| !m.normals.is_empty()) {
+        "|vertex-normals"
+    } else {
+        ""
+    }
 }
 
 /// [`reference_cache_path`] with `extra` (e.g.
@@ -564,7 +581,9 @@ pub fn reference_with(
     let applied = overrides.apply(&scene.integrand, scene_path)?;
     let mut warnings = scene.warnings.clone();
     warnings.extend(applied.light_warnings(&scene.scene));
-    let extra = overrides.cache_key(&scene.integrand)? + &overrides.visibility_key(&scene);
+    let extra = overrides.cache_key(&scene.integrand)?
+        + &overrides.visibility_key(&scene)
+        + shading_key(&scene);
     let path = reference_cache_path_keyed(cache_dir, scene_path, &scene.inputs, spec, &extra)?;
     if path.is_dir() {
         bail!(
@@ -791,5 +810,43 @@ mod tests {
             }
         );
         assert!(scaled_film(f, 0.0).is_err() && scaled_film(f, f32::NAN).is_err());
+    }
+
+    /// A scene whose OBJ has vertex normals gets a reference key of its own
+    /// (references cached before normals shaded are never hit); a scene
+    /// without keeps its key.
+    #[test]
+    fn vertex_normals_key_references_apart() {
+        let dir = std::env::temp_dir().join(format!("mdas-app-vn-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let spec = ReferenceSpec {
+            spp: 4,
+            scale: 1.0,
+            seed: 1,
+        };
+        for (name, obj, smooth) in [
+            ("flat", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", false),
+            (
+                "smooth",
+                "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//1\n",
+                true,
+            ),
+        ] {
+            std::fs::write(dir.join(format!("{name}.obj")), obj).unwrap();
+            let scene = dir.join(format!("{name}.toml"));
+            std::fs::write(
+                &scene,
+                format!(
+                    "[film]\nwidth = 4\nheight = 4\n[camera]\nposition = [0, 0, 3]\nlook_at = [0, 0, 0]\n\
+                     up = [0, 1, 0]\nfov_y = 40\n[[material]]\nname = \"w\"\nalbedo = [0.5, 0.5, 0.5]\n\
+                     [[shape]]\ntype = \"mesh\"\nmaterial = \"w\"\nfile = \"{name}.obj\"\n"
+                ),
+            )
+            .unwrap();
+            let loaded = SceneFile::load(&scene).unwrap();
+            let old = reference_cache_path_keyed(&dir, &scene, &loaded.inputs, spec, "").unwrap();
+            let now = reference_cache_path(&dir, &scene, spec).unwrap();
+            assert_eq!(now != old, smooth, "{name}");
+        }
     }
 }
