@@ -37,7 +37,9 @@
 //! the order the intensities are summed). Coincident centroids, or a node
 //! deeper than [`SAH_DEPTH`], are split at the median instead, so the tree
 //! depth never exceeds `SAH_DEPTH + 32` levels ([`MAX_DEPTH`]). The build
-//! is deterministic (stable partitions, ties broken by light id).
+//! is deterministic (stable partitions, ties broken by light id; of splits
+//! of equal cost the first found is kept: x before y before z, lower
+//! planes first).
 
 use super::perfect::{gather, leaf_node};
 use super::{cut::LightTree, LightCone, LightPrim, TreeNode, NO_LIGHT};
@@ -269,14 +271,13 @@ fn split(info: &Info, ids: &mut [u32], depth: u32) -> usize {
         let t = (c[a] - cb.min[a]) / extent[a] * BINS as f32;
         (t as usize).min(BINS - 1)
     };
-    let node_extent = (nb.max - nb.min).max(Vec3::ZERO) + Vec3::splat(pad);
     // (cost, axis, split): lights in bins < split go left.
     let mut best: Option<(f32, usize, usize)> = None;
     for a in 0..3 {
         if extent[a] <= 0.0 {
             continue;
         }
-        let k_r = node_extent.max_element() / node_extent[a];
+        let k_r = k_r(&nb, pad, a);
         let mut bins = [Side::EMPTY; BINS];
         for &i in ids.iter() {
             let leaf = &info.leaves[i as usize];
@@ -320,6 +321,13 @@ fn split(info: &Info, ids: &mut [u32], depth: u32) -> usize {
     ids[..k].copy_from_slice(&left);
     ids[k..].copy_from_slice(&right);
     k
+}
+
+/// `K_r` of a node with bounds `node` for a split along `axis`: its largest
+/// extent over its extent along `axis`, each grown by `pad` (module docs).
+fn k_r(node: &Aabb, pad: f32, axis: usize) -> f32 {
+    let extent = (node.max - node.min).max(Vec3::ZERO) + Vec3::splat(pad);
+    extent.max_element() / extent[axis]
 }
 
 /// Sorts by (centroid on `axis`, id) and splits in the middle.
@@ -409,6 +417,87 @@ mod tests {
                 d > 5 && d <= sah_depth + 5,
                 "sah_depth {sah_depth}: depth {d}"
             );
+        }
+    }
+
+    /// The padded box's area is its surface area 2(xy + yz + zx) with `pad`
+    /// added to every side length (an empty box: pad alone).
+    #[test]
+    fn padded_box_area_is_the_surface_area() {
+        let b = Aabb {
+            min: Vec3::ZERO,
+            max: Vec3::new(1.0, 2.0, 3.0),
+        };
+        assert_eq!(b.area(0.0), 22.0);
+        assert_eq!(b.area(1.0), 52.0);
+        let point = Aabb {
+            min: Vec3::ONE,
+            max: Vec3::ONE,
+        };
+        assert_eq!(point.area(2.0), 24.0);
+        assert_eq!(Aabb::EMPTY.area(1.0), 6.0);
+    }
+
+    /// A side's cost is the module docs' term — SAH A·n, SAOH I·M_Ω·A·K_r
+    /// — and `add` sums counts and intensities and grows the bounds.
+    #[test]
+    fn side_costs_are_the_documented_terms() {
+        let cone = LightCone::of_prim(&LightPrim::point(Vec3::ZERO, Vec3::ONE));
+        let m = orientation_measure(&cone);
+        assert!(m > 1.0 && m.is_finite(), "{m}");
+        let a = Side {
+            bounds: Aabb {
+                min: Vec3::ZERO,
+                max: Vec3::new(1.0, 2.0, 3.0),
+            },
+            count: 2,
+            intensity: 3.0,
+            cone,
+        };
+        assert_eq!(a.cost(Cost::Sah, 0.0, 7.0), 44.0);
+        assert_eq!(a.cost(Cost::Saoh, 0.0, 1.5), 3.0 * m * 22.0 * 1.5);
+        let b = Side {
+            bounds: Aabb {
+                min: Vec3::new(1.0, -1.0, 0.0),
+                max: Vec3::new(2.0, 2.0, 3.0),
+            },
+            count: 1,
+            intensity: 0.5,
+            cone,
+        };
+        let mut s = a;
+        s.add(&b);
+        assert_eq!((s.count, s.intensity), (3, 3.5));
+        assert_eq!(s.bounds.min, Vec3::new(0.0, -1.0, 0.0));
+        assert_eq!(s.bounds.max, Vec3::new(2.0, 2.0, 3.0));
+    }
+
+    /// `K_r`: the largest padded extent over the one along the axis.
+    #[test]
+    fn k_r_is_the_largest_extent_over_the_axis_extent() {
+        let node = Aabb {
+            min: Vec3::new(1.0, 1.0, 1.0),
+            max: Vec3::new(9.0, 2.0, 4.0),
+        };
+        assert_eq!(k_r(&node, 0.0, 0), 1.0);
+        assert_eq!(k_r(&node, 0.0, 1), 8.0);
+        assert_eq!(k_r(&node, 1.0, 1), 4.5);
+        assert_eq!(k_r(&node, 1.0, 2), 2.25);
+    }
+
+    /// Of splits of equal cost the first is kept: three equal point lights
+    /// at x = 0, 1, 2 split {0} | {1, 2} and {0, 1} | {2} at exactly the
+    /// same cost (the same two terms, summed in the other order), and the
+    /// root's left child is light 0 alone.
+    #[test]
+    fn equal_cost_splits_keep_the_first() {
+        let prims: Vec<LightPrim> = (0..3)
+            .map(|i| LightPrim::point(Vec3::new(i as f32, 0.0, 0.0), Vec3::ONE))
+            .collect();
+        for cost in [Cost::Sah, Cost::Saoh] {
+            let bvh = build(&prims, cost).unwrap();
+            let (l, _) = bvh.children(0).unwrap();
+            assert_eq!(bvh.nodes[l].id, 0, "{cost:?}");
         }
     }
 
