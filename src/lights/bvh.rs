@@ -501,6 +501,23 @@ mod tests {
         }
     }
 
+    /// The lights go to the side the chosen plane's cost counted them on:
+    /// 16 equal point lights at x = 0, 1, …, 15 fall one per bin, the
+    /// cheapest plane (A·n ∝ Σ n·length along x: 8·7 + 8·7) is between
+    /// bins 7 and 8, and the root's children hold 8 lights each.
+    #[test]
+    fn lights_are_partitioned_at_the_costed_plane() {
+        let prims: Vec<LightPrim> = (0..16)
+            .map(|i| LightPrim::point(Vec3::new(i as f32, 0.0, 0.0), Vec3::ONE))
+            .collect();
+        for cost in [Cost::Sah, Cost::Saoh] {
+            let bvh = build(&prims, cost).unwrap();
+            let (l, r) = bvh.children(0).unwrap();
+            assert_eq!(bvh.nodes[l].max[0], 7.0, "{cost:?}");
+            assert_eq!(bvh.nodes[r].min[0], 8.0, "{cost:?}");
+        }
+    }
+
     #[test]
     fn coincident_lights_split_at_the_median() {
         let prims = vec![LightPrim::point(Vec3::ONE, Vec3::ONE); 9];
