@@ -393,9 +393,10 @@ pub fn reference_cache_path(
     )
 }
 
-/// What a scene's shading adds to its references' cache key: OBJ vertex
-/// normals shade since version 0.1.0 had entries rendered without them, so
-/// a scene with any gets keys of its own (its older entries are never hit).
+/// What a scene's shading adds to its references' cache key: references
+/// cached before OBJ vertex normals shaded (same crate version) were
+/// rendered without them, so a scene with any gets keys of its own and its
+/// older entries are never hit.
 fn shading_key(scene: &SceneFile) -> &'static str {
     if scene.scene.meshes.iter().any(|m| !m.normals.is_empty()) {
         "|vertex-normals"

@@ -840,6 +840,45 @@ fn watertight_test_hits_a_shared_edge_from_both_sides() {
         .is_none());
 }
 
+/// Runs the test kernel `entry` of `source` (which includes the scene's
+/// WGSL) with one workgroup per query: `queries` at @group(0) @binding(0),
+/// an output of `words` f32 at binding 1, the scene at @group(1); returns
+/// the output.
+fn run_scene_kernel<Q: bytemuck::Pod>(
+    gpu_scene: &GpuScene,
+    source: &mdas::gpu::shader::Wgsl,
+    entry: &str,
+    queries: &[Q],
+    words: usize,
+) -> Vec<f32> {
+    let gpu = gpu();
+    gpu.scoped(entry, || {
+        use mdas::gpu::buffer::STORAGE;
+        use mdas::gpu::shader::{bind_buffers, storage_entry};
+        let layout = gpu
+            .device
+            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("test.scene_kernel"),
+                entries: &[storage_entry(0, true), storage_entry(1, false)],
+            });
+        let pipeline = gpu.compute_pipeline(entry, source, entry, &[&layout, &gpu_scene.layout])?;
+        let q = gpu.buffer_from("test.queries", queries, STORAGE)?;
+        let o = gpu.buffer_zeroed("test.out", 4 * words as u64, STORAGE)?;
+        let bind = bind_buffers(gpu, "test.scene_kernel", &layout, &[&q, &o]);
+        let mut enc = gpu.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = enc.begin_compute_pass(&Default::default());
+            pass.set_pipeline(&pipeline);
+            pass.set_bind_group(0, &bind, &[]);
+            pass.set_bind_group(1, &gpu_scene.bind_group, &[]);
+            pass.dispatch_workgroups(queries.len() as u32, 1, 1);
+        }
+        gpu.queue.submit([enc.finish()]);
+        gpu.read_buffer::<f32>(&o, words)
+    })
+    .unwrap()
+}
+
 /// The scene bindings as WGSL reads them equal what the host wrote:
 /// uniforms, materials, emitters, lights, and `triangle_world` /
 /// `triangle_material` agree with the CPU.
@@ -916,34 +955,13 @@ fn scene_bindings_read_back_in_wgsl() {
         "tests/kernels/scene_dump.wgsl",
         include_str!("kernels/scene_dump.wgsl"),
     ));
-    let out = gpu
-        .scoped("scene dump", || {
-            use mdas::gpu::buffer::STORAGE;
-            use mdas::gpu::shader::{bind_buffers, storage_entry};
-            let layout = gpu
-                .device
-                .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                    label: Some("test.dump"),
-                    entries: &[storage_entry(0, true), storage_entry(1, false)],
-                });
-            let pipeline =
-                gpu.compute_pipeline("test.dump", &source, "dump", &[&layout, &gpu_scene.layout])?;
-            let q = gpu.buffer_from("test.queries", &queries, STORAGE)?;
-            let words = 64 + 10 * queries.len();
-            let o = gpu.buffer_zeroed("test.out", 4 * words as u64, STORAGE)?;
-            let bind = bind_buffers(gpu, "test.dump", &layout, &[&q, &o]);
-            let mut enc = gpu.device.create_command_encoder(&Default::default());
-            {
-                let mut pass = enc.begin_compute_pass(&Default::default());
-                pass.set_pipeline(&pipeline);
-                pass.set_bind_group(0, &bind, &[]);
-                pass.set_bind_group(1, &gpu_scene.bind_group, &[]);
-                pass.dispatch_workgroups(queries.len() as u32, 1, 1);
-            }
-            gpu.queue.submit([enc.finish()]);
-            gpu.read_buffer::<f32>(&o, words)
-        })
-        .unwrap();
+    let out = run_scene_kernel(
+        &gpu_scene,
+        &source,
+        "dump",
+        &queries,
+        64 + 10 * queries.len(),
+    );
 
     let expected_uniforms: &[f32] = bytemuck::cast_slice(bytemuck::bytes_of(&gpu_scene.uniforms));
     assert_eq!(&out[..28], &expected_uniforms[..28]);
@@ -1058,37 +1076,13 @@ fn shading_normals_read_back_in_wgsl() {
         "tests/kernels/shading_normal.wgsl",
         include_str!("kernels/shading_normal.wgsl"),
     ));
-    let out = gpu
-        .scoped("shading normals", || {
-            use mdas::gpu::buffer::STORAGE;
-            use mdas::gpu::shader::{bind_buffers, storage_entry};
-            let layout = gpu
-                .device
-                .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                    label: Some("test.shading_normal"),
-                    entries: &[storage_entry(0, true), storage_entry(1, false)],
-                });
-            let pipeline = gpu.compute_pipeline(
-                "test.shading_normal",
-                &source,
-                "shading_normal",
-                &[&layout, &gpu_scene.layout],
-            )?;
-            let q = gpu.buffer_from("test.queries", &queries, STORAGE)?;
-            let o = gpu.buffer_zeroed("test.out", 12 * queries.len() as u64, STORAGE)?;
-            let bind = bind_buffers(gpu, "test.shading_normal", &layout, &[&q, &o]);
-            let mut enc = gpu.device.create_command_encoder(&Default::default());
-            {
-                let mut pass = enc.begin_compute_pass(&Default::default());
-                pass.set_pipeline(&pipeline);
-                pass.set_bind_group(0, &bind, &[]);
-                pass.set_bind_group(1, &gpu_scene.bind_group, &[]);
-                pass.dispatch_workgroups(queries.len() as u32, 1, 1);
-            }
-            gpu.queue.submit([enc.finish()]);
-            gpu.read_buffer::<f32>(&o, 3 * queries.len())
-        })
-        .unwrap();
+    let out = run_scene_kernel(
+        &gpu_scene,
+        &source,
+        "shading_normal",
+        &queries,
+        3 * queries.len(),
+    );
     let mut smooth = 0;
     for (i, q) in queries.iter().enumerate() {
         let got = Vec3::new(out[3 * i], out[3 * i + 1], out[3 * i + 2]);
