@@ -93,7 +93,7 @@ pub fn build(prims: &[LightPrim], groups: &[Range<u32>]) -> Option<LightBvh> {
         .collect();
     let bottom = groups
         .iter()
-        .map(|g| g.len().next_power_of_two().ilog2() + 1)
+        .map(|g| perfect_levels(g.len()))
         .max()
         .unwrap_or(1);
     let top = bvh::build_over(&leaves, &cones, &centre, Cost::Saoh, top_sah_depth(bottom));
@@ -147,6 +147,12 @@ fn import(
 /// tree stays within [`MAX_DEPTH`], the bound of the WGSL loops.
 fn top_sah_depth(bottom: u32) -> u32 {
     (MAX_DEPTH + 1).saturating_sub(33 + bottom)
+}
+
+/// The number of levels of a perfect tree over `n` ≥ 1 leaves (a lone
+/// leaf is one level).
+fn perfect_levels(n: usize) -> u32 {
+    n.next_power_of_two().ilog2() + 1
 }
 
 /// Adds the top-level tree's node `node` over the group roots `roots` to
@@ -237,5 +243,11 @@ mod tests {
             assert!(top + bottom - 1 <= MAX_DEPTH, "bottom {bottom}");
             assert!(top_sah_depth(bottom) >= 9, "bottom {bottom}");
         }
+    }
+
+    #[test]
+    fn perfect_levels_counts_the_root_and_the_leaves() {
+        let levels: Vec<u32> = [1, 2, 3, 4, 5, 8, 9].map(perfect_levels).to_vec();
+        assert_eq!(levels, [1, 2, 3, 3, 4, 4, 5]);
     }
 }
