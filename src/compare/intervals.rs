@@ -344,11 +344,12 @@ mod tests {
         assert!(seed_plan(MAX_SEEDS + 1, 0, 0, 1).is_err());
     }
 
-    #[test]
-    fn reference_flag() {
-        let s = |r: f64| SeedStats {
-            seeds: 1,
-            relmse_per_seed: vec![r],
+    /// Seed statistics with these per-seed RelMSEs (the rest zero).
+    fn stats_of(per_seed: &[f64]) -> SeedStats {
+        let r = mean(per_seed);
+        SeedStats {
+            seeds: per_seed.len(),
+            relmse_per_seed: per_seed.to_vec(),
             relmse: r,
             relmse_ci95: [r, r],
             relative_bias: [0.0; 3],
@@ -358,7 +359,168 @@ mod tests {
             mse_variance: 0.0,
             mae: 0.0,
             excluded_pixels: 0,
+        }
+    }
+
+    /// A Halton run at `spp` that took `ms`.
+    fn run_at(spp: u32, ms: f64) -> crate::compare::HaltonRun {
+        let mut times = crate::gpu::profiler::PhaseTimes::default();
+        times.add("evaluate", ms);
+        crate::compare::HaltonRun {
+            spp,
+            measured: crate::compare::equal_time::Measured {
+                render: crate::integrator::Render {
+                    film: crate::film::Film {
+                        width: 1,
+                        height: 1,
+                    },
+                    image: vec![[0.0; 3]],
+                    samples: spp as u64,
+                    nonfinite: 0,
+                    times: times.clone(),
+                    clock: crate::gpu::profiler::Clock::GpuTimestamps,
+                    gpu_bytes: 0,
+                },
+                times,
+            },
+            error: crate::metrics::ErrorStats {
+                relmse: 0.0,
+                mse: 0.0,
+                mae: 0.0,
+                nonfinite_pixels: 0,
+                pixels: 1,
+            },
+        }
+    }
+
+    #[test]
+    fn budgets_are_halves_to_doubles_rounded_clamped_and_distinct() {
+        assert_eq!(budgets_around(10, 100), [5, 7, 10, 14, 20]);
+        // 141 and 200 clamp to 120 and merge.
+        assert_eq!(budgets_around(100, 120), [50, 71, 100, 120]);
+        // ½ and 1/√2 of 1 round to 0 and clamp to 1.
+        assert_eq!(budgets_around(1, 100), [1, 2]);
+        assert_eq!(budgets_around(6, 0), [1]);
+    }
+
+    #[test]
+    fn fastest_and_spread_of_rounds() {
+        assert_eq!(fastest(&[3.0, 1.5, 2.0]), 1.5);
+        assert_eq!(fastest(&[]), f64::INFINITY);
+        // (4 − 1) / median 2.
+        assert_eq!(spread(&[2.0, 4.0, 1.0]), 1.5);
+        assert_eq!(spread(&[5.0]), 0.0);
+        assert_eq!(spread(&[]), 0.0);
+        assert_eq!(spread(&[0.0, 0.0, 0.0]), 0.0);
+        let rounds = Interleaved {
+            mdas_ms: vec![3.0, 2.0, 5.0],
+            // 1 ms + 2 ms per spp at the fastest rounds.
+            halton: vec![(4, vec![10.0, 9.0, 11.0]), (8, vec![17.0, 18.0, 20.0])],
         };
+        assert_eq!(rounds.mdas_fastest(), 2.0);
+        assert_eq!(rounds.mdas_spread(), 1.0);
+        let fit = rounds.fit().unwrap();
+        assert_eq!((fit.a, fit.b), (1.0, 2.0));
+        assert_eq!(fit.points, [(4, 9.0), (8, 17.0)]);
+    }
+
+    #[test]
+    fn halton_relmse_between_whole_budgets_is_a_power_law() {
+        // RelMSE 0.1 at 4 spp and 0.08 at 5: at 4.5 spp, log–log linear.
+        let (n0, n1) = (stats_of(&[0.1]), stats_of(&[0.08]));
+        let t = (4.5f64 / 4.0).ln() / (5.0f64 / 4.0).ln();
+        let want = (0.1f64.ln() + t * (0.08f64.ln() - 0.1f64.ln())).exp();
+        assert!((halton_at_target(4.5, &n0, &n1) - want).abs() < 1e-15);
+        assert_eq!(halton_at_target(4.0, &n0, &n1), 0.1);
+        // Below one spp the bracket is [1, 2].
+        assert_eq!(halton_at_target(0.5, &n0, &n1), 0.1);
+    }
+
+    #[test]
+    fn spp_at_target_reads_the_fit_and_flags_extrapolation() {
+        let eq = EqualTime {
+            target_ms: 0.0,
+            lo: run_at(4, 9.0),
+            hi: run_at(8, 17.0),
+            relmse: 0.0,
+        };
+        let fit = TimeFit::new(&[(4, 9.0, 0.0), (8, 17.0, 0.0)]).unwrap();
+        let mut flags = Vec::new();
+        assert_eq!(spp_at_target(&eq, Some(&fit), 13.0, &mut flags), 6.0);
+        assert!(flags.is_empty());
+        // 21 ms is 10 spp: beyond the timed 8.
+        assert_eq!(spp_at_target(&eq, Some(&fit), 21.0, &mut flags), 10.0);
+        assert_eq!(flags.len(), 1);
+        assert!(flags[0].contains("outside the timed budgets 4–8"));
+        // 5 ms is 2 spp: below the timed 4.
+        assert_eq!(spp_at_target(&eq, Some(&fit), 5.0, &mut flags), 2.0);
+        assert_eq!(flags.len(), 2);
+        // Without a fit: linear between the bracket's runs; at least 1.
+        let mut flags = Vec::new();
+        assert_eq!(spp_at_target(&eq, None, 11.0, &mut flags), 5.0);
+        assert_eq!(spp_at_target(&eq, None, -100.0, &mut flags), 1.0);
+        let flat = EqualTime {
+            hi: run_at(8, 9.0),
+            ..eq.clone()
+        };
+        assert_eq!(spp_at_target(&flat, None, 11.0, &mut flags), 4.0);
+        assert!(flags.is_empty());
+    }
+
+    #[test]
+    fn ratio_interval_covers_the_seed_spread() {
+        // Constant seeds: the interval is the point, MDAS over Halton.
+        let ci = ratio_ci95(
+            None,
+            4.0,
+            &[10.0],
+            &stats_of(&[0.5, 0.5, 0.5]),
+            &stats_of(&[2.0, 2.0]),
+            &stats_of(&[1.0, 1.0]),
+        );
+        assert_eq!(ci, [0.25, 0.25]);
+        // Halton at 4.5 spp is between its two budgets' values.
+        let ci = ratio_ci95(
+            None,
+            4.5,
+            &[10.0],
+            &stats_of(&[1.0]),
+            &stats_of(&[2.0]),
+            &stats_of(&[1.0]),
+        );
+        let halfway = 1.0 / interpolate_log_log(4.5, (4.0, 2.0), (5.0, 1.0));
+        assert!((ci[0] - halfway).abs() < 1e-12 && ci[1] == ci[0], "{ci:?}");
+        // With a fit, the resampled target time moves the spp: MDAS at 9 ms
+        // is 4 spp and at 11 ms 5 spp (1 + 2·spp), so the interval spans
+        // Halton's two budgets.
+        let fit = TimeFit::new(&[(4, 9.0, 0.0), (5, 11.0, 0.0)]).unwrap();
+        let ci = ratio_ci95(
+            Some(&fit),
+            4.0,
+            &[9.0, 11.0],
+            &stats_of(&[1.0]),
+            &stats_of(&[2.0]),
+            &stats_of(&[1.0]),
+        );
+        assert_eq!(ci, [0.5, 1.0]);
+        // MDAS's seeds spread the interval.
+        let ci = ratio_ci95(
+            None,
+            4.0,
+            &[10.0],
+            &stats_of(&[0.2, 0.4, 0.6, 0.8]),
+            &stats_of(&[1.0]),
+            &stats_of(&[1.0]),
+        );
+        assert!(
+            ci[0] < 0.4 && ci[1] > 0.6 && ci[0] >= 0.2 && ci[1] <= 0.8,
+            "{ci:?}"
+        );
+    }
+
+    #[test]
+    fn reference_flag() {
+        let s = |r: f64| stats_of(&[r]);
         // 1e-2 at 16 spp → 1e-2·16/4096 ≈ 3.9e-5: far below 1e-3.
         let (e, flag) = reference_check(&s(1e-2), 16, 4096, 1e-3);
         assert!((e - 1e-2 * 16.0 / 4096.0).abs() < 1e-15 && flag.is_none());
