@@ -287,6 +287,28 @@ fn compare_area_light_plane_writes_a_consistent_report() {
         json["methods"][0]["relmse"].as_f64().unwrap() / u["relmse"].as_f64().unwrap(),
         1e-12
     ));
+    // Its image is MDAS at the same budget and first seed with α = 0 and
+    // one candidate, bit for bit (the scene's α = ¼ and four candidates
+    // give another image).
+    let prepared =
+        mdas::app::prepare(gpu(), Path::new("scenes/area_light_plane.toml"), 0.25).unwrap();
+    let p = params(prepared.scene.mdas);
+    assert!(p.alpha > 0.0 && p.candidates > 1);
+    let mut uniform = mdas::integrator::Mdas::new(MdasParams {
+        alpha: 0.0,
+        candidates: 1,
+        ..p
+    })
+    .unwrap();
+    let direct =
+        mdas::integrator::Integrator::render(&mut uniform, gpu(), prepared.integrand.as_ref())
+            .unwrap()
+            .image;
+    let (_, _, written) = read_exr(&out.join("mdas-uniform.exr")).unwrap();
+    assert!(
+        written == direct,
+        "mdas-uniform.exr is not MDAS at α = 0, one candidate"
+    );
     std::fs::remove_dir_all(&out).ok();
 }
 
