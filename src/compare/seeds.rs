@@ -275,6 +275,61 @@ mod tests {
     }
 
     #[test]
+    fn t_quantiles_and_mean_intervals_known_answers() {
+        assert_eq!(t_quantile_95(0), f64::INFINITY);
+        assert_eq!(t_quantile_95(1), 12.707);
+        assert_eq!(t_quantile_95(2), 4.303);
+        assert_eq!(t_quantile_95(30), 2.043);
+        assert_eq!(t_quantile_95(31), 2.043);
+        assert_eq!(t_quantile_95(1000), 2.043);
+        // Mean 2, sample variance 1: half-width t(2)·√(1/3).
+        let (m, [lo, hi]) = mean_ci95(&[1.0, 3.0, 2.0]);
+        let half = 4.303 * (1.0f64 / 3.0).sqrt();
+        assert_eq!(m, 2.0);
+        assert!((lo - (2.0 - half)).abs() < 1e-12 && (hi - (2.0 + half)).abs() < 1e-12);
+        assert_eq!(mean_ci95(&[5.0]), (5.0, [f64::NEG_INFINITY, f64::INFINITY]));
+        assert_eq!(mean_ci95(&[]).1, [f64::NEG_INFINITY, f64::INFINITY]);
+        assert_eq!(relative(3.0, 2.0), 0.5);
+        assert_eq!(relative(0.0, 0.0), 0.0);
+        assert_eq!(relative(1.0, 0.0), f64::INFINITY);
+    }
+
+    #[test]
+    fn relative_bias_mae_and_relmse_intervals_known_answers() {
+        // One pixel, reference (4, 4, 0); seeds (5, 6, 0) and (3, 7, 0).
+        let reference = [[4.0f32, 4.0, 0.0]];
+        let a = [[5.0f32, 6.0, 0.0]];
+        let b = [[3.0f32, 7.0, 0.0]];
+        let s = SeedStats::new(&[&a, &b], &reference).unwrap();
+        assert_eq!(s.seeds, 2);
+        // R: +¼ and −¼; G: +½ and +¾; B: 0 over 0.
+        assert_eq!(s.relative_bias, [0.0, 0.625, 0.0]);
+        // Half-width t(1)·√(s²/2): s² = 0.125 for R, 0.03125 for G.
+        let half = [12.707 * 0.25, 12.707 * 0.125];
+        for c in 0..2 {
+            let [lo, hi] = s.relative_bias_ci95[c];
+            let m = s.relative_bias[c];
+            assert!((lo - (m - half[c])).abs() < 1e-12, "{c}: {lo}");
+            assert!((hi - (m + half[c])).abs() < 1e-12, "{c}: {hi}");
+        }
+        assert_eq!(s.relative_bias_ci95[2], [0.0, 0.0]);
+        // MAE per seed (1 + 2 + 0)/3 and (1 + 3 + 0)/3.
+        assert!((s.mae - 7.0 / 6.0).abs() < 1e-12, "{}", s.mae);
+        let per_seed: Vec<f64> = [&a, &b]
+            .iter()
+            .map(|im| metrics::compare(&im[..], &reference).unwrap().relmse)
+            .collect();
+        assert_eq!(s.relmse_per_seed, per_seed);
+        let (m, ci) = mean_ci95(&per_seed);
+        assert_eq!((s.relmse, s.relmse_ci95), (m, ci));
+        // Mean image (4, 6.5, 0): bias² (0 + 2.5² + 0)/3; spread ±1 and
+        // ±½ about it: variance (1 + ¼ + 0)/3.
+        assert!((s.mse_bias2 - 6.25 / 3.0).abs() < 1e-12);
+        assert!((s.mse_variance - 1.25 / 3.0).abs() < 1e-12);
+        assert!(SeedStats::new(&[], &reference).is_err());
+    }
+
+    #[test]
     fn non_finite_pixels_are_left_out_and_counted() {
         let reference = vec![[1.0f32; 3]; 4];
         let a = vec![[1.5f32; 3], [f32::NAN, 1.0, 1.0], [1.0; 3], [1.0; 3]];
@@ -313,5 +368,17 @@ mod tests {
         assert!(ci[0] < point && point < ci[1], "{ci:?} vs {point}");
         assert_eq!(ci, bootstrap_ci95(&[&a, &b], ratio));
         assert!(bootstrap_ci95(&[&a, &[]], ratio)[0].is_nan());
+        // The mean of 1..=10 (σ = √8.25): the percentile interval is close
+        // to ±1.96·σ/√10 = ±1.78 about 5.5 (bootstrap standard error of
+        // each end ≈ 0.1 at 2,000 replicates).
+        let v: Vec<f64> = (1..=10).map(f64::from).collect();
+        let [lo, hi] = bootstrap_ci95(&[&v], |m| mean(&m[0]));
+        assert!(
+            (3.4..=4.1).contains(&lo) && (6.9..=7.6).contains(&hi),
+            "{lo} {hi}"
+        );
+        // Non-finite replicates are dropped, not ranked.
+        let [lo, hi] = bootstrap_ci95(&[&[0.0, 1.0]], |m| 1.0 / mean(&m[0]));
+        assert_eq!([lo, hi], [1.0, 2.0]);
     }
 }
