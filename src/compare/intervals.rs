@@ -177,13 +177,14 @@ fn fastest(v: &[f64]) -> f64 {
     v.iter().copied().fold(f64::INFINITY, f64::min)
 }
 
-/// (max − min) / median.
+/// (max − min) / median; 0 when there is nothing to spread (no rounds, or a
+/// median that is not positive). One round spreads 0 by the arithmetic.
 fn spread(v: &[f64]) -> f64 {
     let m = median(v);
     let (lo, hi) = v
         .iter()
         .fold((f64::INFINITY, 0.0f64), |(a, b), &x| (a.min(x), b.max(x)));
-    if v.len() < 2 || m.is_nan() || m <= 0.0 {
+    if m.is_nan() || m <= 0.0 {
         0.0
     } else {
         (hi - lo) / m
@@ -412,13 +413,16 @@ mod tests {
         assert_eq!(spread(&[5.0]), 0.0);
         assert_eq!(spread(&[]), 0.0);
         assert_eq!(spread(&[0.0, 0.0, 0.0]), 0.0);
+        // Two rounds: (3 − 1) / median 2.
+        assert_eq!(spread(&[1.0, 3.0]), 1.0);
         let rounds = Interleaved {
-            mdas_ms: vec![3.0, 2.0, 5.0],
+            mdas_ms: vec![3.0, 2.0, 6.0],
             // 1 ms + 2 ms per spp at the fastest rounds.
             halton: vec![(4, vec![10.0, 9.0, 11.0]), (8, vec![17.0, 18.0, 20.0])],
         };
         assert_eq!(rounds.mdas_fastest(), 2.0);
-        assert_eq!(rounds.mdas_spread(), 1.0);
+        // (6 − 2) / median 3.
+        assert_eq!(rounds.mdas_spread(), 4.0 / 3.0);
         let fit = rounds.fit().unwrap();
         assert_eq!((fit.a, fit.b), (1.0, 2.0));
         assert_eq!(fit.points, [(4, 9.0), (8, 17.0)]);
@@ -454,6 +458,10 @@ mod tests {
         assert!(flags[0].contains("outside the timed budgets 4–8"));
         // 5 ms is 2 spp: below the timed 4.
         assert_eq!(spp_at_target(&eq, Some(&fit), 5.0, &mut flags), 2.0);
+        assert_eq!(flags.len(), 2);
+        // Exactly at the timed budgets is inside them.
+        assert_eq!(spp_at_target(&eq, Some(&fit), 9.0, &mut flags), 4.0);
+        assert_eq!(spp_at_target(&eq, Some(&fit), 17.0, &mut flags), 8.0);
         assert_eq!(flags.len(), 2);
         // Without a fit: linear between the bracket's runs; at least 1.
         let mut flags = Vec::new();
@@ -527,5 +535,9 @@ mod tests {
         // A 64-spp reference against 16-spp methods: flagged.
         let (_, flag) = reference_check(&s(1e-2), 16, 64, 5e-3);
         assert!(flag.unwrap().contains("raise --ref-spp"));
+        // Exactly ten times below (0.5·1/4 = 0.125 = 0.1·1.25, exact in
+        // binary) is far enough.
+        let (e, flag) = reference_check(&s(0.5), 1, 4, 1.25);
+        assert!(e == 0.125 && flag.is_none());
     }
 }

@@ -222,8 +222,8 @@ pub fn bootstrap_ci95(groups: &[&[f64]], statistic: impl Fn(&[Vec<f64>]) -> f64)
         return [f64::NAN, f64::NAN];
     }
     values.sort_by(f64::total_cmp);
-    let at =
-        |q: f64| values[((q * (values.len() - 1) as f64).round() as usize).min(values.len() - 1)];
+    // q ≤ 1 keeps the index at most len − 1.
+    let at = |q: f64| values[(q * (values.len() - 1) as f64).round() as usize];
     [at(0.025), at(0.975)]
 }
 
@@ -306,11 +306,11 @@ mod tests {
         assert_eq!(s.relative_bias, [0.0, 0.625, 0.0]);
         // Half-width t(1)·√(s²/2): s² = 0.125 for R, 0.03125 for G.
         let half = [12.707 * 0.25, 12.707 * 0.125];
-        for c in 0..2 {
+        for (c, h) in half.iter().enumerate() {
             let [lo, hi] = s.relative_bias_ci95[c];
             let m = s.relative_bias[c];
-            assert!((lo - (m - half[c])).abs() < 1e-12, "{c}: {lo}");
-            assert!((hi - (m + half[c])).abs() < 1e-12, "{c}: {hi}");
+            assert!((lo - (m - h)).abs() < 1e-12, "{c}: {lo}");
+            assert!((hi - (m + h)).abs() < 1e-12, "{c}: {hi}");
         }
         assert_eq!(s.relative_bias_ci95[2], [0.0, 0.0]);
         // MAE per seed (1 + 2 + 0)/3 and (1 + 3 + 0)/3.
@@ -380,5 +380,33 @@ mod tests {
         // Non-finite replicates are dropped, not ranked.
         let [lo, hi] = bootstrap_ci95(&[&[0.0, 1.0]], |m| 1.0 / mean(&m[0]));
         assert_eq!([lo, hi], [1.0, 2.0]);
+        // The ends are the order statistics at round(q·(n − 1)) of the n
+        // replicates: with the replicates 0, 1, …, 1999 (a counter, the
+        // resamples ignored) those are round(49.975) = 50 and
+        // round(1949.025) = 1949.
+        let next = std::cell::Cell::new(0.0);
+        let counter = |_: &[Vec<f64>]| {
+            let v = next.get();
+            next.set(v + 1.0);
+            v
+        };
+        assert_eq!(bootstrap_ci95(&[&[1.0]], counter), [50.0, 1949.0]);
+        assert_eq!(next.get(), BOOTSTRAP_REPLICATES as f64);
+    }
+
+    #[test]
+    fn resampling_stream_is_splitmix64() {
+        // splitmix64 (Steele, Lea & Flood 2014) from state 0: its published
+        // first outputs.
+        let mut rng = SplitMix(0);
+        assert_eq!(rng.next(), 0xE220_A839_7B1D_CDAF);
+        assert_eq!(rng.next(), 0x6E78_9E6A_A1B9_65F4);
+        assert_eq!(rng.next(), 0x06C4_5D18_8009_454F);
+        // Indices take the top 53 bits as a fraction of n: the bootstrap's
+        // stream, 0x5EEDB007, below 1000 (computed independently from the
+        // same recurrence in Python).
+        let mut rng = SplitMix(0x5EED_B007);
+        let idx: Vec<usize> = (0..4).map(|_| rng.index(1000)).collect();
+        assert_eq!(idx, [447, 107, 675, 689]);
     }
 }
