@@ -8,7 +8,7 @@ CARGO ?= cargo
 SCENE ?= scenes/cornell.toml
 SPP ?= 64
 
-.PHONY: run test lint vulkan build bench info clean mutants-wgsl
+.PHONY: run test lint vulkan build bench info clean mutants mutants-wgsl
 
 vulkan:
 	@./.ci/ensure-vulkan.sh
@@ -49,6 +49,14 @@ bench: vulkan
 lint:
 	$(CARGO) fmt --all -- --check
 	$(CARGO) clippy --all-targets -- -D warnings
+
+# Mutation testing of the CPU code (`.ci/cargo-mutants.sh`): cargo-mutants
+# on the samplers, trees, closed forms, metrics and comparison statistics,
+# each module against its fast tests; ONLY="src/metrics/mod.rs" picks
+# modules, LIST=1 only lists the mutants. Hours for all modules on 2 cores;
+# not part of `make test`. docs/testing.md records the runs.
+mutants: vulkan
+	./.ci/cargo-mutants.sh
 
 # WGSL mutation testing: plants estimator bugs (a dropped cosine, |cos|, a
 # pdf in the wrong measure, a missing division by the pmf, a Morton bit off
