@@ -1,28 +1,28 @@
 #!/usr/bin/env bash
 # Mutation testing of the CPU code with cargo-mutants (issue 20): each
-# module below is mutated (operators swapped, returns replaced, …) and its
-# fast tests, named beside it, must catch every mutant. Survivors are
-# listed; docs/testing.md records the last run of each module and explains
-# every survivor it keeps (equivalent or unreachable mutants).
+# module below (samplers, trees, closed forms, metrics, comparison
+# statistics, scene parsing) is mutated (operators swapped, returns
+# replaced, …) and its fast tests, named beside it, must catch every mutant.
+# Survivors are listed; docs/testing.md records the last run of each
+# module and explains every survivor it keeps (equivalent or unreachable
+# mutants).
 #
 #   make mutants                                  # every module (hours on 2 cores)
 #   ONLY="src/metrics/mod.rs" make mutants        # some modules
 #   LIST=1 make mutants                           # list the mutants, build nothing
 #   MUTANTS_ARGS="-F split" make mutants          # extra cargo-mutants arguments
 #
-# About 20 s per mutant on the 2-core VM (an incremental test build and the
-# named tests). It works on a copy of the committed tree (git worktree in
-# $WORK, default /tmp/mdas-cargo-mutants), so the checkout is never
+# About 15–20 s per mutant on the 2-core VM (an incremental test build and
+# the named tests). It works on a copy of the committed tree (git worktree
+# in $WORK, default /tmp/mdas-cargo-mutants), so the checkout is never
 # modified; the checkout's target directory is shared, so dependencies are
 # not built again. Installs cargo-mutants if it is missing. Logs:
 # $WORK-logs/<module>/mutants.out. Exits 1 if any module has a surviving
 # (missed) or timed-out mutant. Not part of `make test`.
+#
+# The whole script is one function, read before it runs: editing this file
+# during a run (hours) does not change what the run does.
 set -euo pipefail
-cd "$(dirname "$0")/.."
-ROOT=$(pwd)
-WORK=${WORK:-/tmp/mdas-cargo-mutants}
-export CARGO_TARGET_DIR=${CARGO_TARGET_DIR:-$ROOT/target}
-CARGO_MUTANTS_VERSION=27.1.0
 
 # module | the cargo test arguments that select its fast tests
 MODULES=(
@@ -31,62 +31,71 @@ MODULES=(
   "src/lights/perfect.rs|--lib --test=lights_cpu"
   "src/lights/two_level.rs|--lib --test=lights_cpu"
   "src/lights/bvh.rs|--lib --test=lights_cpu"
+  "src/lights/cut.rs|--lib --test=lights_cpu"
+  "src/lights/sampler.rs|--lib --test=lights_cpu"
   "src/metrics/mod.rs|--lib"
   "src/compare/intervals.rs|--lib"
   "src/compare/seeds.rs|--lib"
+  "src/scene_file/values.rs|--lib --test=scene_format"
+  "src/scene_file/ctx.rs|--lib --test=scene_format"
+  "src/scene_file/raw.rs|--lib --test=scene_format"
 )
+CARGO_MUTANTS_VERSION=27.1.0
 
-if ! cargo mutants --version > /dev/null 2>&1; then
-  echo "installing cargo-mutants $CARGO_MUTANTS_VERSION (once)..."
-  cargo install --locked cargo-mutants --version "$CARGO_MUTANTS_VERSION"
-fi
+main() {
+  cd "$(dirname "$0")/.."
+  ROOT=$(pwd)
+  WORK=${WORK:-/tmp/mdas-cargo-mutants}
+  export CARGO_TARGET_DIR=${CARGO_TARGET_DIR:-$ROOT/target}
 
-rm -rf "$WORK"
-git worktree prune
-git worktree add --detach "$WORK" HEAD > /dev/null
-trap 'git -C "$ROOT" worktree remove --force "$WORK" > /dev/null 2>&1 || true' EXIT
-cd "$WORK"
-
-LOGS=${LOGS:-$WORK-logs}
-rm -rf "$LOGS"
-mkdir -p "$LOGS"
-failed=()
-for m in "${MODULES[@]}"; do
-  IFS='|' read -r file tests <<< "$m"
-  if [[ -n "${ONLY:-}" && " $ONLY " != *" $file "* ]]; then
-    continue
+  if ! cargo mutants --version > /dev/null 2>&1; then
+    echo "installing cargo-mutants $CARGO_MUTANTS_VERSION (once)..."
+    cargo install --locked cargo-mutants --version "$CARGO_MUTANTS_VERSION"
   fi
-  [[ -f "$file" ]] || { echo "no such module: $file" >&2; exit 2; }
-  args=(-f "$file")
-  for t in $tests; do
-    args+=("--cargo-test-arg=$t")
+
+  # shellcheck source=.ci/worktree.sh
+  source "$ROOT/.ci/worktree.sh"
+
+  local failed=() m file tests t rc out
+  for m in "${MODULES[@]}"; do
+    IFS='|' read -r file tests <<< "$m"
+    if [[ -n "${ONLY:-}" && " $ONLY " != *" $file "* ]]; then
+      continue
+    fi
+    [[ -f "$file" ]] || { echo "no such module: $file" >&2; exit 2; }
+    local args=(-f "$file")
+    for t in $tests; do
+      args+=("--cargo-test-arg=$t")
+    done
+    # shellcheck disable=SC2206
+    local extra=(${MUTANTS_ARGS:-})
+    if [[ -n "${LIST:-}" ]]; then
+      echo "== $file: $(cargo mutants --list "${args[@]}" "${extra[@]}" | wc -l) mutants"
+      continue
+    fi
+    out="$LOGS/${file//\//_}"
+    echo "== $file ($tests)"
+    set +e
+    cargo mutants --in-place --no-shuffle -o "$out" "${args[@]}" "${extra[@]}" 2>&1 | tail -n 3
+    rc=${PIPESTATUS[0]}
+    set -e
+    # cargo-mutants: 0 all caught, 2 some missed, 3 some timed out.
+    if [[ -s "$out/mutants.out/missed.txt" ]]; then
+      sed 's/^/   missed: /' "$out/mutants.out/missed.txt"
+    fi
+    if [[ $rc -ne 0 ]]; then
+      failed+=("$file (exit $rc)")
+    fi
   done
-  # shellcheck disable=SC2206
-  extra=(${MUTANTS_ARGS:-})
-  if [[ -n "${LIST:-}" ]]; then
-    echo "== $file: $(cargo mutants --list "${args[@]}" "${extra[@]}" | wc -l) mutants"
-    continue
-  fi
-  out="$LOGS/${file//\//_}"
-  echo "== $file ($tests)"
-  set +e
-  cargo mutants --in-place --no-shuffle -o "$out" "${args[@]}" "${extra[@]}" 2>&1 | tail -n 3
-  rc=${PIPESTATUS[0]}
-  set -e
-  # cargo-mutants: 0 all caught, 2 some missed, 3 some timed out.
-  if [[ -s "$out/mutants.out/missed.txt" ]]; then
-    sed 's/^/   missed: /' "$out/mutants.out/missed.txt"
-  fi
-  if [[ $rc -ne 0 ]]; then
-    failed+=("$file (exit $rc)")
-  fi
-done
 
-if [[ -z "${LIST:-}" ]]; then
-  if [[ ${#failed[@]} -gt 0 ]]; then
-    echo "modules with survivors or failures: ${failed[*]}"
-    echo "(docs/testing.md explains the survivors that are kept)"
-    exit 1
+  if [[ -z "${LIST:-}" ]]; then
+    if [[ ${#failed[@]} -gt 0 ]]; then
+      echo "modules with survivors or failures: ${failed[*]}"
+      echo "(docs/testing.md explains the survivors that are kept)"
+      exit 1
+    fi
+    echo "every mutant caught"
   fi
-  echo "every mutant caught"
-fi
+}
+
+main "$@"; exit

@@ -32,15 +32,8 @@ MUTATIONS=(
   "pixel_own|wgsl/mdas/reconstruct.wgsl|                    if (pixel_of[n] == t) {|                    if (pixel_of[n] <= t) {|mdas_invariants mdas_quality"
 )
 
-rm -rf "$WORK"
-git worktree prune
-git worktree add --detach "$WORK" HEAD > /dev/null
-trap 'git -C "$ROOT" worktree remove --force "$WORK" > /dev/null 2>&1 || true' EXIT
-cd "$WORK"
-
-LOGS=${LOGS:-$WORK-logs}
-rm -rf "$LOGS"
-mkdir -p "$LOGS"
+# shellcheck source=.ci/worktree.sh
+source "$ROOT/.ci/worktree.sh"
 killed=0
 survived=()
 broken=()
