@@ -309,6 +309,27 @@ fn compare_area_light_plane_writes_a_consistent_report() {
         written == direct,
         "mdas-uniform.exr is not MDAS at α = 0, one candidate"
     );
+    // Called as a library (where the parameters' seed need not be the
+    // first of the seeds), it renders with the first of the seeds it is
+    // given: here the same image, although the parameters say another seed.
+    let (run, stats) = mdas::compare::intervals::uniform_over_seeds(
+        gpu(),
+        MdasParams {
+            seed: p.seed.wrapping_add(17),
+            ..p
+        },
+        &[p.seed, p.seed.wrapping_add(1)],
+        1,
+        prepared.integrand.as_ref(),
+        &direct,
+        &indicatif::ProgressBar::hidden(),
+    )
+    .unwrap();
+    assert!(
+        run.measured.render.image == direct,
+        "uniform_over_seeds did not render its first seed"
+    );
+    assert_eq!((run.spp, stats.seeds), (4, 2));
     std::fs::remove_dir_all(&out).ok();
 }
 
