@@ -821,6 +821,48 @@ fn degenerate_and_invalid_geometry_is_rejected() {
     assert!(m.contains("scale must be nonzero"), "{m}");
 }
 
+/// A value of the wrong type or length names what was expected: a number,
+/// an array of exactly 3 numbers (every element counted, numbers or not,
+/// and the count said in words), a number or 3 numbers for a scale.
+#[test]
+fn wrong_value_types_and_lengths_say_what_was_expected() {
+    let m = error_at(
+        "num-type",
+        &BASE.replace("fov_y = 40", "fov_y = \"wide\""),
+        8,
+        9,
+    );
+    assert!(m.contains("expected a number"), "{m}");
+    let position = |value: &str| BASE.replace("[0, 1, 5]", value);
+    let m = error_at("v3-type", &position("\"far\""), 5, 12);
+    assert!(m.contains("expected an array of 3 numbers"), "{m}");
+    let m = error_at("v3-five", &position("[0, 1, 5, 6, 7]"), 5, 12);
+    assert!(
+        m.contains("expected an array of 3 numbers, found 5 elements"),
+        "{m}"
+    );
+    // Elements beyond the third are counted, not read as numbers.
+    let m = error_at("v3-tail", &position("[0, 1, 5, \"x\"]"), 5, 12);
+    assert!(
+        m.contains("expected an array of 3 numbers, found 4 elements"),
+        "{m}"
+    );
+    let m = error_at("v3-one", &position("[0]"), 5, 12);
+    assert!(
+        m.contains("expected an array of 3 numbers, found 1 element") && !m.contains("elements"),
+        "{m}"
+    );
+    let text = format!(
+        "{BASE}[[shape]]\ntype = \"box\"\nmaterial = \"white\"\nmin = [0, 0, 0]\n\
+         max = [1, 1, 1]\ntransform = {{ scale = \"big\" }}\n"
+    );
+    let m = error_at("scale-type", &text, 17, 23);
+    assert!(
+        m.contains("expected a number or an array of 3 numbers"),
+        "{m}"
+    );
+}
+
 #[test]
 fn camera_must_be_well_posed() {
     let m = error_at("look-at", &BASE.replace("[0, 0, 0]", "[0, 1, 5]"), 6, 11);
