@@ -821,6 +821,30 @@ fn degenerate_and_invalid_geometry_is_rejected() {
     assert!(m.contains("scale must be nonzero"), "{m}");
 }
 
+/// A light or light set given a key of another type is refused at that
+/// key, with the type's own keys named.
+#[test]
+fn keys_of_another_light_type_are_refused_at_the_key() {
+    let text = format!(
+        "{BASE}[[light]]\ntype = \"point\"\nposition = [0, 1, 0]\nintensity = [1, 1, 1]\n\
+         radiance = [1, 1, 1]\n"
+    );
+    let m = error_at("point-radiance", &text, 16, 12);
+    assert!(
+        m.contains("key 'radiance' does not apply to a point light")
+            && m.contains("'position', 'intensity'"),
+        "{m}"
+    );
+    let text = format!(
+        "{BASE}[[light_set]]\ntype = \"surface\"\ncount = 4\noffset = 0.1\nresolution = [2, 2]\n"
+    );
+    let m = error_at("surface-resolution", &text, 16, 14);
+    assert!(
+        m.contains("key 'resolution' does not apply to a surface light_set"),
+        "{m}"
+    );
+}
+
 /// A value of the wrong type or length names what was expected: a number,
 /// an array of exactly 3 numbers (every element counted, numbers or not,
 /// and the count said in words), a number or 3 numbers for a scale.
