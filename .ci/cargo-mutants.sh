@@ -38,7 +38,7 @@ MODULES=(
   "src/compare/seeds.rs|--lib"
   "src/scene_file/values.rs|--lib --test=scene_format"
   "src/scene_file/ctx.rs|--lib --test=scene_format"
-  "src/scene_file/raw.rs|--lib --test=scene_format"
+  "src/scene_file/raw.rs|--lib --test=scene_format --test=many_light_scenes"
 )
 CARGO_MUTANTS_VERSION=27.1.0
 
