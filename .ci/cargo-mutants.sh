@@ -15,8 +15,12 @@
 # About 15–20 s per mutant on the 2-core VM (an incremental test build and
 # the named tests). It works on a copy of the committed tree (git worktree
 # in $WORK, default /tmp/mdas-cargo-mutants), so the checkout is never
-# modified; the checkout's target directory is shared, so dependencies are
-# not built again. Installs cargo-mutants if it is missing. Logs:
+# modified. Builds go to a target directory of its own,
+# $CARGO_TARGET_DIR or /tmp/mdas-mutants-target, kept between runs (the
+# first run builds the dependencies): mutated builds in the checkout's
+# target/ would replace its test binaries, which have the same names
+# whatever the source path (seen: a `make test` during a run failed on the
+# mutants' binaries). Installs cargo-mutants if it is missing. Logs:
 # $WORK-logs/<module>/mutants.out. Exits 1 if any module has a surviving
 # (missed) or timed-out mutant. Not part of `make test`.
 #
@@ -46,7 +50,7 @@ main() {
   cd "$(dirname "$0")/.."
   ROOT=$(pwd)
   WORK=${WORK:-/tmp/mdas-cargo-mutants}
-  export CARGO_TARGET_DIR=${CARGO_TARGET_DIR:-$ROOT/target}
+  export CARGO_TARGET_DIR=${CARGO_TARGET_DIR:-/tmp/mdas-mutants-target}
 
   if ! cargo mutants --version > /dev/null 2>&1; then
     echo "installing cargo-mutants $CARGO_MUTANTS_VERSION (once)..."

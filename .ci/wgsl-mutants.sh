@@ -7,16 +7,18 @@
 #   ONLY="cos_dropped cos_abs" make mutants-wgsl
 #
 # It works on a copy of the committed tree (git worktree in $WORK, default
-# /tmp/mdas-wgsl-mutants), so the checkout's files are never modified; the
-# target directory is shared (below). Prints one line per mutation and a
+# /tmp/mdas-wgsl-mutants), so the checkout's files are never modified; it
+# builds in a target directory of its own (below). Prints one line per mutation and a
 # summary; exits 1 if any mutation survives. Not part of `make test`.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ROOT=$(pwd)
 WORK=${WORK:-/tmp/mdas-wgsl-mutants}
-# The checkout's target directory: dependencies are reused, only the crate
-# rebuilds per mutation (the checkout rebuilds it once afterwards).
-export CARGO_TARGET_DIR=${CARGO_TARGET_DIR:-$ROOT/target}
+# A target directory of its own, shared with .ci/cargo-mutants.sh and kept
+# between runs (dependencies are built once, then only the crate rebuilds
+# per mutation): mutated builds in the checkout's target/ would replace its
+# test binaries.
+export CARGO_TARGET_DIR=${CARGO_TARGET_DIR:-/tmp/mdas-mutants-target}
 
 # name | file | exact text | replacement | test binaries that must fail
 MUTATIONS=(

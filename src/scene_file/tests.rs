@@ -334,3 +334,23 @@ fn visibility_keys_parse_for_every_type_and_are_checked() {
         assert!(e.starts_with(expected), "{line}: {e}");
     }
 }
+
+#[test]
+fn line_column_counts_characters_and_steps_back_inside_one() {
+    // Bytes: `a = "é"` is a 0, space 1, = 2, space 3, " 4, é 5–6, " 7,
+    // newline 8; then b 9, é 10–11, space 12, = 13, space 14, 1 15.
+    let ctx = Ctx {
+        text: "a = \"é\"\nbé = 1",
+        file: Path::new("t.toml"),
+    };
+    assert_eq!(ctx.line_column(0), (1, 1));
+    assert_eq!(ctx.line_column(5), (1, 6));
+    // An offset inside a character stands for that character.
+    assert_eq!(ctx.line_column(6), (1, 6));
+    assert_eq!(ctx.line_column(7), (1, 7));
+    assert_eq!(ctx.line_column(9), (2, 1));
+    assert_eq!(ctx.line_column(11), (2, 2));
+    assert_eq!(ctx.line_column(12), (2, 3));
+    // Past the end: the end.
+    assert_eq!(ctx.line_column(100), (2, 7));
+}
