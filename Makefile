@@ -51,8 +51,8 @@ lint:
 	$(CARGO) clippy --all-targets -- -D warnings
 
 # Mutation testing of the CPU code (`.ci/cargo-mutants.sh`): cargo-mutants
-# on the samplers, trees, closed forms, metrics and comparison statistics,
-# each module against its fast tests; ONLY="src/metrics/mod.rs" picks
+# on the samplers, trees, closed forms, metrics, comparison statistics and
+# scene parsing, each module against its fast tests; ONLY="src/metrics/mod.rs" picks
 # modules, LIST=1 only lists the mutants. Hours for all modules on 2 cores;
 # not part of `make test`. docs/testing.md records the runs.
 mutants: vulkan
