@@ -16,7 +16,7 @@
 # the named tests). It works on a copy of the committed tree (git worktree
 # in $WORK, default /tmp/mdas-cargo-mutants), so the checkout is never
 # modified. Builds go to a target directory of its own,
-# $CARGO_TARGET_DIR or /tmp/mdas-mutants-target, kept between runs (the
+# $MUTANTS_TARGET_DIR or /tmp/mdas-mutants-target, kept between runs (the
 # first run builds the dependencies): mutated builds in the checkout's
 # target/ would replace its test binaries, which have the same names
 # whatever the source path (seen: a `make test` during a run failed on the
@@ -50,7 +50,7 @@ main() {
   cd "$(dirname "$0")/.."
   ROOT=$(pwd)
   WORK=${WORK:-/tmp/mdas-cargo-mutants}
-  export CARGO_TARGET_DIR=${CARGO_TARGET_DIR:-/tmp/mdas-mutants-target}
+  export CARGO_TARGET_DIR=${MUTANTS_TARGET_DIR:-/tmp/mdas-mutants-target}
 
   if ! cargo mutants --version > /dev/null 2>&1; then
     echo "installing cargo-mutants $CARGO_MUTANTS_VERSION (once)..."

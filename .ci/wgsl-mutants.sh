@@ -18,7 +18,7 @@ WORK=${WORK:-/tmp/mdas-wgsl-mutants}
 # between runs (dependencies are built once, then only the crate rebuilds
 # per mutation): mutated builds in the checkout's target/ would replace its
 # test binaries.
-export CARGO_TARGET_DIR=${CARGO_TARGET_DIR:-/tmp/mdas-mutants-target}
+export CARGO_TARGET_DIR=${MUTANTS_TARGET_DIR:-/tmp/mdas-mutants-target}
 
 # name | file | exact text | replacement | test binaries that must fail
 MUTATIONS=(
