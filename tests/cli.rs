@@ -765,6 +765,22 @@ fn bench_prints_a_table_and_writes_json() {
         (parts - adaptive).abs() <= 1e-9 * adaptive.max(1.0),
         "{parts} vs {adaptive}"
     );
+    // So do evaluate's: the initial grid's samples and the adaptive ones.
+    let eval_parts: Vec<f64> = row["mdas_evaluate_parts_ms"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| p[1].as_f64().unwrap())
+        .collect();
+    let evaluate = phases[1][1].as_f64().unwrap();
+    assert_eq!(eval_parts.len(), 2);
+    assert!(eval_parts.iter().all(|&t| t > 0.0), "{eval_parts:?}");
+    assert!(
+        (eval_parts.iter().sum::<f64>() - evaluate).abs() <= 1e-9 * evaluate.max(1.0),
+        "{eval_parts:?} vs {evaluate}"
+    );
+    let initial = row["mdas_initial_samples"].as_u64().unwrap();
+    assert!(initial > 0 && initial < 16 * 12 * 16, "{initial}");
     assert!(row["mdas_iterations"].as_u64().unwrap() >= 1);
     std::fs::remove_dir_all(&dir).ok();
 }

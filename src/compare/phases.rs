@@ -25,6 +25,10 @@ pub const MDAS_PHASES: [&str; 5] = ["initial", "evaluate", "error", "adaptive", 
 /// The parts of the adaptive phase ([`Mdas::last_pass_times`]).
 pub const ADAPTIVE_PARTS: [&str; 3] = ["adaptive/count", "adaptive/scan", "adaptive/apply"];
 
+/// The parts of the evaluate phase: the initial grid's samples, then the
+/// adaptive ones.
+pub const EVALUATE_PARTS: [&str; 2] = ["evaluate/initial", "evaluate/adaptive"];
+
 /// One scene's medians.
 #[derive(Clone, Debug, Serialize)]
 pub struct PhaseBench {
@@ -41,6 +45,11 @@ pub struct PhaseBench {
     /// Median GPU milliseconds of each part of the adaptive phase
     /// ([`ADAPTIVE_PARTS`]).
     pub mdas_adaptive_parts_ms: Vec<(String, f64)>,
+    /// Median GPU milliseconds of each part of the evaluate phase
+    /// ([`EVALUATE_PARTS`]), and the samples of the first (the rest of
+    /// `mdas_samples` are the second's).
+    pub mdas_evaluate_parts_ms: Vec<(String, f64)>,
+    pub mdas_initial_samples: u64,
     /// Median of each render's summed GPU phase times.
     pub mdas_ms: f64,
     pub halton_ms: f64,
@@ -70,6 +79,23 @@ impl PhaseBench {
     pub fn evaluate_ratio(&self) -> f64 {
         ns_per_sample(self.mdas_phase_ms("evaluate"), self.mdas_samples)
             / ns_per_sample(self.halton_ms, self.halton_samples)
+    }
+
+    /// ns per sample of MDAS's initial samples and of its adaptive ones
+    /// (0 where a part took no sample).
+    pub fn evaluate_parts_ns(&self) -> (f64, f64) {
+        let ms = |name: &str| {
+            self.mdas_evaluate_parts_ms
+                .iter()
+                .find(|(n, _)| n == name)
+                .map_or(0.0, |(_, t)| *t)
+        };
+        let adaptive = self.mdas_samples.saturating_sub(self.mdas_initial_samples);
+        let ns = |ms: f64, n: u64| if n == 0 { 0.0 } else { ns_per_sample(ms, n) };
+        (
+            ns(ms(EVALUATE_PARTS[0]), self.mdas_initial_samples),
+            ns(ms(EVALUATE_PARTS[1]), adaptive),
+        )
     }
 
     /// Every MDAS phase but evaluate, over Halton's whole render.
@@ -125,6 +151,7 @@ pub fn bench_scene(
 
     let mut phases: Vec<Vec<f64>> = vec![Vec::new(); MDAS_PHASES.len()];
     let mut parts: Vec<Vec<f64>> = vec![Vec::new(); ADAPTIVE_PARTS.len()];
+    let mut eval_parts: Vec<Vec<f64>> = vec![Vec::new(); EVALUATE_PARTS.len()];
     let (mut mdas_ms, mut halton_ms, mut mdas_wall, mut halton_wall) =
         (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let (mut mdas_samples, mut halton_samples, mut bytes) = (0, 0, 0);
@@ -136,6 +163,9 @@ pub fn bench_scene(
         if let Some(passes) = mdas.last_pass_times() {
             for (i, name) in ADAPTIVE_PARTS.iter().enumerate() {
                 parts[i].push(passes.get(name).unwrap_or(0.0));
+            }
+            for (i, name) in EVALUATE_PARTS.iter().enumerate() {
+                eval_parts[i].push(passes.get(name).unwrap_or(0.0));
             }
         }
         mdas_ms.push(m.times.total());
@@ -163,6 +193,14 @@ pub fn bench_scene(
             .zip(parts)
             .map(|(n, v)| (n.to_string(), median(&v)))
             .collect(),
+        mdas_evaluate_parts_ms: EVALUATE_PARTS
+            .iter()
+            .zip(eval_parts)
+            .map(|(n, v)| (n.to_string(), median(&v)))
+            .collect(),
+        mdas_initial_samples: mdas
+            .last_stats()
+            .map_or(0, |s| u64::from(s.initial_samples.min(s.budget))),
         mdas_ms: median(&mdas_ms),
         halton_ms: median(&halton_ms),
         mdas_wall_ms: median(&mdas_wall),
@@ -177,8 +215,8 @@ pub fn bench_scene(
 /// The Markdown table of [`bench_scene`] results.
 pub fn table(rows: &[PhaseBench]) -> String {
     let mut out = String::from(
-        "| scene | film | spp | MDAS GPU ms (initial / evaluate / error / adaptive / reconstruction) | adaptive: count / scan / apply | Halton GPU ms | MDAS/Halton | evaluate ns/sample: MDAS, Halton (ratio) | overhead / Halton | wall ms MDAS, Halton | iterations | B/sample |\n\
-         |---|---|---:|---|---|---:|---:|---|---:|---|---:|---:|\n",
+        "| scene | film | spp | MDAS GPU ms (initial / evaluate / error / adaptive / reconstruction) | adaptive: count / scan / apply | Halton GPU ms | MDAS/Halton | evaluate ns/sample: MDAS, Halton (ratio) | MDAS evaluate ns/sample: initial, adaptive | overhead / Halton | wall ms MDAS, Halton | iterations | B/sample |\n\
+         |---|---|---:|---|---|---:|---:|---|---|---:|---|---:|---:|\n",
     );
     for r in rows {
         let phases: Vec<String> = MDAS_PHASES
@@ -190,8 +228,9 @@ pub fn table(rows: &[PhaseBench]) -> String {
             .iter()
             .map(|(_, t)| format!("{t:.2}"))
             .collect();
+        let (initial_ns, adaptive_ns) = r.evaluate_parts_ns();
         out += &format!(
-            "| `{}` | {}×{} | {} | {:.1} ({}) | {} | {:.1} | {:.2} | {:.0}, {:.0} ({:.2}) | {:.2} | {:.1}, {:.1} | {} | {:.1} |\n",
+            "| `{}` | {}×{} | {} | {:.1} ({}) | {} | {:.1} | {:.2} | {:.0}, {:.0} ({:.2}) | {:.0}, {:.0} | {:.2} | {:.1}, {:.1} | {} | {:.1} |\n",
             r.scene,
             r.width,
             r.height,
@@ -204,6 +243,8 @@ pub fn table(rows: &[PhaseBench]) -> String {
             ns_per_sample(r.mdas_phase_ms("evaluate"), r.mdas_samples),
             ns_per_sample(r.halton_ms, r.halton_samples),
             r.evaluate_ratio(),
+            initial_ns,
+            adaptive_ns,
             r.overhead_ratio(),
             r.mdas_wall_ms,
             r.halton_wall_ms,

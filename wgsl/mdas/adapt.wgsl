@@ -41,6 +41,9 @@ struct Decision {
     cand: array<u32, DIMS>,
 }
 
+// Values in a full leaf's split test: its samples and the candidate.
+const SPLIT_N: u32 = MAX_PER_LEAF + 1u;
+
 const DECISION_MARK: u32 = 0x80000000u;
 const DECISION_MASK: u32 = 0xc0000000u;
 const DECISION_SPLIT: u32 = 0x04000000u;
@@ -64,34 +67,42 @@ fn candidate(key: u32, c: u32, lo: array<u32, DIMS>, hi: array<u32, DIMS>) -> ar
 // E_max, read once per workgroup (count) and broadcast.
 var<workgroup> wg_emax: u32;
 
-fn decide(k: u32, emax_bits: u32) -> Decision {
+// Whether leaf k is selected in this iteration (collapsed leaves never are).
+fn selected_now(k: u32, emax_bits: u32) -> bool {
+    if (k >= leaf_count()) {
+        return false;
+    }
+    let base = leaf_base(k);
+    if (header_collapsed(leaves_get(base + 1u))) {
+        return false;
+    }
+    let e_bits = leaves_get(base + 2u);
+    if (e_bits == emax_bits || params.select_all != 0u) {
+        return true;
+    }
+    let xi = draw_open(leaf_key(k, iteration()), 0u);  // stream 0
+    return bitcast<f32>(e_bits) >= bitcast<f32>(emax_bits) * pow(xi, params.inv_alpha);
+}
+
+// The decision of a selected leaf k: best candidate, split or collapse.
+fn decide(k: u32) -> Decision {
     var d: Decision;
     d.selected = false;
     d.split = false;
     d.collapse = false;
     d.axis = 0u;
     d.plane = 0u;
-    if (k >= leaf_count()) {
-        return d;
-    }
-    let base = leaf_base(k);
-    let h = leaves_get(base + 1u);
-    if (header_collapsed(h)) {
-        return d;
-    }
+    let h = leaves_get(leaf_base(k) + 1u);
     let key = leaf_key(k, iteration());
-    let e_bits = leaves_get(base + 2u);
-    var selected = e_bits == emax_bits || params.select_all != 0u;
-    if (!selected) {
-        let xi = draw_open(key, 0u);  // stream 0
-        selected = bitcast<f32>(e_bits) >= bitcast<f32>(emax_bits) * pow(xi, params.inv_alpha);
-    }
-    if (!selected) {
-        return d;
-    }
 
     // The leaf's samples' coordinates, read once (a selectable leaf holds
     // at most MAX_PER_LEAF: a full one splits when the next arrives).
+    // Every loop over a leaf's samples or axes below runs a constant
+    // number of times (MAX_PER_LEAF, DIMS), masked by `i < count` where
+    // needed, so that compilers unroll them and keep these arrays in
+    // registers: indexed by a loop counter that is not a constant, a
+    // private array lives in memory (lavapipe: per-lane gathers; this pass
+    // cost 3–5× more that way, BENCHMARKS.md).
     let head = header_head(h);
     let count = min(header_count(h), MAX_PER_LEAF);
     var coords: array<u32, MAX_PER_LEAF * COORD_WORDS>;
@@ -100,17 +111,19 @@ fn decide(k: u32, emax_bits: u32) -> Decision {
     var value: array<f32, MAX_PER_LEAF>;
     var finite: array<bool, MAX_PER_LEAF>;
     var s = head;
-    for (var i = 0u; i < count; i++) {
-        for (var w = 0u; w < COORD_WORDS; w++) {
-            coords[i * COORD_WORDS + w] = samples_get(s * SAMPLE_STRIDE + w);
+    for (var i = 0u; i < MAX_PER_LEAF; i++) {
+        if (i < count) {
+            for (var w = 0u; w < COORD_WORDS; w++) {
+                coords[i * COORD_WORDS + w] = samples_get(s * SAMPLE_STRIDE + w);
+            }
+            if (SPLIT_CONTRAST == 1u) {
+                let bits = sample_value_bits(s);
+                finite[i] = finite_bits(bits);
+                let v = bitcast<vec3<f32>>(bits);
+                value[i] = v.x + v.y + v.z;
+            }
+            s = sample_next(s);
         }
-        if (SPLIT_CONTRAST == 1u) {
-            let bits = sample_value_bits(s);
-            finite[i] = finite_bits(bits);
-            let v = bitcast<vec3<f32>>(bits);
-            value[i] = v.x + v.y + v.z;
-        }
-        s = sample_next(s);
     }
 
     // Best candidate among CANDIDATES uniform points of the box.
@@ -127,14 +140,14 @@ fn decide(k: u32, emax_bits: u32) -> Decision {
     for (var c = 0u; c < CANDIDATES; c++) {
         let q = candidate(key, c, lo, hi);
         var nearest = 3.0e38;
-        for (var i = 0u; i < count; i++) {
+        for (var i = 0u; i < MAX_PER_LEAF; i++) {
             var dist = 0.0;
             for (var axis = 0u; axis < DIMS; axis++) {
                 let sq = (coords[i * COORD_WORDS + axis / 2u] >> (16u * (axis % 2u))) & 0xffffu;
                 let t = (f32(q[axis]) - f32(sq)) * quantum[axis];
                 dist += t * t;
             }
-            nearest = min(nearest, dist);
+            nearest = select(nearest, min(nearest, dist), i < count);
         }
         if (nearest > best) {
             best = nearest;
@@ -143,41 +156,41 @@ fn decide(k: u32, emax_bits: u32) -> Decision {
         }
     }
 
-    // Split test on the m existing samples plus the candidate.
+    // Split test on the m = MAX_PER_LEAF existing samples plus the
+    // candidate: SPLIT_N values per axis, whose order statistics h − 1
+    // and h come from ranks (ties broken by position), not a sort.
     if (count >= MAX_PER_LEAF) {
-        let n = count + 1u;
-        let half = n / 2u;
+        let half = SPLIT_N / 2u;
         var best_extent = -1.0;
         var best_contrast = -1.0;
         for (var axis = 0u; axis < DIMS; axis++) {
-            var v: array<u32, 16>;
-            for (var i = 0u; i < count; i++) {
+            var v: array<u32, SPLIT_N>;
+            for (var i = 0u; i < MAX_PER_LEAF; i++) {
                 v[i] = (coords[i * COORD_WORDS + axis / 2u] >> (16u * (axis % 2u))) & 0xffffu;
             }
-            v[count] = d.cand[axis];
-            // Insertion sort of n ≤ 15 values.
-            for (var i = 1u; i < n; i++) {
-                let x = v[i];
-                var j = i;
-                while (j > 0u && v[j - 1u] > x) {
-                    v[j] = v[j - 1u];
-                    j -= 1u;
+            v[MAX_PER_LEAF] = d.cand[axis];
+            var below_median = 0u;
+            var above_median = 0u;
+            for (var i = 0u; i < SPLIT_N; i++) {
+                var rank = 0u;
+                for (var j = 0u; j < SPLIT_N; j++) {
+                    rank += u32(v[j] < v[i] || (v[j] == v[i] && j < i));
                 }
-                v[j] = x;
+                below_median = select(below_median, v[i], rank == half - 1u);
+                above_median = select(above_median, v[i], rank == half);
             }
-            if (v[half - 1u] < v[half]) {
+            if (below_median < above_median) {
                 let extent = f32(hi[axis] - lo[axis]) * quantum[axis];
-                let plane = (v[half - 1u] + v[half] + 1u) / 2u;
+                let plane = (below_median + above_median + 1u) / 2u;
                 var contrast = 0.0;
                 if (SPLIT_CONTRAST == 1u) {
                     // |mean below the plane − mean above| of the existing
                     // finite samples' channel sums.
                     var sum = vec2<f32>(0.0);
                     var n = vec2<u32>(0u);
-                    for (var i = 0u; i < count; i++) {
+                    for (var i = 0u; i < MAX_PER_LEAF; i++) {
                         if (finite[i]) {
-                            let q = (coords[i * COORD_WORDS + axis / 2u] >> (16u * (axis % 2u))) & 0xffffu;
-                            if (q < plane) {
+                            if (v[i] < plane) {
                                 sum.x += value[i];
                                 n.x += 1u;
                             } else {
@@ -208,6 +221,18 @@ fn decide(k: u32, emax_bits: u32) -> Decision {
     return d;
 }
 
+// The count pass in three steps: every invocation runs the selection
+// test of its leaf and appends a selected leaf to the workgroup's list;
+// then the first invocations decide one listed leaf each, so the costly
+// part (best candidate, split test) runs on packed invocations instead of
+// on the scattered selected ones among all (a SIMD group or warp pays for
+// the decision if any of its lanes decides); the workgroup's totals are
+// sums, so the list's order (atomics) changes nothing.
+var<workgroup> wg_list: array<u32, WG>;
+var<workgroup> wg_listed: atomic<u32>;
+var<workgroup> wg_selected: atomic<u32>;
+var<workgroup> wg_splits: atomic<u32>;
+
 @compute @workgroup_size(WG)
 fn count(@builtin(global_invocation_id) gid: vec3<u32>,
          @builtin(local_invocation_index) lid: u32,
@@ -216,22 +241,35 @@ fn count(@builtin(global_invocation_id) gid: vec3<u32>,
     let k = thread_index(gid, groups, WG);
     if (lid == 0u) {
         wg_emax = atomicLoad(&counters[C_EMAX]);
+        atomicStore(&wg_listed, 0u);
+        atomicStore(&wg_selected, 0u);
+        atomicStore(&wg_splits, 0u);
     }
-    let d = decide(k, workgroupUniformLoad(&wg_emax));
-    if (d.collapse) {
-        leaves_set(leaf_base(k) + 1u, leaves_get(leaf_base(k) + 1u) | COLLAPSED_BIT);
-        atomicAdd(&counters[C_COLLAPSED], 1u);
+    if (selected_now(k, workgroupUniformLoad(&wg_emax))) {
+        wg_list[atomicAdd(&wg_listed, 1u)] = k;
     }
-    if (d.selected) {
-        leaves_set(leaf_base(k) + 2u, encode_decision(d));
+    workgroupBarrier();
+    let listed = atomicLoad(&wg_listed);
+    if (lid < listed) {
+        let leaf = wg_list[lid];
+        let d = decide(leaf);
+        if (d.collapse) {
+            leaves_set(leaf_base(leaf) + 1u, leaves_get(leaf_base(leaf) + 1u) | COLLAPSED_BIT);
+            atomicAdd(&counters[C_COLLAPSED], 1u);
+        }
+        if (d.selected) {
+            leaves_set(leaf_base(leaf) + 2u, encode_decision(d));
+            atomicAdd(&wg_selected, 1u);
+            if (d.split) {
+                atomicAdd(&wg_splits, 1u);
+            }
+        }
     }
-    let v = vec2<u32>(u32(d.selected), u32(d.split));
-    let prefix = workgroup_scan(lid, v);
+    workgroupBarrier();
     let g = workgroup_index(wid, groups);
-    if (lid == WG - 1u && g < leaf_groups()) {
-        let total = prefix + v;
-        partials[2u * g] = total.x;
-        partials[2u * g + 1u] = total.y;
+    if (lid == 0u && g < leaf_groups()) {
+        partials[2u * g] = atomicLoad(&wg_selected);
+        partials[2u * g + 1u] = atomicLoad(&wg_splits);
     }
 }
 

@@ -32,7 +32,8 @@
 //! up to 32 and reads the state once per submission (progress and the stop
 //! test), never inside an iteration; with an observer
 //! ([`Mdas::render_observed`]) it submits after every error pass instead.
-//! [`Mdas::last_pass_times`] splits the adaptive phase into its passes.
+//! [`Mdas::last_pass_times`] splits the adaptive phase into its passes and
+//! evaluate into the initial samples' and the adaptive ones'.
 //! [`Mdas::render_with_density`] also returns the samples per pixel of the
 //! final leaves (each leaf's samples spread over the pixels its film box
 //! overlaps, by overlap area; [`debug::Snapshot::sample_density`]), for the
@@ -276,10 +277,11 @@ impl Mdas {
         self.last
     }
 
-    /// The last render's GPU times with the parts of the adaptive phase
-    /// apart: "adaptive/count", "adaptive/scan", "adaptive/apply" (apply
-    /// and the GPU loop's bookkeeping); `Render::times` folds them into
-    /// "adaptive".
+    /// The last render's GPU times with the parts of phases apart:
+    /// "adaptive/count", "adaptive/scan", "adaptive/apply" (apply and the
+    /// GPU loop's bookkeeping), and "evaluate/initial" (the grid's
+    /// samples), "evaluate/adaptive" (every iteration's); `Render::times`
+    /// folds them into "adaptive" and "evaluate".
     pub fn last_pass_times(&self) -> Option<&PhaseTimes> {
         self.last_passes.as_ref()
     }

@@ -148,7 +148,10 @@ impl Mdas {
                 initial::record(&mut pass, &k, Grid::new(gpu, cfg.cells));
                 plan::record_prime(&mut pass, &k);
             })?;
-            batch.phase("evaluate", |e, ts| {
+            // Evaluate's two parts (`mdas bench` reports their cost per
+            // sample apart): the initial grid's samples, then the adaptive
+            // ones of every iteration.
+            batch.phase("evaluate/initial", |e, ts| {
                 evaluate::record(
                     &mut e.begin_compute_pass(&pass("mdas.evaluate", ts)),
                     &k,
@@ -222,7 +225,7 @@ impl Mdas {
                         adapt::record_apply(&mut pass, &k);
                         plan::record(&mut pass, &k);
                     })?;
-                    batch.phase("evaluate", |e, ts| {
+                    batch.phase("evaluate/adaptive", |e, ts| {
                         evaluate::record(
                             &mut e.begin_compute_pass(&pass("mdas.evaluate", ts)),
                             &k,
