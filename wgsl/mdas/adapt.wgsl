@@ -100,9 +100,8 @@ fn decide(k: u32) -> Decision {
     // Every loop over a leaf's samples or axes below runs a constant
     // number of times (MAX_PER_LEAF, DIMS), masked by `i < count` where
     // needed, so that compilers unroll them and keep these arrays in
-    // registers: indexed by a loop counter that is not a constant, a
-    // private array lives in memory (lavapipe: per-lane gathers; this pass
-    // cost 3–5× more that way, BENCHMARKS.md).
+    // registers (indexed by a loop counter that is not a constant, a
+    // private array lives in memory: on lavapipe per-lane gathers).
     let head = header_head(h);
     let count = min(header_count(h), MAX_PER_LEAF);
     var coords: array<u32, MAX_PER_LEAF * COORD_WORDS>;
@@ -306,23 +305,42 @@ fn mul_div(a: u32, b: u32, c: u32) -> u32 {
     return q;
 }
 
+// The apply pass: a workgroup scan of the decisions gives each selected
+// leaf its rank among the workgroup's selected leaves and splits; the
+// selected leaves are listed in rank order and the first invocations
+// apply one each (packed, as in `count`).
+var<workgroup> wg_rank: array<vec2<u32>, WG>;
+
 @compute @workgroup_size(WG)
 fn apply(@builtin(global_invocation_id) gid: vec3<u32>,
          @builtin(local_invocation_index) lid: u32,
          @builtin(workgroup_id) wid: vec3<u32>,
          @builtin(num_workgroups) groups: vec3<u32>) {
     let k = thread_index(gid, groups, WG);
-    let leaf_total = leaf_count();
     var word = 0u;
-    if (k < leaf_total) {
+    if (k < leaf_count()) {
         word = leaves_get(leaf_base(k) + 2u);
     }
     let selected = (word & DECISION_MASK) == DECISION_MARK;
     let split = selected && (word & DECISION_SPLIT) != 0u;
     let local = workgroup_scan(lid, vec2<u32>(u32(selected), u32(split)));
-    if (!selected) {
-        return;
+    let listed = wg_total.x;
+    if (selected) {
+        wg_list[local.x] = k;
+        wg_rank[local.x] = local;
     }
+    workgroupBarrier();
+    if (lid < listed) {
+        apply_leaf(wg_list[lid], wg_rank[lid], workgroup_index(wid, groups));
+    }
+}
+
+// Applies the decision of selected leaf k, whose ranks among its
+// workgroup's (number g) selected leaves and splits are `local`.
+fn apply_leaf(k: u32, local: vec2<u32>, g: u32) {
+    let leaf_total = leaf_count();
+    let word = leaves_get(leaf_base(k) + 2u);
+    let split = (word & DECISION_SPLIT) != 0u;
     let base = leaf_base(k);
     let h = leaves_get(base + 1u);
     // Recomputed next iteration, whether or not the sample is kept.
@@ -339,7 +357,6 @@ fn apply(@builtin(global_invocation_id) gid: vec3<u32>,
         hi[axis] = box_hi(box);
     }
     d.cand = candidate(leaf_key(k, iteration()), (word >> 20u) & 63u, lo, hi);
-    let g = workgroup_index(wid, groups);
     let n = state[S_SAMPLES];
     let left_over = params.budget - n;
     let selected_total = state[S_SELECTED];

@@ -9,9 +9,8 @@
 // no finite sample gets c = 0. Only leaves marked DIRTY are recomputed; the
 // others keep their error from earlier iterations. Collapsed leaves take no
 // part in E_max. E is finite and non-negative, so the maximum of its bits
-// as u32 is the maximum of the floats: one atomicMax per workgroup.
-
-var<workgroup> wg_max: array<u32, WG>;
+// as u32 is the maximum of the floats: one atomicMax per workgroup into
+// counters[C_EMAX].
 
 fn leaf_error(k: u32) -> f32 {
     let base = leaf_base(k);
@@ -56,38 +55,46 @@ fn leaf_error(k: u32) -> f32 {
     return e;
 }
 
+// Each invocation looks at its leaf: a DIRTY one is appended to the
+// workgroup's list, any other (not collapsed) enters the workgroup's
+// maximum as it is; then the first invocations compute the listed leaves'
+// errors, packed (few leaves change per iteration, and a SIMD group or
+// warp pays for leaf_error if any of its lanes runs it). The maximum is
+// order-independent, so the list's order (atomics) changes nothing.
+var<workgroup> wg_list: array<u32, WG>;
+var<workgroup> wg_listed: atomic<u32>;
+var<workgroup> wg_max: atomic<u32>;
+
 @compute @workgroup_size(WG)
 fn error(@builtin(global_invocation_id) gid: vec3<u32>,
          @builtin(local_invocation_index) lid: u32,
          @builtin(num_workgroups) groups: vec3<u32>) {
     let k = thread_index(gid, groups, WG);
-    var bits = 0u;
+    if (lid == 0u) {
+        atomicStore(&wg_listed, 0u);
+        atomicStore(&wg_max, 0u);
+    }
+    workgroupBarrier();
     if (k < leaf_count()) {
         let base = leaf_base(k);
         if (!header_collapsed(leaves_get(base + 1u))) {
-            bits = leaves_get(base + 2u);
+            let bits = leaves_get(base + 2u);
             if (bits == DIRTY) {
-                bits = bitcast<u32>(leaf_error(k));
-                leaves_set(base + 2u, bits);
+                wg_list[atomicAdd(&wg_listed, 1u)] = k;
+            } else {
+                atomicMax(&wg_max, bits);
             }
         }
     }
-    // Two-level maximum (three barriers, as workgroup_scan).
-    wg_max[lid] = bits;
     workgroupBarrier();
-    if (lid < WG / SEGMENT) {
-        var m = 0u;
-        for (var i = 0u; i < SEGMENT; i++) {
-            m = max(m, wg_max[lid * SEGMENT + i]);
-        }
-        wg_max[lid * SEGMENT] = m;
+    if (lid < atomicLoad(&wg_listed)) {
+        let leaf = wg_list[lid];
+        let bits = bitcast<u32>(leaf_error(leaf));
+        leaves_set(leaf_base(leaf) + 2u, bits);
+        atomicMax(&wg_max, bits);
     }
     workgroupBarrier();
     if (lid == 0u) {
-        var m = 0u;
-        for (var i = 0u; i < WG / SEGMENT; i++) {
-            m = max(m, wg_max[i * SEGMENT]);
-        }
-        atomicMax(&counters[C_EMAX], m);
+        atomicMax(&counters[C_EMAX], atomicLoad(&wg_max));
     }
 }
