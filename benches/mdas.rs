@@ -10,6 +10,7 @@
 //! the baseline of the equal-time comparisons. Run: `cargo bench --bench mdas`.
 
 use criterion::{criterion_group, criterion_main, Criterion};
+use mdas::compare::phases::ADAPTIVE_PARTS;
 use mdas::film::Film;
 use mdas::gpu::shader::{bind_buffers, storage_entry, Wgsl};
 use mdas::gpu::Gpu;
@@ -77,16 +78,17 @@ fn median(mut v: Vec<f64>) -> f64 {
 }
 
 /// Criterion group `name` of whole renders (one warm-up first); returns
-/// every timed render, for the per-phase medians.
+/// every timed render, for the per-phase medians, and with MDAS the times
+/// of the adaptive phase's parts of each ([`ADAPTIVE_PARTS`] order).
+///
 fn timed_renders(
     c: &mut Criterion,
     name: &str,
-    gpu: &Gpu,
-    integrator: &mut dyn Integrator,
-    integrand: &dyn Integrand,
-) -> (Render, Vec<Render>) {
-    let warm = integrator.render(gpu, integrand).unwrap();
+    mut render: impl FnMut() -> (Render, Option<Vec<f64>>),
+) -> (Render, Vec<Render>, Vec<Vec<f64>>) {
+    let (warm, _) = render();
     let mut renders = Vec::new();
+    let mut parts = Vec::new();
     let mut group = c.benchmark_group(name);
     group
         .sample_size(10)
@@ -96,13 +98,15 @@ fn timed_renders(
         b.iter_custom(|iters| {
             let start = std::time::Instant::now();
             for _ in 0..iters {
-                renders.push(integrator.render(gpu, integrand).unwrap());
+                let (r, p) = render();
+                renders.push(r);
+                parts.extend(p);
             }
             start.elapsed()
         })
     });
     group.finish();
-    (warm, renders)
+    (warm, renders, parts)
 }
 
 fn bench(c: &mut Criterion) {
@@ -128,8 +132,15 @@ fn bench(c: &mut Criterion) {
             seed: 1,
         };
         let mut mdas = Mdas::new(params).unwrap();
-        let (warm, renders) =
-            timed_renders(c, &format!("mdas_4d_{label}"), gpu, &mut mdas, &integrand);
+        let (warm, renders, parts) = timed_renders(c, &format!("mdas_4d_{label}"), || {
+            let r = mdas.render(gpu, &integrand).unwrap();
+            let times = mdas.last_pass_times().unwrap();
+            let parts = ADAPTIVE_PARTS
+                .iter()
+                .map(|p| times.get(p).unwrap_or(0.0))
+                .collect();
+            (r, Some(parts))
+        });
         let stats = mdas.last_stats().unwrap();
         eprintln!(
             "mdas 4D {label}: {} samples ({} initial), {} iterations, {} leaves, {:.1} GPU bytes/sample, clock {:?}, {} renders",
@@ -162,15 +173,15 @@ fn bench(c: &mut Criterion) {
             })
             .sum();
         eprintln!("  sampling total  {sampling:9.2} ms (median sum)");
+        for (i, part) in ADAPTIVE_PARTS.iter().enumerate() {
+            let ms = median(parts.iter().map(|p| p[i]).collect());
+            eprintln!("  {part:<15} {ms:9.2} ms (median)");
+        }
 
         let mut halton = Halton::new(8, 1);
-        let (_, halton_renders) = timed_renders(
-            c,
-            &format!("halton_4d_{label}"),
-            gpu,
-            &mut halton,
-            &integrand,
-        );
+        let (_, halton_renders, _) = timed_renders(c, &format!("halton_4d_{label}"), || {
+            (halton.render(gpu, &integrand).unwrap(), None)
+        });
         let total = median(halton_renders.iter().map(|r| r.times.total()).collect());
         eprintln!(
             "halton 4D {label}: {} samples, {total:.2} ms (median GPU total: evaluate + accumulate)",

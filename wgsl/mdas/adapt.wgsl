@@ -1,6 +1,8 @@
 // Adaptive sampling (paper §4.2), two passes around scan.wgsl:
-//   count: every leaf decides (below) whether it is selected and whether
-//          it splits; per-workgroup totals go to `partials`. A selected
+//   count: every leaf runs the selection test; the selected ones decide
+//          (below) whether they split, packed on the first invocations of
+//          the workgroup; per-workgroup totals of selected leaves and
+//          splits go to `partials`. A selected
 //          leaf's error word (recomputed after this iteration anyway)
 //          holds the decision until `apply`: 1 | 0 | split | candidate
 //          index (6 bits) | axis (4) | plane (16), from bit 31 down: bit
@@ -9,8 +11,9 @@
 //          collapsed here.
 //   apply: reads the decisions, a workgroup scan plus the scanned
 //          workgroup prefixes give each new sample and each right child
-//          its slot (in leaf order: deterministic), regenerates the
-//          winning candidate from its index and updates the leaf.
+//          its slot (in leaf order: deterministic); packed invocations
+//          regenerate the winning candidate from its index and update the
+//          leaf.
 // Decision of leaf k in iteration t (random numbers: draw(leaf_key(k, t),
 // stream), see common.wgsl):
 //   * collapsed leaves are skipped;

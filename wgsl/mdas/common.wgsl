@@ -223,35 +223,64 @@ fn leaf_cell_coords(k: u32) -> array<u32, MAX_DIMS> {
     return morton_decode(leaves_get(leaf_base(k)), DIMS, BITS_PER_DIM, EXTRA_BITS);
 }
 
-// Mean of the finite samples of a leaf's list (w = number of them).
+// A leaf holds at most MAX_PER_LEAF + 1 samples (a full leaf that takes
+// one more splits, except in the trimmed last iteration).
+const LEAF_SAMPLES: u32 = MAX_PER_LEAF + 1u;
+
+// The value bits of a leaf's samples, read with one walk of its list.
+// Loops over them run LEAF_SAMPLES times, masked by `i < count`, so that
+// compilers unroll them and keep the array in registers (a walk of the
+// list is a chain of dependent loads: the error pass walked it three
+// times).
+struct LeafValues {
+    bits: array<vec3<u32>, LEAF_SAMPLES>,
+    count: u32,
+}
+
+fn leaf_values(head: u32, count: u32) -> LeafValues {
+    var v: LeafValues;
+    v.count = min(count, LEAF_SAMPLES);
+    var s = head;
+    for (var i = 0u; i < LEAF_SAMPLES; i++) {
+        if (i < v.count) {
+            v.bits[i] = sample_value_bits(s);
+            s = sample_next(s);
+        }
+    }
+    return v;
+}
+
+// Whether sample i of `v` exists and is finite.
+fn leaf_value_finite(v: LeafValues, i: u32) -> bool {
+    return i < v.count && finite_bits(v.bits[i]);
+}
+
+// Mean of the finite samples of a leaf (w = number of them).
 struct LeafMean {
     mean: vec3<f32>,
     finite: u32,
 }
 
-fn leaf_mean(head: u32, count: u32) -> LeafMean {
+fn values_mean(v: LeafValues) -> LeafMean {
     var n = 0u;
-    var s = head;
-    for (var i = 0u; i < count; i++) {
-        if (finite_bits(sample_value_bits(s))) {
-            n += 1u;
-        }
-        s = sample_next(s);
+    for (var i = 0u; i < LEAF_SAMPLES; i++) {
+        n += u32(leaf_value_finite(v, i));
     }
     var mean = vec3<f32>(0.0);
     if (n > 0u) {
         // Each term is scaled before summing so that the sum cannot overflow.
         let inv_n = 1.0 / f32(n);
-        s = head;
-        for (var i = 0u; i < count; i++) {
-            let bits = sample_value_bits(s);
-            if (finite_bits(bits)) {
-                mean += bitcast<vec3<f32>>(bits) * inv_n;
+        for (var i = 0u; i < LEAF_SAMPLES; i++) {
+            if (leaf_value_finite(v, i)) {
+                mean += bitcast<vec3<f32>>(v.bits[i]) * inv_n;
             }
-            s = sample_next(s);
         }
     }
     return LeafMean(mean, n);
+}
+
+fn leaf_mean(head: u32, count: u32) -> LeafMean {
+    return values_mean(leaf_values(head, count));
 }
 
 // ---- workgroup scan (two-level, deterministic) ----

@@ -17,18 +17,16 @@ fn leaf_error(k: u32) -> f32 {
     let h = leaves_get(base + 1u);
     let head = header_head(h);
     let count = header_count(h);
-    let m = leaf_mean(head, count);
+    let values = leaf_values(head, count);
+    let m = values_mean(values);
     var contrast = 0.0;
     if (m.finite > 0u) {
         var dev = vec3<f32>(0.0);
         let inv_n = 1.0 / f32(m.finite);
-        var s = head;
-        for (var i = 0u; i < count; i++) {
-            let bits = sample_value_bits(s);
-            if (finite_bits(bits)) {
-                dev += abs(bitcast<vec3<f32>>(bits) - m.mean) * inv_n;
+        for (var i = 0u; i < LEAF_SAMPLES; i++) {
+            if (leaf_value_finite(values, i)) {
+                dev += abs(bitcast<vec3<f32>>(values.bits[i]) - m.mean) * inv_n;
             }
-            s = sample_next(s);
         }
         for (var c = 0u; c < 3u; c++) {
             let a = abs(m.mean[c]);
