@@ -86,6 +86,21 @@
 //! integrand's included), not its largest binding (lavapipe: 128 MiB,
 //! which held `cornell_pt` at 1024² to 8 spp; it now takes 48).
 //!
+//! ## Work packing in the leaf passes (issue 10)
+//!
+//! The error, count and apply passes run one invocation per leaf, but only
+//! some leaves have work: the changed (DIRTY) ones in error, the selected
+//! ones in count and apply. Each pass lists those leaves of its workgroup
+//! in workgroup memory and the first invocations take one listed leaf
+//! each, so the costly part runs on packed invocations rather than on
+//! scattered lanes of every SIMD group or warp. Lists built with
+//! workgroup atomics have no fixed order; it changes nothing, because what
+//! a listed leaf computes depends on the leaf alone and the workgroup's
+//! totals (selected, splits, the error maximum) are order-independent,
+//! while slots still come from the deterministic scan in leaf order. A
+//! leaf's samples are read with one walk of its list into arrays indexed
+//! only in loops of constant length (registers, not memory).
+//!
 //! ## Departures from the reference CUDA code (issue #3)
 //!
 //! Errors are recomputed after every insertion (a changed leaf is marked
