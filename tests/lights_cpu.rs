@@ -584,9 +584,10 @@ fn tree2_over_one_group_samples_like_tree_cone() {
 
 // ---------------------------------------------------------------- cuts
 
-/// Each light lies below exactly one cut node.
-fn check_cut_covers<T: LightTree>(t: &T, cut: &[u32]) {
-    for light in 0..t.light_count() {
+/// Each of the tree's `lights` lights lies below exactly one cut node.
+fn check_cut_covers<T: LightTree>(t: &T, lights: usize, cut: &[u32]) {
+    assert_eq!(t.light_count() as usize, lights);
+    for light in 0..lights as u32 {
         let mut node = t.leaf_of_light(light);
         let mut hits = 0;
         while let Some(x) = node {
@@ -610,10 +611,10 @@ fn cuts_partition_the_lights() {
             for size in [1, 2, 3, 8, MAX_CUT] {
                 let c = select_cut(&t, imp, &s, size);
                 assert!(c.len() <= size as usize);
-                check_cut_covers(&t, &c);
+                check_cut_covers(&t, n, &c);
                 let c = select_cut(&b, imp, &s, size);
                 assert!(c.len() <= size as usize);
-                check_cut_covers(&b, &c);
+                check_cut_covers(&b, n, &c);
                 // The BVH has no zero-intensity padding: a full cut unless
                 // lights ran out (refinable nodes need I > 0).
                 if b.nodes[0].intensity > 0.0 && prims.iter().all(|p| p.intensity() > 0.0) {
@@ -1237,7 +1238,8 @@ fn angle(u: Vec3, v: Vec3) -> f32 {
 /// whole-sphere cone; points and VPLs set the `points` flag), checked leaf
 /// by leaf up to the root.
 fn check_cones_bound_their_lights<T: LightTree>(prims: &[LightPrim], t: &T, what: &str) {
-    for light in 0..t.light_count() {
+    assert_eq!(t.light_count() as usize, prims.len(), "{what}");
+    for light in 0..prims.len() as u32 {
         let prim = &prims[light as usize];
         // The emission axis: a VPL's normal, a triangle's face normal.
         let normal = if prim.kind == mdas::lights::KIND_VPL {
