@@ -989,6 +989,42 @@ fn one_light() {
     }
 }
 
+/// A larger cut changes the pmf of exactly the kinds that sample from
+/// cuts (docs/light-sampling.md: the `_nocut` variants, `uniform`,
+/// `power` and the substitute trees do not), and `uses_cut` says so.
+#[test]
+fn the_cut_size_changes_exactly_the_kinds_with_cuts() {
+    let mut rng = StdRng::seed_from_u64(77);
+    let prims = random_scene(&mut rng, 37);
+    let rep = random_shading(&mut rng);
+    let points: Vec<Shading> = (0..4).map(|_| random_shading(&mut rng)).collect();
+    for kind in SamplerKind::PICKERS {
+        let root = new_sampler(kind, &prims, Some((&rep, 1)));
+        let cut = new_sampler(kind, &prims, Some((&rep, 16)));
+        let differs = points
+            .iter()
+            .any(|s| (0..37).any(|i| root.pmf(s, i) != cut.pmf(s, i)));
+        let with_cuts = [
+            SamplerKind::Tree,
+            SamplerKind::TreeCone,
+            SamplerKind::Unbalanced,
+            SamplerKind::UnbalancedNoCone,
+            SamplerKind::Tree2,
+        ];
+        assert_eq!(differs, with_cuts.contains(&kind), "{kind}");
+        assert_eq!(kind.uses_cut(), differs, "{kind}");
+    }
+}
+
+/// `lgh` picks no single light: the CPU factory refuses it with the
+/// reason (not an unreachable arm).
+#[test]
+#[should_panic(expected = "picks no single light")]
+fn the_cpu_factory_refuses_lgh() {
+    let prims = [LightPrim::point(Vec3::new(0.0, 2.0, 0.0), Vec3::ONE)];
+    new_sampler(SamplerKind::Lgh, &prims, None);
+}
+
 #[test]
 fn zero_lights_never_sample() {
     let s = Shading::default();
