@@ -36,7 +36,7 @@ MODULES=(
   "src/lights/two_level.rs|--lib --test=lights_cpu"
   "src/lights/bvh.rs|--lib --test=lights_cpu"
   "src/lights/cut.rs|--lib --test=lights_cpu"
-  "src/lights/sampler.rs|--lib --test=lights_cpu"
+  "src/lights/sampler.rs|--lib --test=lights_cpu --test=lights_gpu_sampler"
   "src/metrics/mod.rs|--lib"
   "src/compare/intervals.rs|--lib"
   "src/compare/seeds.rs|--lib"
