@@ -37,6 +37,8 @@ MODULES=(
   "src/lights/bvh.rs|--lib --test=lights_cpu"
   "src/lights/cut.rs|--lib --test=lights_cpu"
   "src/lights/sampler.rs|--lib --test=lights_cpu --test=lights_gpu_sampler"
+  "src/lights/cone.rs|--lib --test=lights_cpu"
+  "src/lights/importance.rs|--lib --test=lights_cpu"
   "src/metrics/mod.rs|--lib"
   "src/compare/intervals.rs|--lib"
   "src/compare/seeds.rs|--lib"
