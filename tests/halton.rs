@@ -4,40 +4,13 @@
 
 mod common;
 
-use common::{gpu, image_bits, TestIntegrand};
+use common::{cp_shift, gpu, image_bits, radical_inverse_exact, TestIntegrand, PRIMES};
 use mdas::film::Film;
 use mdas::gpu::shader::{bind_buffers, storage_entry, Wgsl};
 use mdas::integrand::MAX_DIMS;
 use mdas::integrator::{Halton, Integrator};
 use mdas::wgsl_file;
 use rand::{RngExt, SeedableRng};
-
-const PRIMES: [u32; 16] = [2, 3, 5, 7, 11, 13, 17, 19, 23, 29, 31, 37, 41, 43, 47, 53];
-
-/// Φ_b(a) as an exact rational, then rounded once to f64.
-fn radical_inverse_exact(b: u32, mut a: u32) -> f64 {
-    let (mut num, mut den) = (0u128, 1u128);
-    while a > 0 {
-        num = num * b as u128 + (a % b) as u128;
-        den *= b as u128;
-        a /= b;
-    }
-    num as f64 / den as f64
-}
-
-fn lowbias32(mut x: u32) -> u32 {
-    x ^= x >> 16;
-    x = x.wrapping_mul(0x7feb352d);
-    x ^= x >> 15;
-    x = x.wrapping_mul(0x846ca68b);
-    x ^= x >> 16;
-    x
-}
-
-fn cp_shift(pixel: u32, dim: u32, seed: u32) -> f64 {
-    let h = lowbias32(pixel ^ lowbias32(dim ^ lowbias32(seed.wrapping_add(0x9e3779b9))));
-    (h >> 8) as f64 / 16777216.0
-}
 
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]

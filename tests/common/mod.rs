@@ -83,3 +83,46 @@ pub fn gpu() -> &'static Gpu {
 pub fn image_bits(r: &mdas::integrator::Render) -> Vec<u32> {
     r.image.iter().flat_map(|p| p.map(f32::to_bits)).collect()
 }
+
+// ----------------------------------------- the Halton points, on the CPU
+//
+// The definition in `src/integrator/halton.rs`: sample i of a pixel has
+// coordinate frac(Φ_{b_k}(i) + shift(pixel, k, seed)) in dimension k.
+
+/// The first primes, the bases of dimensions 0, 1, ….
+pub const PRIMES: [u32; 16] = [2, 3, 5, 7, 11, 13, 17, 19, 23, 29, 31, 37, 41, 43, 47, 53];
+
+/// Φ_b(a) as an exact rational, then rounded once to f64.
+pub fn radical_inverse_exact(b: u32, mut a: u32) -> f64 {
+    let (mut num, mut den) = (0u128, 1u128);
+    while a > 0 {
+        num = num * b as u128 + (a % b) as u128;
+        den *= b as u128;
+        a /= b;
+    }
+    num as f64 / den as f64
+}
+
+/// The integer hash behind `hash3` (wgsl/shared/rng.wgsl).
+fn lowbias32(mut x: u32) -> u32 {
+    x ^= x >> 16;
+    x = x.wrapping_mul(0x7feb352d);
+    x ^= x >> 15;
+    x = x.wrapping_mul(0x846ca68b);
+    x ^= x >> 16;
+    x
+}
+
+/// The Cranley–Patterson shift of (pixel, dimension, seed): 24 bits of
+/// `hash3`, exactly as the GPU forms it.
+pub fn cp_shift(pixel: u32, dim: u32, seed: u32) -> f64 {
+    let h = lowbias32(pixel ^ lowbias32(dim ^ lowbias32(seed.wrapping_add(0x9e3779b9))));
+    (h >> 8) as f64 / 16777216.0
+}
+
+/// Dimension `dim` of Halton sample `index` of `pixel` (row-major index)
+/// in f64: the exact radical inverse plus the pixel's Cranley–Patterson
+/// shift, modulo 1. The GPU's f32 value is within 2⁻²² of it.
+pub fn halton_point(dim: u32, index: u32, pixel: u32, seed: u32) -> f64 {
+    (radical_inverse_exact(PRIMES[dim as usize], index) + cp_shift(pixel, dim, seed)).fract()
+}
