@@ -392,6 +392,52 @@ mod tests {
         assert!(a.union(&LightCone::SPHERE).is_sphere());
     }
 
+    /// `half` picks whichever half-angle formula is well conditioned:
+    /// `(1 + c, s)` on (0, π/2], `(s, 1 − c)` beyond. Near π the first
+    /// loses most of `1 + c`'s digits (c ≈ −1). Checked on (0, π], where
+    /// `union` calls it (`θ_d + θ_b − θ_a`; larger values resolve to the
+    /// whole sphere), against the half, in f64, of the angle the f32 pair
+    /// itself holds (so the pair's own rounding is not counted), to a few
+    /// ulps.
+    #[test]
+    fn half_angles_are_accurate_up_to_pi() {
+        for k in 1..=2048 {
+            let t = k as f64 / 4096.0 * std::f64::consts::TAU;
+            let a = Angle::new(t.cos() as f32, t.sin() as f32);
+            if a.s <= 0.0 && a.c >= 0.999_999 {
+                continue; // halves to 0 by design (see `half`)
+            }
+            let h = a.half();
+            let held = (a.s as f64).atan2(a.c as f64).rem_euclid(std::f64::consts::TAU);
+            let (c, s) = ((held / 2.0).cos(), (held / 2.0).sin());
+            assert!(
+                (h.c as f64 - c).abs() < 4e-7 && (h.s as f64 - s).abs() < 4e-7,
+                "half of {t}: ({}, {}) against ({c}, {s})",
+                h.c,
+                h.s
+            );
+        }
+    }
+
+    /// A spread within the slack of π becomes exactly the whole sphere,
+    /// stored as (−1, 0), not an angle wrapped past π. (cos θ_o rounds to
+    /// −1 there while sin θ_o does not; `SLACK.cos()` rounds to 1 in f32,
+    /// so "θ_o + SLACK ≥ π" and "cos θ_o = −1" are the same test.)
+    #[test]
+    fn widening_to_pi_gives_the_whole_sphere() {
+        for theta in [std::f32::consts::PI - SLACK / 2.0, std::f32::consts::PI - SLACK] {
+            let c = cone(Vec3::Z, theta);
+            assert!(c.sin_o > 0.0);
+            let w = c.widened();
+            assert_eq!((w.cos_o, w.sin_o), (-1.0, 0.0), "θ_o = {theta}");
+            assert_eq!((w.axis, w.cos_e), (c.axis, c.cos_e));
+        }
+        // Below π by more than the slack: a cone, widened by the slack.
+        let c = cone(Vec3::Z, 3.0).widened();
+        assert!(!c.is_sphere());
+        assert!((c.sin_o.atan2(c.cos_o) - 3.0 - SLACK).abs() < 1e-6);
+    }
+
     #[test]
     fn emission_bound_of_a_triangle_cone() {
         let c = cone(Vec3::Z, 0.0);
