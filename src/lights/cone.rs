@@ -438,6 +438,18 @@ mod tests {
         assert!((c.sin_o.atan2(c.cos_o) - 3.0 - SLACK).abs() < 1e-6);
     }
 
+    /// A VPL whose normal is unusable (zero, infinite or NaN) bounds
+    /// like an isotropic point, never with a NaN axis.
+    #[test]
+    fn vpls_without_a_usable_normal_are_points() {
+        for n in [Vec3::ZERO, Vec3::new(f32::INFINITY, 0.0, 0.0), Vec3::new(0.0, f32::NAN, 1.0)] {
+            let prim = LightPrim::vpl(Vec3::ONE, n, Vec3::ONE);
+            assert_eq!(LightCone::of_prim(&prim), LightCone::POINT, "normal {n}");
+        }
+        let c = LightCone::of_prim(&LightPrim::vpl(Vec3::ONE, Vec3::new(0.0, 3.0, 0.0), Vec3::ONE));
+        assert_eq!((c.axis, c.points), ([0.0, 1.0, 0.0], 1));
+    }
+
     #[test]
     fn emission_bound_of_a_triangle_cone() {
         let c = cone(Vec3::Z, 0.0);
