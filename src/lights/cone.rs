@@ -408,7 +408,9 @@ mod tests {
                 continue; // halves to 0 by design (see `half`)
             }
             let h = a.half();
-            let held = (a.s as f64).atan2(a.c as f64).rem_euclid(std::f64::consts::TAU);
+            let held = (a.s as f64)
+                .atan2(a.c as f64)
+                .rem_euclid(std::f64::consts::TAU);
             let (c, s) = ((held / 2.0).cos(), (held / 2.0).sin());
             assert!(
                 (h.c as f64 - c).abs() < 4e-7 && (h.s as f64 - s).abs() < 4e-7,
@@ -425,7 +427,10 @@ mod tests {
     /// so "θ_o + SLACK ≥ π" and "cos θ_o = −1" are the same test.)
     #[test]
     fn widening_to_pi_gives_the_whole_sphere() {
-        for theta in [std::f32::consts::PI - SLACK / 2.0, std::f32::consts::PI - SLACK] {
+        for theta in [
+            std::f32::consts::PI - SLACK / 2.0,
+            std::f32::consts::PI - SLACK,
+        ] {
             let c = cone(Vec3::Z, theta);
             assert!(c.sin_o > 0.0);
             let w = c.widened();
@@ -442,11 +447,19 @@ mod tests {
     /// like an isotropic point, never with a NaN axis.
     #[test]
     fn vpls_without_a_usable_normal_are_points() {
-        for n in [Vec3::ZERO, Vec3::new(f32::INFINITY, 0.0, 0.0), Vec3::new(0.0, f32::NAN, 1.0)] {
+        for n in [
+            Vec3::ZERO,
+            Vec3::new(f32::INFINITY, 0.0, 0.0),
+            Vec3::new(0.0, f32::NAN, 1.0),
+        ] {
             let prim = LightPrim::vpl(Vec3::ONE, n, Vec3::ONE);
             assert_eq!(LightCone::of_prim(&prim), LightCone::POINT, "normal {n}");
         }
-        let c = LightCone::of_prim(&LightPrim::vpl(Vec3::ONE, Vec3::new(0.0, 3.0, 0.0), Vec3::ONE));
+        let c = LightCone::of_prim(&LightPrim::vpl(
+            Vec3::ONE,
+            Vec3::new(0.0, 3.0, 0.0),
+            Vec3::ONE,
+        ));
         assert_eq!((c.axis, c.points), ([0.0, 1.0, 0.0], 1));
     }
 
