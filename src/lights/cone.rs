@@ -463,6 +463,76 @@ mod tests {
         assert_eq!((c.axis, c.points), ([0.0, 1.0, 0.0], 1));
     }
 
+    /// A triangle's cone is about its unit face normal (counter-clockwise
+    /// winding) at any scale: tiny and huge triangles neither underflow
+    /// nor overflow; a degenerate or non-finite one bounds as the whole
+    /// sphere.
+    #[test]
+    fn triangle_cones_at_every_scale() {
+        let normal = Vec3::new(1.0, 2.0, 2.0) / 3.0;
+        // Two edges perpendicular to the normal.
+        let (e1, e2) = (Vec3::new(2.0, -1.0, 0.0), Vec3::new(2.0, 4.0, -5.0));
+        assert!(e1.dot(normal).abs() < 1e-6 && e2.dot(normal).abs() < 1e-6);
+        assert!(e1.cross(e2).dot(normal) > 0.0);
+        for scale in [1.0, 1e-15, 1e18] {
+            let o = Vec3::new(0.5, -0.25, 2.0) * scale;
+            let prim = LightPrim::triangle(o, o + e1 * scale, o + e2 * scale, Vec3::ONE);
+            let c = LightCone::of_prim(&prim);
+            let axis = Vec3::from(c.axis);
+            assert!(
+                (axis - normal).length() < 1e-6,
+                "scale {scale}: axis {axis} against {normal}"
+            );
+            assert!(
+                !c.is_sphere() && c.cos_o > SLACK.cos() - 1e-6,
+                "scale {scale}: {c:?}"
+            );
+            assert_eq!((c.two_sided, c.points), (0, 0));
+        }
+        let flat = LightPrim::triangle(Vec3::ZERO, Vec3::X, 2.0 * Vec3::X, Vec3::ONE);
+        assert_eq!(LightCone::of_prim(&flat), LightCone::SPHERE);
+        let inf = Vec3::new(f32::INFINITY, 0.0, 0.0);
+        let far = LightPrim::triangle(Vec3::ZERO, inf, Vec3::Y, Vec3::ONE);
+        assert_eq!(LightCone::of_prim(&far), LightCone::SPHERE);
+    }
+
+    /// The union keeps the larger emission angle (the smaller cos θ_e),
+    /// is two-sided or over points if either cone is, and stores the whole
+    /// sphere as (−1, 0) whatever the inputs' spreads.
+    #[test]
+    fn unions_merge_emission_sides_and_points() {
+        let a = LightCone {
+            cos_e: 0.2,
+            ..cone(Vec3::Z, 0.3)
+        };
+        let b = LightCone {
+            cos_e: 0.6,
+            ..cone(Vec3::X, 0.1)
+        };
+        for (x, y) in [(a, b), (b, a)] {
+            assert_eq!(x.union(&y).cos_e, 0.2);
+        }
+        for (sa, sb) in [(0, 0), (0, 1), (1, 0), (1, 1)] {
+            let (x, y) = (
+                LightCone {
+                    two_sided: sa,
+                    points: sb,
+                    ..a
+                },
+                LightCone {
+                    two_sided: sb,
+                    points: sa,
+                    ..b
+                },
+            );
+            let u = x.union(&y);
+            assert_eq!((u.two_sided, u.points), (sa | sb, sa | sb), "{x:?} ∪ {y:?}");
+        }
+        // Antiparallel axes: every direction, exactly (−1, 0).
+        let u = cone(Vec3::Z, 0.5).union(&cone(-Vec3::Z, 0.5));
+        assert_eq!((u.cos_o, u.sin_o), (-1.0, 0.0));
+    }
+
     #[test]
     fn emission_bound_of_a_triangle_cone() {
         let c = cone(Vec3::Z, 0.0);
