@@ -533,6 +533,33 @@ mod tests {
         assert_eq!((u.cos_o, u.sin_o), (-1.0, 0.0));
     }
 
+    /// `contains` (the tests' check of every union) refuses what it must:
+    /// a wider spread, an axis turned away, a wider emission angle, a
+    /// two-sided cone in a one-sided one; and accepts what it must.
+    #[test]
+    fn containment_refuses_what_sticks_out() {
+        let outer = cone(Vec3::Z, 0.5);
+        assert!(outer.contains(&cone(Vec3::Z, 0.5), 0.0));
+        assert!(outer.contains(&cone(Vec3::new(0.1, 0.0, 1.0), 0.3), 0.0));
+        assert!(!outer.contains(&cone(Vec3::Z, 0.6), 0.0));
+        assert!(outer.contains(&cone(Vec3::Z, 0.6), 0.2));
+        assert!(!outer.contains(&cone(Vec3::new(1.0, 0.0, 1.0), 0.3), 0.0));
+        let wider_e = LightCone {
+            cos_e: outer.cos_e - 0.5,
+            ..cone(Vec3::Z, 0.1)
+        };
+        assert!(!outer.contains(&wider_e, 0.0));
+        let two = LightCone {
+            two_sided: 1,
+            ..cone(Vec3::Z, 0.1)
+        };
+        assert!(!outer.contains(&two, 0.0));
+        assert!(
+            LightCone::SPHERE.contains(&outer, 0.0) && !outer.contains(&LightCone::SPHERE, 0.0)
+        );
+        assert!(outer.contains(&LightCone::EMPTY, 0.0) && !LightCone::EMPTY.contains(&outer, 0.0));
+    }
+
     #[test]
     fn emission_bound_of_a_triangle_cone() {
         let c = cone(Vec3::Z, 0.0);
