@@ -549,6 +549,11 @@ mod tests {
             ..cone(Vec3::Z, 0.1)
         };
         assert!(!outer.contains(&wider_e, 0.0));
+        let slightly = LightCone {
+            cos_e: outer.cos_e - 0.1,
+            ..wider_e
+        };
+        assert!(outer.contains(&slightly, 0.2) && !outer.contains(&slightly, 0.05));
         let two = LightCone {
             two_sided: 1,
             ..cone(Vec3::Z, 0.1)
