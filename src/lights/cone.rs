@@ -563,6 +563,12 @@ mod tests {
             LightCone::SPHERE.contains(&outer, 0.0) && !outer.contains(&LightCone::SPHERE, 0.0)
         );
         assert!(outer.contains(&LightCone::EMPTY, 0.0) && !LightCone::EMPTY.contains(&outer, 0.0));
+        // Not even a single direction along the empty cone's stored axis.
+        let along = LightCone {
+            cos_e: LightCone::EMPTY.cos_e,
+            ..cone(Vec3::from(LightCone::EMPTY.axis), 0.0)
+        };
+        assert!(!LightCone::EMPTY.contains(&along, 0.0));
     }
 
     #[test]
