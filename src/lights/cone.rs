@@ -583,7 +583,11 @@ mod tests {
         let b = c.emission_bound([0.0; 3], 1.0, [2.0 * 60f32.to_radians().sin(), 0.0, 1.0]);
         assert!((b - 30f32.to_radians().cos()).abs() < 1e-5, "{b}");
         // 20° from the axis, inside the sphere's 30° half-angle: θ' = 0.
-        let x = [2.0 * 20f32.to_radians().sin(), 0.0, 2.0 * 20f32.to_radians().cos()];
+        let x = [
+            2.0 * 20f32.to_radians().sin(),
+            0.0,
+            2.0 * 20f32.to_radians().cos(),
+        ];
         assert_eq!(c.emission_bound([0.0; 3], 1.0, x), 1.0);
         // Inside the sphere, or a two-sided cone seen from behind: 1.
         assert_eq!(c.emission_bound([0.0; 3], 3.0, [0.0, 0.0, -2.0]), 1.0);

@@ -289,6 +289,49 @@ mod tests {
         );
     }
 
+    /// Distances from a shading point off the origin and off every face
+    /// (the box [1, 2] × [0, 1] × [0, 0] from (3, −1, 0.5)): per axis the
+    /// nearest gaps are 1, 1, 0.5 and the farthest 2, 2, 0.5.
+    #[test]
+    fn distances_from_a_point_beside_the_box() {
+        let s = Shading {
+            p: Vec3::new(3.0, -1.0, 0.5),
+            n: Vec3::ZERO,
+        };
+        let imp = node_importance(&node([1.0, 0.0, 0.0], [2.0, 1.0, 0.0], 2.0), None, &s);
+        assert_eq!((imp.dmin2, imp.dmax2, imp.w), (2.25, 8.25, 2.0));
+        // Beside the other faces: (0, 2, −1) gives gaps 1, 1, 1 and 2, 2, 1.
+        let s = Shading {
+            p: Vec3::new(0.0, 2.0, -1.0),
+            n: Vec3::ZERO,
+        };
+        let imp = node_importance(&node([1.0, 0.0, 0.0], [2.0, 1.0, 0.0], 2.0), None, &s);
+        assert_eq!((imp.dmin2, imp.dmax2), (3.0, 9.0));
+    }
+
+    /// A node of zero intensity is dead whatever its bounds; the cone
+    /// kinds clamp the near distance of a non-point node to r²/16 (r its
+    /// half-diagonal), not that of a node over points.
+    #[test]
+    fn dead_nodes_and_the_near_clamp() {
+        let s = Shading {
+            p: Vec3::ZERO,
+            n: Vec3::Y,
+        };
+        let zero = node([-1.0; 3], [1.0; 3], 0.0);
+        assert_eq!(node_importance(&zero, None, &s), NodeImportance::default());
+        assert_eq!(
+            node_importance(&zero, Some(&LightCone::SPHERE), &s),
+            NodeImportance::default()
+        );
+        // x inside the box [−1, 3]³: r² = 3·2² = 12, so dmin² = 12/16.
+        let b = node([-1.0; 3], [3.0; 3], 1.0);
+        let imp = node_importance(&b, Some(&LightCone::SPHERE), &s);
+        assert_eq!(imp.dmin2, 0.75);
+        let imp = node_importance(&b, Some(&LightCone::POINT), &s);
+        assert_eq!(imp.dmin2, 0.0);
+    }
+
     #[test]
     fn child_rules() {
         let a = NodeImportance {
