@@ -972,6 +972,39 @@ fn many_light_scenes_parse_their_integrand_and_light_sets() {
     }
 }
 
+/// A surface light set scatters its lights over the scene's non-emissive
+/// triangles, each moved `offset` along its triangle's normal: over one
+/// floor quad (y = 0, normal +y) every light sits at y = offset, inside
+/// the quad's extent, for the given offset and for the default (0.01).
+#[test]
+fn surface_light_set_lifts_its_lights_by_the_offset() {
+    let floor = "[[shape]]\ntype = \"quad\"\nmaterial = \"white\"\n\
+                 corners = [[-1, 0, -1], [-1, 0, 1], [1, 0, 1], [1, 0, -1]]\n";
+    for (offset_line, offset) in [("offset = 0.25\n", 0.25f32), ("", 0.01)] {
+        let text = format!(
+            "{BASE}{floor}[[light_set]]\ntype = \"surface\"\ncount = 64\n{offset_line}intensity = [1, 1, 1]\n"
+        );
+        let (_, r) = load_text("light-set-surface", &text);
+        let s = r.unwrap();
+        let set = &s.scene.point_light_sets[0];
+        assert_eq!(set.len(), 64);
+        for l in &set.lights {
+            // The quad lies in y = 0 exactly, so y is offset · 1 exactly.
+            assert_eq!(l.base.y, offset, "{offset_line:?}: {:?}", l.base);
+            assert!(
+                l.base.x.abs() <= 1.0 && l.base.z.abs() <= 1.0,
+                "{:?}",
+                l.base
+            );
+        }
+    }
+    // A negative offset is refused at its value.
+    let text =
+        format!("{BASE}{floor}[[light_set]]\ntype = \"surface\"\ncount = 4\noffset = -0.1\nintensity = [1, 1, 1]\n");
+    let m = error_at("surface-negative-offset", &text, 19, 10);
+    assert!(m.contains("offset must be ≥ 0, found -0.1"), "{m}");
+}
+
 #[test]
 fn light_set_keys_parse_into_the_set() {
     let text = format!(
