@@ -357,6 +357,177 @@ mod tests {
         assert!(!choose_child(0.0, 0.0).0);
     }
 
+    /// The reflectance bound against its closed form: for a sphere of
+    /// half-angle θ_b (sin θ_b = r/dist) whose centre is θ_n away from the
+    /// normal, F = cos(θ_n − θ_b) when θ_n > θ_b, else 1. The node is the
+    /// segment [3, 5] × {0} × {0} (centre (4, 0, 0), r = 1) seen from the
+    /// origin, so sin θ_b = 1/4; the f64 angles share no code with the
+    /// bound. Tolerance: a few f32 ulps of values near 1 (1e-6).
+    #[test]
+    fn reflectance_bound_is_the_cosine_of_the_angle_beyond_the_sphere() {
+        let seg = node([3.0, 0.0, 0.0], [5.0, 0.0, 0.0], 1.0);
+        let theta_b = (0.25f64).asin();
+        let at = |n: Vec3| {
+            reflectance_bound(
+                &seg,
+                &Shading {
+                    p: Vec3::ZERO,
+                    n: n.normalize(),
+                },
+            )
+        };
+        for theta_n_deg in [30.0f64, 60.0, 90.0, 100.0] {
+            let t = theta_n_deg.to_radians();
+            let n = Vec3::new(t.cos() as f32, t.sin() as f32, 0.0);
+            let want = (t - theta_b).cos().max(0.0);
+            let got = at(n) as f64;
+            assert!(
+                (got - want).abs() < 1e-6,
+                "θ_n = {theta_n_deg}°: F = {got}, closed form {want}"
+            );
+        }
+        // Normal within θ_b of the centre (10° < 14.48°), or beyond 90° + θ_b.
+        assert_eq!(
+            at(Vec3::new(
+                10f32.to_radians().cos(),
+                10f32.to_radians().sin(),
+                0.0
+            )),
+            1.0
+        );
+        assert_eq!(at(Vec3::new(-1.0, 0.2, 0.0)), 0.0);
+        // No normal: 1.
+        assert_eq!(
+            reflectance_bound(
+                &seg,
+                &Shading {
+                    p: Vec3::ZERO,
+                    n: Vec3::ZERO
+                }
+            ),
+            1.0
+        );
+        // On the sphere itself (dist = r exactly, from (3, 0, 0)) the point
+        // counts as inside: 1, although the formula would give 0.8 there
+        // with this normal (cos_n = −0.6, θ_b = 90°).
+        let on = Shading {
+            p: Vec3::new(3.0, 0.0, 0.0),
+            n: Vec3::new(-0.6, 0.8, 0.0),
+        };
+        assert_eq!(reflectance_bound(&seg, &on), 1.0);
+    }
+
+    /// W = F·G·I with an orientation cone, against the closed form: the
+    /// node is the square [−1, 1] × {2} × [−1, 1] (centre (0, 2, 0),
+    /// r = √2) emitting downward (axis −y, θ_o = 0, θ_e = 90°), seen from
+    /// x = (4, 0, 0) with normal +y. The centre is θ_n = atan2(4, 2) from
+    /// the normal and θ_w = atan2(4, 2) from the axis, the sphere's
+    /// half-angle is θ_b = asin(√2/√20); F = cos(θ_n − θ_b), G = cos(θ_w −
+    /// θ_b), both cos 45°, so W = I/2. The near clamp r²/16 = 1/8 is below
+    /// dmin² = 9 + 4 = 13 and leaves it. Tolerance 1e-6 relative (f32
+    /// rounding of a dozen operations).
+    #[test]
+    fn cone_importance_is_the_product_of_both_bounds() {
+        let square = node([-1.0, 2.0, -1.0], [1.0, 2.0, 1.0], 3.0);
+        let cone = LightCone {
+            axis: [0.0, -1.0, 0.0],
+            cos_o: 1.0,
+            sin_o: 0.0,
+            cos_e: 0.0,
+            two_sided: 0,
+            points: 0,
+        };
+        let s = Shading {
+            p: Vec3::new(4.0, 0.0, 0.0),
+            n: Vec3::Y,
+        };
+        let imp = node_importance(&square, Some(&cone), &s);
+        let theta = (4.0f64).atan2(2.0);
+        let theta_b = (2.0f64.sqrt() / 20.0f64.sqrt()).asin();
+        let want = 3.0 * (theta - theta_b).cos() * (theta - theta_b).cos();
+        assert!(
+            ((imp.w as f64) - want).abs() < 1e-6 * want,
+            "W = {}, closed form {want}",
+            imp.w
+        );
+        assert!((want - 1.5).abs() < 1e-12);
+        // dmin²: gaps 3, 2, 0; dmax²: 5, 2, 1.
+        assert_eq!((imp.dmin2, imp.dmax2), (13.0, 30.0));
+        // The same node emitting upward faces away from x: W = 0.
+        let up = LightCone {
+            axis: [0.0, 1.0, 0.0],
+            ..cone
+        };
+        assert_eq!(node_importance(&square, Some(&up), &s).w, 0.0);
+        // Two-sided, it emits toward x again.
+        let both = LightCone { two_sided: 1, ..up };
+        assert_eq!(node_importance(&square, Some(&both), &s).w, imp.w);
+    }
+
+    /// The fallback of eq. 2 when both weighted distances vanish (x inside
+    /// both boxes): W_j/(W_j + W_k) for that half, the ordinary rule for
+    /// the other. Here p_min falls back to 1/2 and p_max = 4/(4 + 1), so
+    /// p_left = 0.65.
+    #[test]
+    fn p_left_falls_back_to_the_weights_inside_both_boxes() {
+        let j = NodeImportance {
+            dmin2: 0.0,
+            dmax2: 1.0,
+            w: 1.0,
+        };
+        let k = NodeImportance {
+            dmin2: 0.0,
+            dmax2: 4.0,
+            w: 1.0,
+        };
+        assert_eq!(p_left(&j, &k), Some(0.5 * (0.5 + 0.8)));
+        // At u = p_left exactly the right child is taken, with u = 0.
+        assert_eq!(choose_child(0.25, 0.25), (false, 0.75, 0.0));
+    }
+
+    #[test]
+    fn cut_keys() {
+        let imp = |dmin2: f32, w: f32| NodeImportance {
+            dmin2,
+            dmax2: 9.0,
+            w,
+        };
+        assert_eq!(cut_key(&imp(4.0, 2.0)), 0.5);
+        assert_eq!(cut_key(&imp(0.0, 2.0)), f32::INFINITY);
+        assert_eq!(cut_key(&imp(4.0, 0.0)), 0.0);
+    }
+
+    /// Cut node probabilities against eq. 2 over n nodes worked by hand.
+    #[test]
+    fn cut_probabilities_known_answers() {
+        let imp = |dmin2: f32, dmax2: f32, w: f32| NodeImportance { dmin2, dmax2, w };
+        let close = |got: &[f32], want: &[f64]| {
+            assert_eq!(got.len(), want.len());
+            for (g, w) in got.iter().zip(want) {
+                assert!(((*g as f64) - w).abs() < 1e-6, "{got:?} against {want:?}");
+            }
+        };
+        // Outside every box; a dead node (all 0) takes no share and is not
+        // "inside" although its dmin² is 0. W/W_max = 1, 1/2, 0:
+        // p_min ∝ 1, 1/8, 0 → 8/9, 1/9; p_max ∝ 1/4, 1/8 → 2/3, 1/3.
+        let dead = NodeImportance::default();
+        let p = cut_probabilities(&[imp(1.0, 4.0, 2.0), imp(4.0, 4.0, 1.0), dead]).unwrap();
+        close(&p, &[7.0 / 9.0, 2.0 / 9.0, 0.0]);
+        // x inside the first box: p_min is all that node's; p_max ∝ (1/3)/4,
+        // 1/9, 0 → 3/7, 4/7.
+        let p = cut_probabilities(&[imp(0.0, 4.0, 1.0), imp(1.0, 9.0, 3.0), dead]).unwrap();
+        close(&p, &[5.0 / 7.0, 2.0 / 7.0, 0.0]);
+        // Inside two live boxes: p_min splits by W alone (1 : 3).
+        let p = cut_probabilities(&[imp(0.0, 4.0, 1.0), imp(0.0, 4.0, 3.0)]).unwrap();
+        close(&p, &[0.25, 0.75]);
+        // Intensities near f32's limit stay finite (weights are divided by
+        // the largest before they are summed): the first example scaled.
+        let p = cut_probabilities(&[imp(1.0, 4.0, 2e38), imp(4.0, 4.0, 1e38), dead]).unwrap();
+        close(&p, &[7.0 / 9.0, 2.0 / 9.0, 0.0]);
+        // Every node dead: none.
+        assert_eq!(cut_probabilities(&[dead, dead]), None);
+    }
+
     #[test]
     fn cut_node_choice() {
         let probs = [0.25, 0.0, 0.75];
