@@ -71,7 +71,7 @@ main() {
     [[ -f "$file" ]] || { echo "no such module: $file" >&2; exit 2; }
     local args=(-f "$file")
     for t in $tests; do
-      args+=("--cargo-test-arg=$t")
+      args+=("--cargo-arg=$t")
     done
     # shellcheck disable=SC2206
     local extra=(${MUTANTS_ARGS:-})
