@@ -12,8 +12,8 @@
 #   LIST=1 make mutants                           # list the mutants, build nothing
 #   MUTANTS_ARGS="-F split" make mutants          # extra cargo-mutants arguments
 #
-# About 15–20 s per mutant on the 2-core VM (an incremental test build and
-# the named tests). It works on a copy of the committed tree (git worktree
+# About 10 s per mutant on the 2-core VM (an incremental build of the
+# library and the named test targets, and those tests). It works on a copy of the committed tree (git worktree
 # in $WORK, default /tmp/mdas-cargo-mutants), so the checkout is never
 # modified. Builds go to a target directory of its own,
 # $MUTANTS_TARGET_DIR or /tmp/mdas-mutants-target, kept between runs (the
@@ -39,6 +39,8 @@ MODULES=(
   "src/lights/sampler.rs|--lib --test=lights_cpu --test=lights_gpu_sampler"
   "src/lights/cone.rs|--lib --test=lights_cpu"
   "src/lights/importance.rs|--lib --test=lights_cpu"
+  "src/lights/substitute.rs|--lib --test=lights_cpu"
+  "src/lights/lgh.rs|--lib --test=lights_cpu"
   "src/metrics/mod.rs|--lib"
   "src/compare/intervals.rs|--lib"
   "src/compare/seeds.rs|--lib"

@@ -568,6 +568,245 @@ mod tests {
         assert_eq!(normal_code(n), normal_code(n.map(|x| x * 4.0)));
     }
 
+    /// Codes worked by hand on normals whose coordinates (and their sums
+    /// and doublings) are exact in f32, so that every level's choice is
+    /// decided exactly, ties included (a coordinate of exactly half the
+    /// sum takes its corner, the first such in x, y, z order).
+    #[test]
+    fn normal_codes_worked_by_hand() {
+        // (1/8, 3/4, 1/8): corner y (1); then (1/4, 1/2, 1/4): y on the
+        // tie (1); then (1/2, 0, 1/2): x on the tie (0).
+        assert_eq!(normal_code([0.125, 0.75, 0.125]), 0b000_01_01_00);
+        // (1/4, 1/4, 1/2): z (2), then (1/2, 1/2, 0): x (0), then
+        // (0, 1, 0): y (1).
+        assert_eq!(normal_code([0.25, 0.25, 0.5]), 0b000_10_00_01);
+        // (3/8, 3/8, 1/4): no coordinate reaches 1/2, the centre (3),
+        // which maps to (1 − 2a, 1 − 2b, 1 − 2c) = (1/4, 1/4, 1/2): z (2),
+        // then x (0).
+        assert_eq!(normal_code([0.375, 0.375, 0.25]), 0b000_11_10_00);
+        // Octant bits: x negative 4, y 2, z 1.
+        assert_eq!(normal_code([-0.125, 0.75, -0.125]), 0b101_01_01_00);
+        assert_eq!(normal_code([0.25, -0.25, 0.5]), 0b010_10_00_01);
+        // The sum s, not a coordinate, is the scale: doubled, the same.
+        assert_eq!(normal_code([0.75, 0.75, 0.5]), 0b000_11_10_00);
+        // Not a direction: NaN, infinite, or a sum that overflows.
+        assert_eq!(normal_code([f32::NAN, 0.0, 1.0]), 0);
+        assert_eq!(normal_code([f32::INFINITY, 0.0, 0.0]), 0);
+        assert_eq!(normal_code([3e38, 3e38, 3e38]), 0);
+    }
+
+    fn with_covariance(c: [[f32; 3]; 3], normal: [f32; 3]) -> Substitute {
+        Substitute {
+            cov_diag: [c[0][0], c[1][1], c[2][2]],
+            cov_xy: c[0][1],
+            cov_xz: c[0][2],
+            cov_yz: c[1][2],
+            normal,
+            ..Default::default()
+        }
+    }
+
+    /// A symmetric positive definite matrix with every off-diagonal
+    /// non-zero (leading minors 4, 11, 20.75).
+    const SPD: [[f32; 3]; 3] = [[4.0, 1.0, 0.5], [1.0, 3.0, -0.25], [0.5, -0.25, 2.0]];
+
+    /// σ_z² = nᵀΣn against the f64 product; L·Lᵀ = Σ with L lower
+    /// triangular, and the degenerate pivots give zero columns instead of
+    /// 0/0. Tolerance: f32 rounding of a few operations on entries ≤ 4
+    /// (1e-5).
+    #[test]
+    fn variance_along_the_normal_and_the_cholesky_factor() {
+        let n = [1.0f32 / 3.0, 2.0 / 3.0, 2.0 / 3.0];
+        let s = with_covariance(SPD, n);
+        let mut want = 0.0f64;
+        for r in 0..3 {
+            for c in 0..3 {
+                want += n[r] as f64 * SPD[r][c] as f64 * n[c] as f64;
+            }
+        }
+        assert!(
+            ((s.sigma_z2() as f64) - want).abs() < 1e-5,
+            "{} vs {want}",
+            s.sigma_z2()
+        );
+        let reproduces = |c: [[f32; 3]; 3]| {
+            let l = with_covariance(c, [0.0; 3]).cholesky();
+            for r in 0..3 {
+                for k in r + 1..3 {
+                    assert_eq!(l[r][k], 0.0, "upper entry {r}{k} of {l:?}");
+                }
+                for k in 0..3 {
+                    let llt: f64 = (0..3).map(|j| l[r][j] as f64 * l[k][j] as f64).sum();
+                    assert!(
+                        (llt - c[r][k] as f64).abs() < 1e-5,
+                        "LLᵀ[{r}][{k}] = {llt}, Σ {c:?}"
+                    );
+                }
+            }
+            l
+        };
+        let l = reproduces(SPD);
+        assert_eq!((l[0][0], l[1][0], l[2][0]), (2.0, 0.5, 0.25));
+        // No spread along x: the first pivot is 0 and its column too.
+        let l = reproduces([[0.0, 0.0, 0.0], [0.0, 4.0, 2.0], [0.0, 2.0, 5.0]]);
+        assert_eq!(l, [[0.0; 3], [0.0, 2.0, 0.0], [0.0, 1.0, 2.0]]);
+        // y fully correlated with x: the second pivot is 0.
+        let l = reproduces([[4.0, 2.0, 0.0], [2.0, 1.0, 0.0], [0.0, 0.0, 9.0]]);
+        assert_eq!(l, [[2.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 3.0]]);
+    }
+
+    /// p + L·z with z = Φ⁻¹(u): u = 1/2 gives z = 0 exactly (the mean),
+    /// u = Φ(1) a unit step along one column of L, and the box clamps.
+    /// Tolerance: Φ⁻¹'s error at Φ(1) (2e-4, as its own test) times |L|.
+    #[test]
+    fn substitute_positions_follow_the_cholesky_columns() {
+        let mut s = with_covariance(SPD, [0.0, 1.0, 0.0]);
+        s.mean = [1.0, -2.0, 3.0];
+        let (lo, hi) = (Vec3::splat(-10.0), Vec3::splat(10.0));
+        let mean = Vec3::from(s.mean);
+        assert_eq!(s.sample_position([0.5; 3], lo, hi), mean);
+        let l = s.cholesky();
+        let one = 0.841_344_7;
+        for axis in 0..3 {
+            let mut u = [0.5; 3];
+            u[axis] = one;
+            let column = Vec3::new(l[0][axis], l[1][axis], l[2][axis]);
+            let got = s.sample_position(u, lo, hi);
+            assert!(
+                (got - (mean + column)).abs().max_element() < 2e-4 * 2.0,
+                "column {axis}: {got} vs {}",
+                mean + column
+            );
+        }
+        // Clamped to a box ±1/8 about the mean (the step is 2, 1/2, 1/4).
+        let tight = s.sample_position([one, 0.5, 0.5], mean - 0.125, mean + 0.125);
+        assert_eq!(tight, Vec3::new(1.125, -1.875, 3.125));
+    }
+
+    /// One merge against the f64 moments of its two children: the mean
+    /// and the covariance of the mixture (the children's own covariances
+    /// plus the spread of their means), the normal as the normalized
+    /// weighted sum, ν = ν₁ν₂·max(n₁·n₂, 0), the summed emission; then
+    /// merges of four points in a tree against the f64 weighted moments
+    /// of the points (moments merge exactly). Tolerance: f32 rounding of
+    /// values ≤ 30 (1e-5 relative).
+    #[test]
+    fn merged_moments_are_the_mixtures() {
+        let vpl = |p: [f32; 3], n: [f32; 3], e: [f32; 3]| {
+            Substitute::of_prim(&LightPrim::vpl(
+                Vec3::from(p),
+                Vec3::from(n).normalize(),
+                Vec3::from(e),
+            ))
+        };
+        let mut a = vpl([1.0, 2.0, -1.0], [0.0, 1.0, 0.2], [1.0, 2.0, 3.0]);
+        a.cov_diag = [0.5, 0.25, 1.0];
+        a.cov_xy = 0.125;
+        a.cov_xz = -0.0625;
+        a.cov_yz = 0.03125;
+        a.nu = 0.75;
+        let b = vpl([-2.0, 0.5, 3.0], [0.3, 1.0, 0.0], [0.5, 0.5, 0.5]);
+        let (ca, cb) = (3.0f32, 1.0f32);
+        let m = merge(&a, ca, &b, cb);
+        let (ta, tb) = (0.75f64, 0.25f64);
+        let f = |v: [f32; 3]| v.map(|x| x as f64);
+        let (pa, pb) = (f(a.mean), f(b.mean));
+        let mean: [f64; 3] = std::array::from_fn(|k| ta * pa[k] + tb * pb[k]);
+        let (ca_m, cb_m) = (a.covariance(), b.covariance());
+        for r in 0..3 {
+            assert!(
+                (m.mean[r] as f64 - mean[r]).abs() < 1e-5 * 4.0,
+                "mean {:?}",
+                m.mean
+            );
+            for c in 0..3 {
+                let want = ta * (ca_m[r][c] as f64 + (pa[r] - mean[r]) * (pa[c] - mean[c]))
+                    + tb * (cb_m[r][c] as f64 + (pb[r] - mean[r]) * (pb[c] - mean[c]));
+                let got = m.covariance()[r][c] as f64;
+                assert!(
+                    (got - want).abs() < 1e-5 * 30.0,
+                    "cov[{r}][{c}] {got} vs {want}"
+                );
+            }
+        }
+        let (na, nb) = (Vec3::from(a.normal), Vec3::from(b.normal));
+        let n = (na * ca + nb * cb).normalize();
+        assert!(
+            (Vec3::from(m.normal) - n).abs().max_element() < 1e-6,
+            "{:?}",
+            m.normal
+        );
+        assert!((m.nu - 0.75 * na.dot(nb)).abs() < 1e-6, "ν {}", m.nu);
+        assert_eq!(m.emission, [1.5, 2.5, 3.5]);
+        // Normals more than 90° apart: ν = 0; opposite with equal weights:
+        // no normal at all.
+        let back = vpl([0.0; 3], [0.0, -1.0, -0.2], [1.0; 3]);
+        assert_eq!(merge(&a, 1.0, &back, 2.0).nu, 0.0);
+        let up = vpl([0.0; 3], [0.0, 1.0, 0.0], [1.0; 3]);
+        let down = vpl([1.0; 3], [0.0, -1.0, 0.0], [1.0; 3]);
+        let none = merge(&up, 1.0, &down, 1.0);
+        assert_eq!((none.normal, none.nu), ([0.0; 3], 0.0));
+
+        // Four points merged as a tree against their f64 moments.
+        let points = [
+            ([0.0f32, 0.0, 0.0], 1.0f32),
+            ([2.0, 1.0, -1.0], 2.0),
+            ([-1.0, 3.0, 0.5], 0.5),
+            ([1.0, -2.0, 2.0], 4.0),
+        ];
+        let s: Vec<Substitute> = points
+            .iter()
+            .map(|&(p, _)| vpl(p, [0.0, 1.0, 0.0], [1.0; 3]))
+            .collect();
+        let left = merge(&s[0], points[0].1, &s[1], points[1].1);
+        let right = merge(&s[2], points[2].1, &s[3], points[3].1);
+        let root = merge(
+            &left,
+            points[0].1 + points[1].1,
+            &right,
+            points[2].1 + points[3].1,
+        );
+        let total: f64 = points.iter().map(|&(_, c)| c as f64).sum();
+        let mean: [f64; 3] = std::array::from_fn(|k| {
+            points
+                .iter()
+                .map(|&(p, c)| c as f64 * p[k] as f64)
+                .sum::<f64>()
+                / total
+        });
+        for r in 0..3 {
+            assert!((root.mean[r] as f64 - mean[r]).abs() < 1e-5 * 4.0);
+            for c in 0..3 {
+                let want: f64 = points
+                    .iter()
+                    .map(|&(p, w)| w as f64 * (p[r] as f64 - mean[r]) * (p[c] as f64 - mean[c]))
+                    .sum::<f64>()
+                    / total;
+                let got = root.covariance()[r][c] as f64;
+                assert!(
+                    (got - want).abs() < 1e-5 * 30.0,
+                    "root cov[{r}][{c}] {got} vs {want}"
+                );
+            }
+        }
+    }
+
+    /// A child of intensity 0 (or NaN) drops out: the parent is the other
+    /// child, and nothing when both are dark.
+    #[test]
+    fn dark_children_drop_out_of_a_merge() {
+        let mut a = Substitute::of_prim(&LightPrim::vpl(Vec3::ONE, Vec3::Y, Vec3::ONE));
+        a.cov_diag = [1.0, 2.0, 3.0];
+        let b = Substitute::of_prim(&LightPrim::vpl(-Vec3::ONE, Vec3::X, Vec3::splat(2.0)));
+        assert_eq!(merge(&a, 0.0, &b, 2.0), b);
+        assert_eq!(merge(&a, f32::NAN, &b, 2.0), b);
+        assert_eq!(merge(&a, -1.0, &b, 2.0), b);
+        assert_eq!(merge(&a, 2.0, &b, 0.0), a);
+        assert_eq!(merge(&a, 2.0, &b, f32::NAN), a);
+        assert_eq!(merge(&a, 0.0, &b, 0.0), Substitute::default());
+        assert_eq!(merge(&a, f32::NAN, &b, -1.0), Substitute::default());
+    }
+
     #[test]
     fn inverse_normal_cdf_matches_known_quantiles() {
         // Φ⁻¹ at 0.5, 0.975, 0.8413447 (1σ), 0.0013499 (−3σ).
