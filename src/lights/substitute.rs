@@ -576,19 +576,22 @@ mod tests {
     fn normal_codes_worked_by_hand() {
         // (1/8, 3/4, 1/8): corner y (1); then (1/4, 1/2, 1/4): y on the
         // tie (1); then (1/2, 0, 1/2): x on the tie (0).
-        assert_eq!(normal_code([0.125, 0.75, 0.125]), 0b000_01_01_00);
+        assert_eq!(normal_code([0.125, 0.75, 0.125]), 0b01_01_00);
         // (1/4, 1/4, 1/2): z (2), then (1/2, 1/2, 0): x (0), then
         // (0, 1, 0): y (1).
-        assert_eq!(normal_code([0.25, 0.25, 0.5]), 0b000_10_00_01);
+        assert_eq!(normal_code([0.25, 0.25, 0.5]), 0b10_00_01);
         // (3/8, 3/8, 1/4): no coordinate reaches 1/2, the centre (3),
         // which maps to (1 − 2a, 1 − 2b, 1 − 2c) = (1/4, 1/4, 1/2): z (2),
         // then x (0).
-        assert_eq!(normal_code([0.375, 0.375, 0.25]), 0b000_11_10_00);
+        assert_eq!(normal_code([0.375, 0.375, 0.25]), 0b11_10_00);
         // Octant bits: x negative 4, y 2, z 1.
-        assert_eq!(normal_code([-0.125, 0.75, -0.125]), 0b101_01_01_00);
-        assert_eq!(normal_code([0.25, -0.25, 0.5]), 0b010_10_00_01);
+        assert_eq!(
+            normal_code([-0.125, 0.75, -0.125]),
+            (0b101 << 6) | 0b01_01_00
+        );
+        assert_eq!(normal_code([0.25, -0.25, 0.5]), (0b010 << 6) | 0b10_00_01);
         // The sum s, not a coordinate, is the scale: doubled, the same.
-        assert_eq!(normal_code([0.75, 0.75, 0.5]), 0b000_11_10_00);
+        assert_eq!(normal_code([0.75, 0.75, 0.5]), 0b11_10_00);
         // Not a direction: NaN, infinite, or a sum that overflows.
         assert_eq!(normal_code([f32::NAN, 0.0, 1.0]), 0);
         assert_eq!(normal_code([f32::INFINITY, 0.0, 0.0]), 0);
