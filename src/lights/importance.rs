@@ -481,6 +481,19 @@ mod tests {
             w: 1.0,
         };
         assert_eq!(p_left(&j, &k), Some(0.5 * (0.5 + 0.8)));
+        // Equal weighted distances (W_j·d_k = W_k·d_j = 2) are an ordinary
+        // tie, 1/2, not the fallback's W_j/(W_j + W_k) = 1/3.
+        let near = NodeImportance {
+            dmin2: 1.0,
+            dmax2: 1.0,
+            w: 1.0,
+        };
+        let far = NodeImportance {
+            dmin2: 2.0,
+            dmax2: 2.0,
+            w: 2.0,
+        };
+        assert_eq!(p_left(&near, &far), Some(0.5));
         // At u = p_left exactly the right child is taken, with u = 0.
         assert_eq!(choose_child(0.25, 0.25), (false, 0.75, 0.0));
     }
