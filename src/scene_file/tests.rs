@@ -354,3 +354,28 @@ fn line_column_counts_characters_and_steps_back_inside_one() {
     // Past the end: the end.
     assert_eq!(ctx.line_column(100), (2, 7));
 }
+
+/// The limits are inclusive: emission of exactly `MAX_EMISSION` and a
+/// shape of exactly `MAX_SHAPE_TRIANGLES` triangles are accepted, one
+/// step beyond is refused.
+#[test]
+fn limits_accept_their_own_value() {
+    let point = |i: &str| {
+        format!("{MINIMAL}[[light]]\ntype = \"point\"\nposition = [0, 1, 0]\nintensity = {i}\n")
+    };
+    assert!(parse(&point("[1e20, 1e20, 1e20]"), Path::new("t.toml")).is_ok());
+    // 1.0000001e20 rounds to the next f32 above 1e20 (the ulp there is
+    // 2^43 ≈ 8.8e12).
+    let e = err(&point("[1.0000001e20, 1, 1]"));
+    assert!(e.contains("intensity must be at most 1e20"), "{e}");
+    let ctx = Ctx {
+        text: "x",
+        file: Path::new("t.toml"),
+    };
+    assert!(ctx.count_check(MAX_SHAPE_TRIANGLES, 0..1, "mesh").is_ok());
+    let e = ctx
+        .count_check(MAX_SHAPE_TRIANGLES + 1, 0..1, "mesh")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("absurdly large"), "{e}");
+}
