@@ -530,6 +530,12 @@ mod tests {
         // 1/9, 0 → 3/7, 4/7.
         let p = cut_probabilities(&[imp(0.0, 4.0, 1.0), imp(1.0, 9.0, 3.0), dead]).unwrap();
         close(&p, &[5.0 / 7.0, 2.0 / 7.0, 0.0]);
+        // Inside a dim box (W = 1e-10) beside a bright one only 1e-6 away
+        // (dmin² = 1e-12): p_min is still all the box around x's, not the
+        // 1e-20-clamped inverse square's (which would give the bright node
+        // 99 %); p_max ∝ 1e-10, 1 → [1e-10, 1]/(1 + 1e-10).
+        let p = cut_probabilities(&[imp(0.0, 4.0, 1e-10), imp(1e-12, 4.0, 1.0)]).unwrap();
+        close(&p, &[0.5 * (1.0 + 1e-10), 0.5]);
         // Inside two live boxes: p_min splits by W alone (1 : 3).
         let p = cut_probabilities(&[imp(0.0, 4.0, 1.0), imp(0.0, 4.0, 3.0)]).unwrap();
         close(&p, &[0.25, 0.75]);
