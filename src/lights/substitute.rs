@@ -708,10 +708,11 @@ mod tests {
         a.cov_xz = -0.0625;
         a.cov_yz = 0.03125;
         a.nu = 0.75;
-        let b = vpl([-2.0, 0.5, 3.0], [0.3, 1.0, 0.0], [0.5, 0.5, 0.5]);
-        let (ca, cb) = (3.0f32, 1.0f32);
+        let mut b = vpl([-2.0, 0.5, 3.0], [0.3, 1.0, 0.0], [0.5, 0.5, 0.5]);
+        b.nu = 0.5;
+        let (ca, cb) = (3.0f32, 2.0f32);
         let m = merge(&a, ca, &b, cb);
-        let (ta, tb) = (0.75f64, 0.25f64);
+        let (ta, tb) = (0.6f64, 0.4f64);
         let f = |v: [f32; 3]| v.map(|x| x as f64);
         let (pa, pb) = (f(a.mean), f(b.mean));
         let mean: [f64; 3] = std::array::from_fn(|k| ta * pa[k] + tb * pb[k]);
@@ -739,7 +740,7 @@ mod tests {
             "{:?}",
             m.normal
         );
-        assert!((m.nu - 0.75 * na.dot(nb)).abs() < 1e-6, "ν {}", m.nu);
+        assert!((m.nu - 0.75 * 0.5 * na.dot(nb)).abs() < 1e-6, "ν {}", m.nu);
         assert_eq!(m.emission, [1.5, 2.5, 3.5]);
         // Normals more than 90° apart: ν = 0; opposite with equal weights:
         // no normal at all.
