@@ -470,29 +470,12 @@ mod tests {
     /// p_left = 0.65.
     #[test]
     fn p_left_falls_back_to_the_weights_inside_both_boxes() {
-        let j = NodeImportance {
-            dmin2: 0.0,
-            dmax2: 1.0,
-            w: 1.0,
-        };
-        let k = NodeImportance {
-            dmin2: 0.0,
-            dmax2: 4.0,
-            w: 1.0,
-        };
+        let imp = |dmin2: f32, dmax2: f32, w: f32| NodeImportance { dmin2, dmax2, w };
+        let (j, k) = (imp(0.0, 1.0, 1.0), imp(0.0, 4.0, 1.0));
         assert_eq!(p_left(&j, &k), Some(0.5 * (0.5 + 0.8)));
         // Equal weighted distances (W_j·d_k = W_k·d_j = 2) are an ordinary
         // tie, 1/2, not the fallback's W_j/(W_j + W_k) = 1/3.
-        let near = NodeImportance {
-            dmin2: 1.0,
-            dmax2: 1.0,
-            w: 1.0,
-        };
-        let far = NodeImportance {
-            dmin2: 2.0,
-            dmax2: 2.0,
-            w: 2.0,
-        };
+        let (near, far) = (imp(1.0, 1.0, 1.0), imp(2.0, 2.0, 2.0));
         assert_eq!(p_left(&near, &far), Some(0.5));
         // At u = p_left exactly the right child is taken, with u = 0.
         assert_eq!(choose_child(0.25, 0.25), (false, 0.75, 0.0));
