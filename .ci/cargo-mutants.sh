@@ -11,6 +11,7 @@
 #   ONLY="src/metrics/mod.rs" make mutants        # some modules
 #   LIST=1 make mutants                           # list the mutants, build nothing
 #   MUTANTS_ARGS="-F split" make mutants          # extra cargo-mutants arguments
+#   TESTS="--lib" ONLY=... make mutants           # other tests than the list's
 #
 # About 10 s per mutant on the 2-core VM (an incremental build of the
 # library and the named test targets, and those tests). It works on a copy of the committed tree (git worktree
@@ -67,6 +68,7 @@ main() {
   local failed=() m file tests t rc out
   for m in "${MODULES[@]}"; do
     IFS='|' read -r file tests <<< "$m"
+    tests=${TESTS:-$tests}
     if [[ -n "${ONLY:-}" && " $ONLY " != *" $file "* ]]; then
       continue
     fi
