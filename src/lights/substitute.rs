@@ -551,6 +551,21 @@ impl LightSampler for SstSampler {
 mod tests {
     use super::*;
 
+    /// A GPU pick `SUBSTITUTE_BIT | node` (`wgsl/lights/sample.wgsl`): one
+    /// bit, clear in every node index of a tree of at most `MAX_LIGHTS`
+    /// lights (nodes < 2·MAX_LIGHTS − 1), so a pick is never `NO_LIGHT`
+    /// and decodes to its node.
+    #[test]
+    fn substitute_picks_decode_to_their_node() {
+        assert_eq!(SUBSTITUTE_BIT.count_ones(), 1);
+        for node in [0, 1, MAX_LIGHTS - 1, MAX_LIGHTS, 2 * MAX_LIGHTS - 2] {
+            assert_eq!(node & SUBSTITUTE_BIT, 0, "{node}");
+            let pick = SUBSTITUTE_BIT | node;
+            assert_ne!(pick, super::super::NO_LIGHT);
+            assert_eq!(pick & !SUBSTITUTE_BIT, node);
+        }
+    }
+
     #[test]
     fn normal_codes_by_octant_and_corner() {
         assert_eq!(normal_code([0.0, 0.0, 1.0]) >> 6, 0);
@@ -596,6 +611,76 @@ mod tests {
         assert_eq!(normal_code([f32::NAN, 0.0, 1.0]), 0);
         assert_eq!(normal_code([f32::INFINITY, 0.0, 0.0]), 0);
         assert_eq!(normal_code([3e38, 3e38, 3e38]), 0);
+    }
+
+    /// The code of a direction by geometry, in f64: the octant's triangle
+    /// (vertices x, y, z) cut into its four children (corner x, corner y,
+    /// corner z, the centre with vertices opposite x, y, z), the child
+    /// holding the point found from its barycentric coordinates in the
+    /// current triangle (a 3×3 solve), first on ties as the code does.
+    /// `None` when a coordinate lies within 1e-5 of 1/2 (f32 may decide
+    /// either way there).
+    fn normal_code_by_geometry(n: [f64; 3]) -> Option<u32> {
+        let octant = ((n[0] < 0.0) as u32) << 2 | ((n[1] < 0.0) as u32) << 1 | (n[2] < 0.0) as u32;
+        let a = n.map(f64::abs);
+        let sum = a[0] + a[1] + a[2];
+        let p = a.map(|x| x / sum);
+        let mut v = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+        let mid = |a: [f64; 3], b: [f64; 3]| [0, 1, 2].map(|i| 0.5 * (a[i] + b[i]));
+        let mut code = octant;
+        for _ in 0..3 {
+            // λ with Σ λ_k v_k = p by Cramer's rule (columns v_k).
+            let det = |m: [[f64; 3]; 3]| {
+                m[0][0] * (m[1][1] * m[2][2] - m[2][1] * m[1][2])
+                    - m[1][0] * (m[0][1] * m[2][2] - m[2][1] * m[0][2])
+                    + m[2][0] * (m[0][1] * m[1][2] - m[1][1] * m[0][2])
+            };
+            let d = det(v);
+            let lambda = [0, 1, 2].map(|k| {
+                let mut m = v;
+                m[k] = p;
+                det(m) / d
+            });
+            if lambda.iter().any(|l| (l - 0.5).abs() < 1e-5) {
+                return None;
+            }
+            let (child, next) = if lambda[0] >= 0.5 {
+                (0, [v[0], mid(v[0], v[1]), mid(v[0], v[2])])
+            } else if lambda[1] >= 0.5 {
+                (1, [mid(v[0], v[1]), v[1], mid(v[1], v[2])])
+            } else if lambda[2] >= 0.5 {
+                (2, [mid(v[0], v[2]), mid(v[1], v[2]), v[2]])
+            } else {
+                (3, [mid(v[1], v[2]), mid(v[0], v[2]), mid(v[0], v[1])])
+            };
+            code = code << 2 | child;
+            v = next;
+        }
+        Some(code)
+    }
+
+    /// The normal code of 20,000 random directions (every octant, every
+    /// child at every level) equals the geometric construction's.
+    #[test]
+    fn normal_codes_match_the_geometric_subdivision() {
+        use rand::rngs::StdRng;
+        use rand::{RngExt, SeedableRng};
+        let mut rng = StdRng::seed_from_u64(7);
+        let mut children = [[0u32; 4]; 3];
+        let mut checked = 0;
+        for _ in 0..20_000 {
+            let n: [f32; 3] = std::array::from_fn(|_| rng.random_range(-1.0f32..1.0));
+            let Some(want) = normal_code_by_geometry(n.map(f64::from)) else {
+                continue;
+            };
+            assert_eq!(normal_code(n), want, "{n:?}");
+            for (level, seen) in children.iter_mut().enumerate() {
+                seen[(want >> (4 - 2 * level) & 3) as usize] += 1;
+            }
+            checked += 1;
+        }
+        assert!(checked > 19_000, "{checked}");
+        assert!(children.iter().flatten().all(|&k| k > 1000), "{children:?}");
     }
 
     fn with_covariance(c: [[f32; 3]; 3], normal: [f32; 3]) -> Substitute {
