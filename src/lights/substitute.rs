@@ -694,6 +694,42 @@ mod tests {
         }
     }
 
+    /// Eq. 3 at its boundaries (ν_min = 1/2, σ_max = 0.1, so σ_max² is
+    /// the f32 product 0.1·0.1): ν = ν_min and σ_z² = σ_max² are suitable,
+    /// the next f32 beyond either is not, nor is a dark node; σ_z is the
+    /// variance along the normal (z here), not across it.
+    #[test]
+    fn suitability_at_the_boundaries_of_eq_3() {
+        let q = SubstituteParams::default();
+        let max2 = 0.1f32 * 0.1;
+        let node = |nu: f32, zz: f32| Substitute {
+            nu,
+            ..with_covariance(
+                [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, zz]],
+                [0.0, 0.0, 1.0],
+            )
+        };
+        assert!(q.suitable(&node(0.5, max2), 1.0));
+        assert!(q.suitable(&node(1.0, 0.0), f32::MIN_POSITIVE));
+        assert!(!q.suitable(&node(0.5, max2), 0.0));
+        assert!(!q.suitable(&node(0.5f32.next_down(), max2), 1.0));
+        assert!(!q.suitable(&node(0.5, max2.next_up()), 1.0));
+        assert!(!q.suitable(&node(0.5, 0.05), 1.0));
+        assert!(!q.suitable(&node(0.25, 0.5), 1.0));
+        // A wider σ_max admits it; a stricter ν_min refuses it.
+        let wide = SubstituteParams {
+            nu_min: 0.5,
+            sigma_max: 0.5,
+        };
+        assert!(wide.suitable(&node(0.5, 0.25), 1.0));
+        assert!(!wide.suitable(&node(0.5, 0.25f32.next_up()), 1.0));
+        let strict = SubstituteParams {
+            nu_min: 0.75,
+            sigma_max: 0.1,
+        };
+        assert!(!strict.suitable(&node(0.5, 0.0), 1.0));
+    }
+
     /// A symmetric positive definite matrix with every off-diagonal
     /// non-zero (leading minors 4, 11, 20.75).
     const SPD: [[f32; 3]; 3] = [[4.0, 1.0, 0.5], [1.0, 3.0, -0.25], [0.5, -0.25, 2.0]];
