@@ -730,6 +730,46 @@ mod tests {
         assert!(!strict.suitable(&node(0.5, 0.0), 1.0));
     }
 
+    /// The sort against its definition, a sort of (Morton code, normal
+    /// code, id) tuples: 600 VPLs and points on 40 positions (so Morton
+    /// codes tie and the normal code decides) with 5 normals (so those tie
+    /// too and the id decides).
+    #[test]
+    fn lights_sort_by_morton_then_normal_then_id() {
+        use rand::rngs::StdRng;
+        use rand::{RngExt, SeedableRng};
+        let mut rng = StdRng::seed_from_u64(11);
+        let spots: Vec<Vec3> = (0..40)
+            .map(|_| Vec3::new(rng.random(), rng.random(), rng.random()))
+            .collect();
+        let normals = [
+            Vec3::X,
+            -Vec3::Y,
+            Vec3::new(0.6, 0.0, 0.8),
+            Vec3::Z,
+            Vec3::new(-0.48, 0.6, -0.64),
+        ];
+        let prims: Vec<LightPrim> = (0..600)
+            .map(|_| {
+                let p = spots[rng.random_range(0..spots.len())];
+                match rng.random_range(0..6usize) {
+                    5 => LightPrim::point(p, Vec3::ONE),
+                    k => LightPrim::vpl(p, normals[k], Vec3::ONE),
+                }
+            })
+            .collect();
+        let codes = morton::codes(&prims);
+        let mut want: Vec<u32> = (0..prims.len() as u32).collect();
+        want.sort_by_key(|&i| {
+            (
+                codes[i as usize],
+                normal_code(prim_normal(&prims[i as usize])),
+                i,
+            )
+        });
+        assert_eq!(sort_lights(&prims), want);
+    }
+
     /// A symmetric positive definite matrix with every off-diagonal
     /// non-zero (leading minors 4, 11, 20.75).
     const SPD: [[f32; 3]; 3] = [[4.0, 1.0, 0.5], [1.0, 3.0, -0.25], [0.5, -0.25, 2.0]];
