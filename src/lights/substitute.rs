@@ -770,6 +770,34 @@ mod tests {
         assert_eq!(sort_lights(&prims), want);
     }
 
+    /// The tree view of a substitute tree over 5 lights (8 leaves, 3
+    /// bogus): 5 lights, each in the leaf that holds it; children and
+    /// parents of the 15-node perfect tree; the nodes and cones its own.
+    #[test]
+    fn the_tree_view_is_the_perfect_trees() {
+        let prims: Vec<LightPrim> = (0..5)
+            .map(|i| LightPrim::vpl(Vec3::new(i as f32, 0.0, 0.0), Vec3::Y, Vec3::ONE))
+            .collect();
+        let t = build(&prims).unwrap();
+        let view: &dyn LightTree = &t;
+        assert_eq!(view.light_count(), 5);
+        assert_eq!((view.nodes().len(), view.cones().len()), (15, 15));
+        for light in 0..5 {
+            let leaf = view.leaf_of_light(light).expect("every light has a leaf");
+            assert_eq!(view.leaf_light(leaf), light);
+            assert_eq!(view.children(leaf), None);
+        }
+        assert_eq!(view.leaf_of_light(5), None);
+        assert_eq!(
+            (view.children(0), view.children(2)),
+            (Some((1, 2)), Some((5, 6)))
+        );
+        assert_eq!(
+            (view.parent(0), view.parent(6), view.parent(9)),
+            (None, Some(2), Some(4))
+        );
+    }
+
     /// A symmetric positive definite matrix with every off-diagonal
     /// non-zero (leading minors 4, 11, 20.75).
     const SPD: [[f32; 3]; 3] = [[4.0, 1.0, 0.5], [1.0, 3.0, -0.25], [0.5, -0.25, 2.0]];
