@@ -831,6 +831,7 @@ mod tests {
         assert_eq!(g.vertex_index(2, [2, 1, 0]), 5);
         assert_eq!(g.vertex_pos(2, [1, 0, 1]), Vec3::new(3.0, 2.0, 5.0));
         assert_eq!(g.vertex_pos(1, [0, 3, 2]), Vec3::new(1.0, 5.0, 5.0));
+        assert_eq!(g.vertex_pos(2, [2, 1, 2]), Vec3::new(5.0, 4.0, 7.0));
         // Cells and fractions; the last cell is clamped and takes t = 1
         // on its far side, points outside clamp to the border.
         let cell = |level, p| g.cell_of(level, p);
