@@ -923,8 +923,14 @@ mod tests {
         let b = |first, level, d| g.blend(1.0, first, level, d);
         // The finest level used rises from 0; it falls over [r, 2r].
         assert_eq!(
-            [b(1, 1, 0.0), b(1, 1, 1.0), b(1, 1, 1.5), b(1, 1, 2.0)],
-            [1.0, 1.0, 0.5, 0.0]
+            [
+                b(1, 1, 0.0),
+                b(1, 1, 1.0),
+                b(1, 1, 1.5),
+                b(1, 1, 2.0),
+                b(1, 1, 2.5)
+            ],
+            [1.0, 1.0, 0.5, 0.0, 0.0]
         );
         // Level 2: 0 below r/2 = 1, rises to 1 at r = 2, falls to 0 at 4.
         assert_eq!(
