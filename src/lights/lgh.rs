@@ -920,40 +920,30 @@ mod tests {
             h1: 1.0,
             inv_h1: 1.0,
         };
-        let b = |first, level, d| g.blend(1.0, first, level, d);
+        // (distance, weight) pairs of level `level` with `first` the finest.
+        let ramp = |first: u32, level: u32, cases: &[(f32, f32)]| {
+            for &(d, want) in cases {
+                let got = g.blend(1.0, first, level, d);
+                assert_eq!(got, want, "first {first}, level {level}, d = {d}");
+            }
+        };
         // The finest level used rises from 0; it falls over [r, 2r].
-        assert_eq!(
-            [
-                b(1, 1, 0.0),
-                b(1, 1, 1.0),
-                b(1, 1, 1.5),
-                b(1, 1, 2.0),
-                b(1, 1, 2.5)
-            ],
-            [1.0, 1.0, 0.5, 0.0, 0.0]
+        ramp(
+            1,
+            1,
+            &[(0.0, 1.0), (1.0, 1.0), (1.5, 0.5), (2.0, 0.0), (2.5, 0.0)],
         );
         // Level 2: 0 below r/2 = 1, rises to 1 at r = 2, falls to 0 at 4.
-        assert_eq!(
-            [
-                b(1, 2, 0.5),
-                b(1, 2, 1.5),
-                b(1, 2, 2.0),
-                b(1, 2, 3.0),
-                b(1, 2, 4.0)
-            ],
-            [0.0, 0.5, 1.0, 0.5, 0.0]
+        ramp(
+            1,
+            2,
+            &[(0.5, 0.0), (1.5, 0.5), (2.0, 1.0), (3.0, 0.5), (4.0, 0.0)],
         );
         // The top level rises and never falls.
-        assert_eq!([b(1, 3, 1.0), b(1, 3, 3.0), b(1, 3, 1e30)], [0.0, 0.5, 1.0]);
+        ramp(1, 3, &[(1.0, 0.0), (3.0, 0.5), (1e30, 1.0)]);
         // With level 0 first, level 1 rises too.
-        assert_eq!(
-            [b(0, 0, 0.0), b(0, 0, 0.625), b(0, 0, 1.0)],
-            [1.0, 0.75, 0.0]
-        );
-        assert_eq!(
-            [b(0, 1, 0.25), b(0, 1, 0.625), b(0, 1, 1.0)],
-            [0.0, 0.25, 1.0]
-        );
+        ramp(0, 0, &[(0.0, 1.0), (0.625, 0.75), (1.0, 0.0)]);
+        ramp(0, 1, &[(0.25, 0.0), (0.625, 0.25), (1.0, 1.0)]);
         // α scales the radii: α = 2 puts level 2's rise over [2, 4].
         assert_eq!(g.blend(2.0, 1, 2, 3.0), 0.5);
     }
