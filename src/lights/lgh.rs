@@ -1124,4 +1124,119 @@ mod tests {
             ]
         );
     }
+
+    /// `candidates` visits only the lights and grid vertices within reach
+    /// of the shading point (the cells within α of it at level 0, the
+    /// vertices within 2α + 1 at the finer levels); it must find exactly
+    /// what a visit of every light and every vertex of every level finds
+    /// (the same blending and emitters: equal bits). Points and VPLs
+    /// scattered over [0, 8]³, shading points inside and just outside the
+    /// bounds, α from below one cell to two, with and without level 0.
+    #[test]
+    fn candidates_equal_a_visit_of_everything() {
+        use rand::rngs::StdRng;
+        use rand::{RngExt, SeedableRng};
+        let mut rng = StdRng::seed_from_u64(43);
+        let v3 = |rng: &mut StdRng, lo: f32, hi: f32| {
+            Vec3::new(
+                rng.random_range(lo..hi),
+                rng.random_range(lo..hi),
+                rng.random_range(lo..hi),
+            )
+        };
+        let prims: Vec<LightPrim> = (0..400)
+            .map(|i| {
+                let p = v3(&mut rng, 0.0, 8.0);
+                let e = v3(&mut rng, 0.1, 1.0);
+                if i % 2 == 0 {
+                    LightPrim::point(p, e)
+                } else {
+                    LightPrim::vpl(p, v3(&mut rng, -1.0, 1.0).normalize(), e)
+                }
+            })
+            .collect();
+        let h = build(&prims, 4).unwrap();
+        let g = &h.grid;
+        let clamp2 = 0.05;
+        let key = |c: &Candidate| (c.level, c.id);
+        let mut compared = 0;
+        for alpha in [0.4, 1.0, 2.0] {
+            for level0 in [false, true] {
+                let params = LghParams {
+                    alpha,
+                    level0,
+                    ..LghParams::default()
+                };
+                let first = if level0 { 0 } else { 1 };
+                let soft2 = g.soft2(params.clamp);
+                for _ in 0..40 {
+                    let x = v3(&mut rng, -0.5, 8.5);
+                    let n = v3(&mut rng, -1.0, 1.0).normalize();
+                    let mut got = h.candidates(&prims, &params, clamp2, x, n);
+                    // Everything, with the same filter.
+                    let mut want = Vec::new();
+                    let mut visit = |level: u32, id: u32, e: Emitter| {
+                        let b = g.blend(alpha, first, level, (e.pos - x).length());
+                        let f = b * e.eval(x, n);
+                        if b > 0.0 && luminance(f) > 0.0 {
+                            want.push((level, id, f));
+                        }
+                    };
+                    if level0 {
+                        for (i, l) in prims.iter().enumerate() {
+                            visit(0, i as u32, Emitter::light(l, clamp2));
+                        }
+                    }
+                    for level in 1..=g.levels {
+                        let r = g.res(level);
+                        for_box([0; 3], [r - 1; 3], |v| {
+                            if let Some(gl) = h.light_at(level, v) {
+                                let slot = h.index[(g.index_offset(level)
+                                    + g.vertex_index(level, v) as u64)
+                                    as usize];
+                                visit(
+                                    level,
+                                    slot,
+                                    gl.emitter(g.vertex_pos(level, v), clamp2, soft2),
+                                );
+                            }
+                        });
+                    }
+                    got.sort_by_key(key);
+                    want.sort_by_key(|w| (w.0, w.1));
+                    let got: Vec<(u32, u32, Vec3)> =
+                        got.iter().map(|c| (c.level, c.id, c.f)).collect();
+                    assert_eq!(got, want, "α {alpha}, level 0 {level0}, x {x}");
+                    compared += want.len();
+                }
+            }
+        }
+        // The comparisons had candidates at every level to miss.
+        assert!(compared > 1000, "{compared} candidates");
+    }
+
+    /// The stratified picks, worked by hand: ‖f‖ = 1, 2, 1 (F = 4) with
+    /// s = 4 and ξ = 1/2 aim at 0.5, 1.5, 2.5, 3.5 of the running sums 1,
+    /// 3, 4; ξ = 0 at 0, 1, 2, 3 (a target equal to a running sum goes to
+    /// the next candidate); no candidate or F = 0 gives no pick.
+    #[test]
+    fn picks_follow_the_running_sum() {
+        let c = |lum: f32| Candidate {
+            f: Vec3::splat(lum),
+            lum,
+            pos: Vec3::ZERO,
+            sigma: Vec3::ZERO,
+            level: 1,
+            id: 0,
+        };
+        let cands = [c(1.0), c(2.0), c(1.0)];
+        assert_eq!(pick(&cands, 4, 0.5), vec![0, 1, 1, 2]);
+        assert_eq!(pick(&cands, 4, 0.0), vec![0, 1, 1, 2]);
+        assert_eq!(pick(&cands, 2, 0.0), vec![0, 1]);
+        assert_eq!(pick(&cands, 2, 0.75), vec![1, 2]);
+        assert_eq!(pick(&cands, 1, 0.3), vec![1]);
+        assert_eq!(pick(&cands, 8, 0.5), vec![0, 0, 1, 1, 1, 1, 2, 2]);
+        assert_eq!(pick(&[], 4, 0.5), Vec::<usize>::new());
+        assert_eq!(pick(&[c(0.0), c(0.0)], 2, 0.5), Vec::<usize>::new());
+    }
 }
