@@ -16,7 +16,7 @@
 mod light_scenes;
 mod stats;
 
-use glam::Vec3;
+use glam::{Vec3, Vec4};
 use light_scenes::vpl_walls;
 use mdas::lights::bvh::{self, Cost, LightBvh, INTERNAL_BIT, MAX_DEPTH};
 use mdas::lights::cut::{Importance, LightTree, MAX_CUT};
@@ -24,12 +24,13 @@ use mdas::lights::importance::{node_importance, ONE_MINUS_EPSILON};
 use mdas::lights::morton::{codes, exponent, morton30, quantize_axis};
 use mdas::lights::perfect::{self, gather, PerfectTree};
 use mdas::lights::substitute::{self, SstSampler, Stop, Substitute, SubstituteParams};
-use mdas::lights::two_level;
+use mdas::lights::two_level::{self, BottomLevels};
 use mdas::lights::{
     new_sampler, select_cut, LightSampler, PowerSampler, SamplerKind, Shading, TreeSampler,
     UniformSampler,
 };
 use mdas::lights::{LightPrim, TreeNode, NO_LIGHT};
+use mdas::scene::motion::Rigid;
 use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
 use stats::gamma_q;
@@ -580,6 +581,233 @@ fn tree2_over_one_group_samples_like_tree_cone() {
             }
         }
     }
+}
+
+/// `p` moved by the rigid transform `r` as a frame moves a mesh's
+/// triangles (every vertex by `apply_point`; a VPL's normal by
+/// `apply_vector`).
+fn moved(p: &LightPrim, r: &Rigid) -> LightPrim {
+    let at = |a: [f32; 3]| r.apply_point(Vec3::from(a));
+    let e = Vec3::from(p.emission);
+    match p.kind {
+        mdas::lights::KIND_TRIANGLE => LightPrim::triangle(at(p.p0), at(p.p1), at(p.p2), e),
+        mdas::lights::KIND_VPL => LightPrim::vpl(at(p.p0), r.apply_vector(p.p1.into()), e),
+        _ => LightPrim::point(at(p.p0), e),
+    }
+}
+
+/// A rotation uniform over SO(3) (a unit quaternion: a point uniform in
+/// the 4D unit ball, normalized) and a translation in [−20, 20]³.
+fn random_rigid(rng: &mut StdRng) -> Rigid {
+    let rotation = loop {
+        let q = Vec4::new(
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+        );
+        if (0.01..=1.0).contains(&q.length_squared()) {
+            break q.normalize();
+        }
+    };
+    Rigid {
+        rotation,
+        translation: Vec3::new(
+            rng.random_range(-20.0..20.0),
+            rng.random_range(-20.0..20.0),
+            rng.random_range(-20.0..20.0),
+        ),
+    }
+}
+
+/// The light ids below `node` of a light BVH, left to right.
+fn leaf_order(t: &LightBvh, node: usize) -> Vec<u32> {
+    let mut out = Vec::new();
+    let mut stack = vec![node];
+    while let Some(x) = stack.pop() {
+        match t.children(x) {
+            Some((l, r)) => stack.extend([r, l]),
+            None => out.push(t.nodes[x].id),
+        }
+    }
+    out
+}
+
+/// For lights that do not move, the bottom levels sorted once give the
+/// tree `two_level::build` sorts in full, bit for bit — with every group
+/// sorted once, with every other group sorted per frame, and with the
+/// frame's lights past the groups (the VPLs) as one more group.
+#[test]
+fn bottom_levels_of_lights_that_stay_put_are_the_full_build() {
+    assert!(BottomLevels::new(vec![], &[]).tree(&[]).is_none());
+    let mut rng = StdRng::seed_from_u64(31);
+    for n in [1usize, 2, 7, 300, 1000] {
+        let mut prims = random_triangles(&mut rng, n);
+        prims.extend(random_scene(&mut rng, n / 3));
+        let n = prims.len();
+        for k in [1, 5, n] {
+            let groups = chunks(n, k);
+            let what = format!("{n} lights, {k} groups");
+            let full = two_level::build(&prims, &groups).unwrap();
+            let object: Vec<Option<&[LightPrim]>> = groups
+                .iter()
+                .map(|g| Some(&prims[g.start as usize..g.end as usize]))
+                .collect();
+            let once = BottomLevels::new(groups.clone(), &object);
+            assert_eq!(once.tree(&prims).unwrap(), full, "{what}");
+            let some: Vec<Option<&[LightPrim]>> = object
+                .iter()
+                .enumerate()
+                .map(|(i, o)| o.filter(|_| i % 2 == 0))
+                .collect();
+            let mixed = BottomLevels::new(groups.clone(), &some);
+            assert_eq!(
+                mixed.tree(&prims).unwrap(),
+                full,
+                "{what}, every other group"
+            );
+            let last = groups.len() - 1;
+            let tail = BottomLevels::new(groups[..last].to_vec(), &object[..last]);
+            assert_eq!(
+                tail.tree(&prims).unwrap(),
+                full,
+                "{what}, the last group as VPLs"
+            );
+        }
+    }
+}
+
+/// Groups moved by rigid transforms keep the leaf order sorted once in
+/// object space, and the frame's tree is still exact for the frame: a
+/// valid light BVH whose every internal node gathers its children (bounds,
+/// intensity), cones bounding every light below, each group in one
+/// subtree in its object-space order; and sampling through it is
+/// consistent (sample pmf = pmf(light)), normalized, and reaches every
+/// light that can contribute. The world-space sort differs from the
+/// object-space one in these frames, so a per-frame sort would fail the
+/// order check.
+#[test]
+fn moved_bottom_levels_keep_their_order_and_bound_the_frame() {
+    let mut rng = StdRng::seed_from_u64(37);
+    let mut object = random_triangles(&mut rng, 500);
+    object.extend(random_scene(&mut rng, 200));
+    let groups = vec![0..500u32, 500..700];
+    let slices: Vec<Option<&[LightPrim]>> = groups
+        .iter()
+        .map(|g| Some(&object[g.start as usize..g.end as usize]))
+        .collect();
+    let bottoms = BottomLevels::new(groups.clone(), &slices);
+    let object_order: Vec<Vec<u32>> = groups
+        .iter()
+        .map(|g| {
+            let sub = &object[g.start as usize..g.end as usize];
+            perfect::sort_lights(sub)
+                .into_iter()
+                .map(|i| i + g.start)
+                .collect()
+        })
+        .collect();
+    let mut resorted = false;
+    for frame in 0..4 {
+        // In frame 0 the first group stays in object space (its bottom
+        // level is copied, the other one gathered again).
+        let rigid: Vec<Rigid> = (0..groups.len())
+            .map(|g| {
+                if frame == 0 && g == 0 {
+                    Rigid::IDENTITY
+                } else {
+                    random_rigid(&mut rng)
+                }
+            })
+            .collect();
+        let prims: Vec<LightPrim> = groups
+            .iter()
+            .zip(&rigid)
+            .flat_map(|(g, r)| {
+                object[g.start as usize..g.end as usize]
+                    .iter()
+                    .map(|p| moved(p, r))
+            })
+            .collect();
+        let what = format!("frame {frame}");
+        let t = bottoms.tree(&prims).unwrap();
+        check_bvh(&prims, &t);
+        check_cones_bound_their_lights(&prims, &t, &what);
+        for (g, order) in groups.iter().zip(&object_order) {
+            let mut node = t.leaf_of_light(g.start).unwrap();
+            while lights_below(&t, node).len() < g.len() {
+                node = t.parent(node).unwrap();
+            }
+            assert_eq!(&leaf_order(&t, node), order, "{what}: group {g:?}");
+            let world: Vec<u32> = perfect::sort_lights(&prims[g.start as usize..g.end as usize])
+                .into_iter()
+                .map(|i| i + g.start)
+                .collect();
+            resorted |= &world != order;
+        }
+        let sampler = TreeSampler::new(t, Importance::Cones);
+        for _ in 0..4 {
+            let s = random_shading(&mut rng);
+            let none = check_consistency(&what, &sampler, &s, 4096);
+            let sum = pmf_sum(&sampler, &s, prims.len());
+            // Σ pmf + P(None) = 1 (P(None) estimated on 4098 points), as
+            // in `pmf_consistency_normalization_and_unbiasedness`.
+            assert!(sum <= 1.0 + 1e-5, "{what}: Σ pmf = {sum}");
+            assert!(
+                (sum + none - 1.0).abs() < 2e-3,
+                "{what}: Σ pmf {sum} + none {none}"
+            );
+            for (i, prim) in prims.iter().enumerate() {
+                if contributes(prim, &s) {
+                    assert!(
+                        sampler.pmf(&s, i as u32) > 0.0,
+                        "{what}: light {i} has pmf 0"
+                    );
+                }
+            }
+        }
+    }
+    assert!(resorted, "the frames never changed the Morton order");
+}
+
+/// Groups with equal object-space lights (one mesh light placed at
+/// several transforms) share one sorted order; a group that differs in
+/// one light's emission gets its own, and groups sorted every frame none.
+#[test]
+fn instanced_groups_share_one_sorted_order() {
+    let mut rng = StdRng::seed_from_u64(41);
+    let lamp = random_triangles(&mut rng, 64);
+    let mut other = lamp.clone();
+    other[5].emission[0] += 1.0;
+    let lights: Vec<LightPrim> = [&lamp, &lamp, &other, &lamp, &lamp]
+        .into_iter()
+        .flatten()
+        .copied()
+        .collect();
+    let groups = chunks(lights.len(), 5);
+    let object = [
+        Some(&lamp[..]),
+        Some(&lamp[..]),
+        Some(&other[..]),
+        Some(&lamp[..]),
+        None,
+    ];
+    let b = BottomLevels::new(groups.clone(), &object);
+    assert_eq!(b.shared_orders(), 2);
+    // Placed at five transforms: one valid tree over all the instances.
+    let rigid: Vec<Rigid> = (0..5).map(|_| random_rigid(&mut rng)).collect();
+    let prims: Vec<LightPrim> = groups
+        .iter()
+        .zip(&rigid)
+        .flat_map(|(g, r)| {
+            lights[g.start as usize..g.end as usize]
+                .iter()
+                .map(|p| moved(p, r))
+        })
+        .collect();
+    let t = b.tree(&prims).unwrap();
+    check_bvh(&prims, &t);
+    check_cones_bound_their_lights(&prims, &t, "instances");
 }
 
 // ---------------------------------------------------------------- cuts

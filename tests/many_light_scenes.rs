@@ -10,9 +10,10 @@ use mdas::integrand::ManyLightSpec;
 use mdas::lights::lgh::LghParams;
 use mdas::lights::sampler::SamplerKind;
 use mdas::lights::scene_lights::{
-    light_count, light_counts, light_groups, light_prims, LightCounts,
+    bottom_levels, light_count, light_counts, light_groups, light_prims, LightCounts,
 };
 use mdas::lights::substitute::SubstituteParams;
+use mdas::lights::two_level;
 use mdas::lights::vpl::VplSpec;
 use mdas::lights::{LightPrim, KIND_POINT, KIND_TRIANGLE};
 use mdas::scene_file;
@@ -333,6 +334,19 @@ fn light_sets_orbit_and_order_is_points_then_sets_then_emissive_triangles() {
     // tree2's groups: the point, each set, each emissive mesh (the floor
     // does not emit).
     assert_eq!(light_groups(&s.scene), [0..1, 1..4, 4..6, 6..7, 7..9]);
+    // Sorted once for a frame sequence: every group but the orbiting set
+    // (sorted every frame). Nothing here moves rigidly, so every frame's
+    // tree is the one a full per-frame sort gives, bit for bit.
+    let bottoms = bottom_levels(&s.scene);
+    assert_eq!(bottoms.shared_orders(), 4);
+    for t in [0.0, 1.0] {
+        let prims = light_prims(&s.scene, t);
+        assert_eq!(
+            bottoms.tree(&prims),
+            two_level::build(&prims, &light_groups(&s.scene)),
+            "time {t}"
+        );
+    }
     let p0 = light_prims(&s.scene, 0.0);
     let p1 = light_prims(&s.scene, 1.0);
     assert_eq!(p0.len(), 9);

@@ -30,8 +30,10 @@
 //! **on the GPU** ([`GpuLightTree`], with cones for `tree_cone`), the
 //! `unbalanced` kinds build their BVH on the CPU, `tree2` its two-level
 //! tree on the CPU (one bottom level per light group of
-//! [`crate::lights::scene_lights::light_groups`], the VPLs as one more),
-//! `power` its alias table.
+//! [`crate::lights::scene_lights::light_groups`], the VPLs as one more;
+//! the groups' leaf orders sorted once per sequence in object space,
+//! [`crate::lights::scene_lights::bottom_levels`]), `power` its alias
+//! table.
 //! Kinds with cuts (`tree`, `tree_cone`, `unbalanced`,
 //! `unbalanced_nocone`, `tree2`) then run
 //! the cut-sharing pre-pass (paper §3.3): one invocation per k×k pixel
@@ -68,8 +70,8 @@ use crate::lights::gpu_build::GpuLightTree;
 use crate::lights::gpu_lgh::GpuLgh;
 use crate::lights::gpu_sampler::{CutLayout, GpuSamplerData, TreeSource, FIRST_BINDING};
 use crate::lights::sampler::SamplerKind;
-use crate::lights::scene_lights::{light_groups, light_prims};
-use crate::lights::two_level;
+use crate::lights::scene_lights::{self, light_prims};
+use crate::lights::two_level::BottomLevels;
 use crate::lights::vpl::{self, VplGenerator};
 use crate::lights::{LightPrim, KIND_TRIANGLE};
 use crate::scene::Scene;
@@ -104,6 +106,9 @@ pub struct ManyLight {
     cut_pass: Option<(wgpu::ComputePipeline, wgpu::BindGroupLayout)>,
     /// `lgh`: the loop iterations of one evaluation.
     loop_iterations: u32,
+    /// `tree2`: the bottom levels' leaf orders, sorted once for the
+    /// sequence ([`BottomLevels`]).
+    bottoms: Option<BottomLevels>,
 }
 
 /// The light structures of one frame ([`ManyLight::build_sampler`]).
@@ -190,7 +195,16 @@ impl ManyLight {
         };
         let prims = frame_lights(gpu, scene, &gpu_scene, spec, vpl.as_ref(), &mut profiler)?;
         let triangles = prims.iter().any(|l| l.kind == KIND_TRIANGLE);
-        let built = Self::build_sampler(gpu, spec, scene, &prims, film, &mut profiler)?;
+        // tree2 sorts its bottom levels once per sequence, in object
+        // space; the first frame's CPU build time includes it.
+        let start = std::time::Instant::now();
+        let bottoms = (kind == SamplerKind::Tree2).then(|| scene_lights::bottom_levels(scene));
+        let sort_ms = start.elapsed().as_secs_f64() * 1e3;
+        let mut built =
+            Self::build_sampler(gpu, spec, &prims, bottoms.as_ref(), film, &mut profiler)?;
+        if let Some(ms) = built.cpu_build_ms.as_mut().filter(|_| bottoms.is_some()) {
+            *ms += sort_ms;
+        }
         let layout = gpu
             .device
             .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -213,6 +227,7 @@ impl ManyLight {
             vpl,
             cut_pass: None,
             loop_iterations: built.loop_iterations,
+            bottoms,
         };
         this.finish_frame(gpu, spec, profiler, built.cpu_build_ms)?;
         Ok(this)
@@ -265,8 +280,14 @@ impl ManyLight {
                 }
             }
             None => {
-                let built =
-                    Self::build_sampler(gpu, &spec, scene, &prims, self.film, &mut profiler)?;
+                let built = Self::build_sampler(
+                    gpu,
+                    &spec,
+                    &prims,
+                    self.bottoms.as_ref(),
+                    self.film,
+                    &mut profiler,
+                )?;
                 self.bind_group = Self::bind_group(gpu, &self.layout, &self.scene, &built.sampler);
                 self.sampler = built.sampler;
                 self.loop_iterations = built.loop_iterations;
@@ -308,8 +329,8 @@ impl ManyLight {
     fn build_sampler(
         gpu: &Gpu,
         spec: &ManyLightSpec,
-        scene: &Scene,
         prims: &[LightPrim],
+        bottoms: Option<&BottomLevels>,
         film: Film,
         profiler: &mut Profiler,
     ) -> Result<Built> {
@@ -365,12 +386,10 @@ impl ManyLight {
                 let sampler = if kind == SamplerKind::Tree2 && n > 0 {
                     // One bottom level per light group of the scene, and
                     // the frame's VPLs as one more.
-                    let mut groups = light_groups(scene);
-                    let scene_lights = groups.last().map_or(0, |g| g.end);
-                    if n > scene_lights {
-                        groups.push(scene_lights..n);
-                    }
-                    let tree = two_level::build(prims, &groups).expect("n > 0 lights");
+                    let tree = bottoms
+                        .expect("tree2 has its bottom levels")
+                        .tree(prims)
+                        .expect("n > 0 lights");
                     GpuSamplerData::new(gpu, kind, prims, Some(TreeSource::Bvh(&tree)), cuts)?
                 } else {
                     GpuSamplerData::new(gpu, kind, prims, None, cuts)?

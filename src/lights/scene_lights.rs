@@ -25,7 +25,7 @@
 //! [`PointLightSet::position`]: crate::scene::PointLightSet::position
 
 use super::LightPrim;
-use crate::scene::motion::{normalized_keys, transform_at};
+use crate::scene::motion::{normalized_keys, transform_at, Rigid};
 use crate::scene::{Light, Mesh, Scene};
 
 /// The number of lights in each group of [`light_prims`]' order.
@@ -80,26 +80,54 @@ pub fn light_counts(scene: &Scene) -> LightCounts {
 /// order: the `[[light]]` points together, each `[[light_set]]`, each
 /// emissive mesh. Empty groups are left out.
 pub fn light_groups(scene: &Scene) -> Vec<std::ops::Range<u32>> {
+    group_lights(scene).into_iter().map(|(g, _)| g).collect()
+}
+
+/// [`light_groups`] with the lights of each group in object space where
+/// their arrangement never changes — the points; a light set that does
+/// not orbit; an emissive mesh's triangles before its rigid motion (every
+/// frame moves them all by one transform) — and `None` for a set that
+/// orbits (each light on its own circle).
+fn group_lights(scene: &Scene) -> Vec<(std::ops::Range<u32>, Option<Vec<LightPrim>>)> {
     let counts = light_counts(scene);
-    let mut sizes = vec![counts.points];
-    sizes.extend(scene.point_light_sets.iter().map(|s| s.len()));
-    sizes.extend(
+    let points = light_prims_points(scene);
+    debug_assert_eq!(points.len(), counts.points);
+    let mut lists: Vec<(usize, Option<Vec<LightPrim>>)> = vec![(points.len(), Some(points))];
+    lists.extend(scene.point_light_sets.iter().map(|set| {
+        let fixed = (set.orbit_radius == 0.0).then(|| {
+            set.lights
+                .iter()
+                .map(|l| LightPrim::point(l.base, l.intensity))
+                .collect()
+        });
+        (set.len(), fixed)
+    }));
+    lists.extend(
         scene
             .meshes
             .iter()
             .filter(|m| is_emissive(scene, m))
-            .map(|m| m.indices.len()),
+            .map(|mesh| (mesh.indices.len(), Some(mesh_triangles(scene, mesh, None)))),
     );
     let mut start = 0u32;
     let mut groups = Vec::new();
-    for size in sizes {
+    for (size, lights) in lists {
         let end = start + size as u32;
         if end > start {
-            groups.push(start..end);
+            groups.push((start..end, lights));
         }
         start = end;
     }
     groups
+}
+
+/// The two-level tree's bottom levels of `scene` for a sequence of frames
+/// ([`super::two_level::BottomLevels`]): every group of [`light_groups`],
+/// sorted once in object space unless it is a light set that orbits.
+pub fn bottom_levels(scene: &Scene) -> super::two_level::BottomLevels {
+    let (groups, lights): (Vec<_>, Vec<_>) = group_lights(scene).into_iter().unzip();
+    let object: Vec<Option<&[LightPrim]>> = lights.iter().map(|l| l.as_deref()).collect();
+    super::two_level::BottomLevels::new(groups, &object)
 }
 
 /// Total number of lights of [`light_prims`] (at any time).
@@ -112,15 +140,7 @@ pub fn light_count(scene: &Scene) -> usize {
 /// loaded scene never does).
 pub fn light_prims(scene: &Scene, time: f32) -> Vec<LightPrim> {
     let mut out = Vec::with_capacity(light_count(scene));
-    for light in &scene.lights {
-        if let Light::Point {
-            position,
-            intensity,
-        } = *light
-        {
-            out.push(LightPrim::point(position, intensity));
-        }
-    }
+    out.extend(light_prims_points(scene));
     for set in &scene.point_light_sets {
         out.extend(
             set.lights
@@ -132,16 +152,40 @@ pub fn light_prims(scene: &Scene, time: f32) -> Vec<LightPrim> {
         if !is_emissive(scene, mesh) {
             continue;
         }
-        let radiance = scene.materials[mesh.material as usize].emission;
         let rigid =
             (!mesh.motion.is_empty()).then(|| transform_at(&normalized_keys(&mesh.motion), time));
-        out.extend(mesh.indices.iter().map(|idx| {
+        out.extend(mesh_triangles(scene, mesh, rigid));
+    }
+    out
+}
+
+/// The `[[light]] type = "point"` lights, in file order.
+fn light_prims_points(scene: &Scene) -> Vec<LightPrim> {
+    scene
+        .lights
+        .iter()
+        .filter_map(|light| match *light {
+            Light::Point {
+                position,
+                intensity,
+            } => Some(LightPrim::point(position, intensity)),
+            _ => None,
+        })
+        .collect()
+}
+
+/// The triangles of emissive `mesh`, its vertices moved by `rigid` (none:
+/// in object space).
+fn mesh_triangles(scene: &Scene, mesh: &Mesh, rigid: Option<Rigid>) -> Vec<LightPrim> {
+    let radiance = scene.materials[mesh.material as usize].emission;
+    mesh.indices
+        .iter()
+        .map(|idx| {
             let [a, b, c] = idx.map(|i| {
                 let p = mesh.positions[i as usize];
                 rigid.map_or(p, |r| r.apply_point(p))
             });
             LightPrim::triangle(a, b, c, radiance)
-        }));
-    }
-    out
+        })
+        .collect()
 }

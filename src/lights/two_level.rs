@@ -27,15 +27,23 @@
 //! child (its node, bounds, intensity and cone are the child's exactly), so
 //! over one group the pmfs are the perfect tree's (`tree_cone` without a
 //! cut), and over one light per group the SAOH BVH's (`unbalanced`).
+//!
+//! A sequence of frames sorts each group once ([`BottomLevels`]): a
+//! bottom level's shape depends only on its leaf order, which for lights
+//! that keep their arrangement (static, or a mesh under rigid motion) is
+//! sorted once in object space; each frame gathers the nodes again over
+//! the frame's lights in that order.
 
 use super::bvh::{self, Cost, LightBvh, INTERNAL_BIT, MAX_DEPTH};
 use super::cut::LightTree;
-use super::perfect::{self, gather};
+use super::perfect::{self, gather, leaf_node};
 use super::{LightCone, LightPrim, TreeNode, NO_LIGHT};
 use glam::Vec3;
+use std::collections::HashMap;
 use std::ops::Range;
 
 /// A node of the tree under construction.
+#[derive(Clone, Copy, Debug)]
 struct Temp {
     node: TreeNode,
     cone: LightCone,
@@ -44,13 +52,26 @@ struct Temp {
 
 /// Builds the two-level tree over `prims` with the groups `groups`: ranges
 /// of light ids that partition `0..prims.len()` in order (empty ranges are
-/// allowed and skipped). `None` for zero lights.
+/// allowed and skipped). `None` for zero lights. Every group is sorted
+/// here; a sequence of frames sorts its groups once with
+/// [`BottomLevels`].
 ///
 /// # Panics
 ///
 /// When `groups` do not partition the ids in order.
 pub fn build(prims: &[LightPrim], groups: &[Range<u32>]) -> Option<LightBvh> {
-    let n = prims.len();
+    check_partition(groups, prims.len());
+    let orders: Vec<Vec<Slot>> = groups
+        .iter()
+        .map(|g| sorted_order(&prims[g.start as usize..g.end as usize]))
+        .collect();
+    assemble(prims, groups, |i, g, arena| {
+        place(&orders[i], prims, g.start, arena)
+    })
+}
+
+/// Asserts that `groups` partition the ids `0..n` in order.
+fn check_partition(groups: &[Range<u32>], n: usize) {
     let mut next = 0u32;
     for g in groups {
         assert!(
@@ -60,21 +81,129 @@ pub fn build(prims: &[LightPrim], groups: &[Range<u32>]) -> Option<LightBvh> {
         next = g.end;
     }
     assert_eq!(next as usize, n, "groups must cover all {n} lights");
+}
+
+/// One node of a bottom level's shape, in post order (children before
+/// their parent, the root last).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Slot {
+    /// The light with this id within its group.
+    Leaf(u32),
+    /// The parent of the slots at these positions of the same list.
+    Join(u32, u32),
+}
+
+/// The shape of the perfect tree over `lights` sorted by (Morton code over
+/// their own bounds, id): [`perfect_order`] of [`perfect::sort_lights`].
+fn sorted_order(lights: &[LightPrim]) -> Vec<Slot> {
+    perfect_order(&perfect::sort_lights(lights))
+}
+
+/// The shape of the perfect tree over a group's lights in the leaf order
+/// `sorted` with its bogus parts dropped: a node whose right half holds
+/// only bogus leaves is its left child (the left half of a node with any
+/// real leaf always has one). Post order, so [`place`] can gather each
+/// node from its children as it goes.
+fn perfect_order(sorted: &[u32]) -> Vec<Slot> {
+    fn visit(sorted: &[u32], first: usize, size: usize, out: &mut Vec<Slot>) -> u32 {
+        if size == 1 {
+            out.push(Slot::Leaf(sorted[first]));
+            return out.len() as u32 - 1;
+        }
+        let half = size / 2;
+        let left = visit(sorted, first, half, out);
+        if first + half >= sorted.len() {
+            return left;
+        }
+        let right = visit(sorted, first + half, half, out);
+        out.push(Slot::Join(left, right));
+        out.len() as u32 - 1
+    }
+    let mut out = Vec::with_capacity((2 * sorted.len()).saturating_sub(1));
+    if !sorted.is_empty() {
+        visit(sorted, 0, sorted.len().next_power_of_two(), &mut out);
+    }
+    out
+}
+
+/// Adds the bottom level of shape `order` over the lights `base + id` of
+/// `prims` to `arena` and returns its root: leaves from the lights
+/// (bounds, intensity, cone), every other node gathered from its children
+/// (bounds, intensity sum, cone union in the same pairwise order). Equal,
+/// field for field, to the perfect tree's nodes over the same leaf order
+/// ([`perfect::build_sorted`]): a bogus leaf adds nothing to a gather
+/// (empty bounds, 0 intensity, empty cone), so a node with one real child
+/// is that child.
+fn place(order: &[Slot], prims: &[LightPrim], base: u32, arena: &mut Vec<Temp>) -> usize {
+    let offset = arena.len();
+    for slot in order {
+        let temp = match *slot {
+            Slot::Leaf(id) => {
+                let prim = &prims[(base + id) as usize];
+                Temp {
+                    node: leaf_node(prim, base + id),
+                    cone: LightCone::of_prim(prim),
+                    children: None,
+                }
+            }
+            Slot::Join(l, r) => {
+                let (l, r) = (offset + l as usize, offset + r as usize);
+                Temp {
+                    node: gather(&arena[l].node, &arena[r].node),
+                    cone: arena[l].cone.union(&arena[r].cone),
+                    children: Some((l, r)),
+                }
+            }
+        };
+        arena.push(temp);
+    }
+    arena.len() - 1
+}
+
+/// Adds a copy of the bottom level `placed` (placed over lights with ids
+/// from 0 into an empty arena) for the lights `base + id` to `arena` and
+/// returns its root: the nodes of [`place`] over equal lights, without
+/// gathering them again.
+fn copy_placed(placed: &[Temp], base: u32, arena: &mut Vec<Temp>) -> usize {
+    let offset = arena.len();
+    arena.extend(placed.iter().map(|t| match t.children {
+        Some((l, r)) => Temp {
+            children: Some((l + offset, r + offset)),
+            ..*t
+        },
+        None => Temp {
+            node: TreeNode {
+                id: t.node.id + base,
+                ..t.node
+            },
+            ..*t
+        },
+    }));
+    arena.len() - 1
+}
+
+/// The two-level tree over `prims` with the partition `groups` (checked
+/// by the caller); `place_group(i, group, arena)` adds non-empty group
+/// `i`'s bottom level to `arena` and returns its root.
+fn assemble(
+    prims: &[LightPrim],
+    groups: &[Range<u32>],
+    mut place_group: impl FnMut(usize, &Range<u32>, &mut Vec<Temp>) -> usize,
+) -> Option<LightBvh> {
+    let n = prims.len();
     if n == 0 {
         return None;
     }
     assert!(n < INTERNAL_BIT as usize, "at most 2^31 − 1 lights");
-    let mut arena: Vec<Temp> = Vec::new();
+    let mut arena: Vec<Temp> = Vec::with_capacity(2 * n);
 
     // Bottom levels: one perfect tree per non-empty group.
-    let mut roots: Vec<usize> = Vec::new();
-    for g in groups.iter().filter(|g| !g.is_empty()) {
-        let sub = &prims[g.start as usize..g.end as usize];
-        let tree = perfect::build(sub).expect("a non-empty group");
-        let root = import(&tree.nodes, &tree.cones, 0, g.start, &mut arena)
-            .expect("a group's tree has a light");
-        roots.push(root);
-    }
+    let roots: Vec<usize> = groups
+        .iter()
+        .enumerate()
+        .filter(|(_, g)| !g.is_empty())
+        .map(|(i, g)| place_group(i, g, &mut arena))
+        .collect();
 
     // Top level: the SAOH BVH over the roots (their boxes, intensities
     // and cones; split at their box centres).
@@ -101,43 +230,149 @@ pub fn build(prims: &[LightPrim], groups: &[Range<u32>]) -> Option<LightBvh> {
     Some(flatten(&arena, root, n))
 }
 
-/// Adds the subtree of perfect-tree node `i` (leaf ids offset by `base`)
-/// to `arena` without its bogus parts; `None` when it holds no light.
-fn import(
-    nodes: &[TreeNode],
-    cones: &[LightCone],
-    i: usize,
-    base: u32,
-    arena: &mut Vec<Temp>,
-) -> Option<usize> {
-    if nodes[i].is_empty() {
-        return None;
-    }
-    let leaves = nodes.len().div_ceil(2);
-    if i + 1 >= leaves {
-        arena.push(Temp {
-            node: TreeNode {
-                id: base + nodes[i].id,
-                ..nodes[i]
-            },
-            cone: cones[i],
-            children: None,
-        });
-        return Some(arena.len() - 1);
-    }
-    let left = import(nodes, cones, 2 * i + 1, base, arena);
-    let right = import(nodes, cones, 2 * i + 2, base, arena);
-    match (left, right) {
-        (Some(l), Some(r)) => {
-            arena.push(Temp {
-                node: nodes[i],
-                cone: cones[i],
-                children: Some((l, r)),
-            });
-            Some(arena.len() - 1)
+/// The part of `tree2` that a sequence of frames shares (the paper's
+/// bottom levels that "remain constant", §4, and the instancing that two
+/// levels allow, §3.1): the leaf order of every group whose lights keep
+/// their arrangement from frame to frame — static lights, and a mesh's
+/// triangles under its rigid keyframe motion, which moves them all by one
+/// rotation and translation — sorted once, by Morton codes over the
+/// group's *object-space* lights. Each frame ([`BottomLevels::tree`])
+/// gathers those bottom levels again over the frame's lights in the fixed
+/// order (bounds, intensities and cones exact for the frame; no Morton
+/// codes, no sort) — or, for a group whose lights are exactly its
+/// object-space lights (it did not move), copies the bottom level placed
+/// once — and builds the top level. Groups whose lights move
+/// independently (orbiting light sets, the VPLs) are sorted every frame,
+/// as [`build`] sorts all of them.
+///
+/// The order comes from the object space, not from any one frame, so
+/// frame `f` of a sequence is the same tree whichever frame the sequence
+/// started at. Groups with equal object-space lights (a mesh light placed
+/// at several transforms) share one sorted order. For lights that do not
+/// move, the tree equals [`build`]'s bit for bit.
+#[derive(Clone, Debug)]
+pub struct BottomLevels {
+    groups: Vec<Range<u32>>,
+    /// Per group, the index in `shapes` of its fixed shape; `None`: sorted
+    /// every frame.
+    shape: Vec<Option<usize>>,
+    shapes: Vec<Shape>,
+}
+
+/// One distinct object-space arrangement of a group's lights.
+#[derive(Clone, Debug)]
+struct Shape {
+    /// The lights in object space, in id order.
+    object: Vec<LightPrim>,
+    /// Their bottom level's shape, sorted once.
+    order: Vec<Slot>,
+    /// That bottom level placed over `object` (light ids and children
+    /// from 0): a frame whose lights equal `object` (they did not move)
+    /// copies it instead of gathering it again.
+    placed: Vec<Temp>,
+}
+
+impl BottomLevels {
+    /// The bottom levels of the groups `groups` (a partition of the ids
+    /// `0..n` in order, as [`build`] takes); `object[i]`: group `i`'s
+    /// lights in object space, in id order (`Some` for a group whose
+    /// lights keep their arrangement), or `None` (sorted every frame).
+    ///
+    /// # Panics
+    ///
+    /// When `groups` do not partition `0..n` in order, or an object-space
+    /// list's length differs from its group's.
+    pub fn new(groups: Vec<Range<u32>>, object: &[Option<&[LightPrim]>]) -> BottomLevels {
+        let n = groups.last().map_or(0, |g| g.end) as usize;
+        check_partition(&groups, n);
+        assert_eq!(
+            groups.len(),
+            object.len(),
+            "one object-space list per group"
+        );
+        let mut shapes: Vec<Shape> = Vec::new();
+        let mut seen: HashMap<&[u8], usize> = HashMap::new();
+        let shape = groups
+            .iter()
+            .zip(object)
+            .map(|(g, lights)| {
+                let lights = (*lights)?;
+                assert_eq!(lights.len(), g.len(), "group {g:?}'s object-space lights");
+                Some(*seen.entry(bytes(lights)).or_insert_with(|| {
+                    let order = sorted_order(lights);
+                    let mut placed = Vec::with_capacity(order.len());
+                    if !lights.is_empty() {
+                        place(&order, lights, 0, &mut placed);
+                    }
+                    shapes.push(Shape {
+                        object: lights.to_vec(),
+                        order,
+                        placed,
+                    });
+                    shapes.len() - 1
+                }))
+            })
+            .collect();
+        BottomLevels {
+            groups,
+            shape,
+            shapes,
         }
-        (one, None) | (None, one) => one,
     }
+
+    /// The number of lights the groups cover.
+    pub fn light_count(&self) -> usize {
+        self.groups.last().map_or(0, |g| g.end) as usize
+    }
+
+    /// The number of sorted orders kept: one per distinct object-space
+    /// shape (the groups sorted every frame have none).
+    pub fn shared_orders(&self) -> usize {
+        self.shapes.len()
+    }
+
+    /// The two-level tree over one frame's lights: the groups' lights
+    /// first (where the frame puts them), then any further lights (the
+    /// frame's VPLs) as one more group, sorted every frame. `None` for
+    /// zero lights.
+    ///
+    /// # Panics
+    ///
+    /// When `prims` has fewer lights than the groups cover.
+    pub fn tree(&self, prims: &[LightPrim]) -> Option<LightBvh> {
+        let covered = self.light_count();
+        assert!(
+            prims.len() >= covered,
+            "{} lights for groups covering {covered}",
+            prims.len()
+        );
+        let mut groups = self.groups.clone();
+        if prims.len() > covered {
+            groups.push(covered as u32..prims.len() as u32);
+        }
+        assemble(prims, &groups, |i, g, arena| {
+            let lights = &prims[g.start as usize..g.end as usize];
+            match self
+                .shape
+                .get(i)
+                .copied()
+                .flatten()
+                .map(|s| &self.shapes[s])
+            {
+                // Equal bytes (not floats: −0 and 0 bound differently).
+                Some(shape) if bytes(&shape.object) == bytes(lights) => {
+                    copy_placed(&shape.placed, g.start, arena)
+                }
+                Some(shape) => place(&shape.order, prims, g.start, arena),
+                None => place(&sorted_order(lights), prims, g.start, arena),
+            }
+        })
+    }
+}
+
+/// The bytes of `lights`.
+fn bytes(lights: &[LightPrim]) -> &[u8] {
+    bytemuck::cast_slice(lights)
 }
 
 /// The depth from which the top level splits at the median when the
