@@ -421,43 +421,69 @@ fn join(left: Option<usize>, right: Option<usize>, arena: &mut Vec<Temp>) -> Opt
 }
 
 /// The BVH layout of the tree at `root`: node 0 the root, children in
-/// pairs after their parent (breadth first).
+/// pairs after their parent (breadth first). Two passes: the breadth-first
+/// walk over the children alone (8 bytes a node, so the walk's scattered
+/// reads stay in cache) gives every arena node its slot, then the arena is
+/// read in its own order and each node written to its slot.
 fn flatten(arena: &[Temp], root: usize, n: usize) -> LightBvh {
-    let mut nodes = vec![TreeNode::EMPTY; 2 * n - 1];
-    let mut cones = vec![LightCone::EMPTY; 2 * n - 1];
-    let mut parent = vec![NO_LIGHT; 2 * n - 1];
-    let mut leaf_of_light = vec![NO_LIGHT; n];
-    let mut depth_of = vec![1u32; 2 * n - 1];
-    // (arena index, output slot)
-    let mut queue = std::collections::VecDeque::from([(root, 0usize)]);
-    let mut used = 1usize;
-    let mut depth = 1;
-    while let Some((t, slot)) = queue.pop_front() {
-        let temp = &arena[t];
-        cones[slot] = temp.cone;
-        depth = depth.max(depth_of[slot]);
-        match temp.children {
-            None => {
-                nodes[slot] = temp.node;
-                leaf_of_light[temp.node.id as usize] = slot as u32;
-            }
-            Some((l, r)) => {
-                let left = used;
-                used += 2;
-                nodes[slot] = TreeNode {
-                    id: INTERNAL_BIT | left as u32,
-                    ..temp.node
-                };
-                for (child, at) in [(l, left), (r, left + 1)] {
-                    parent[at] = slot as u32;
-                    depth_of[at] = depth_of[slot] + 1;
-                    queue.push_back((child, at));
-                }
-            }
+    const LEAF: (u32, u32) = (u32::MAX, u32::MAX);
+    let total = 2 * n - 1;
+    let kids: Vec<(u32, u32)> = arena
+        .iter()
+        .map(|t| t.children.map_or(LEAF, |(l, r)| (l as u32, r as u32)))
+        .collect();
+    // Pass 1: slots, parents and depths. `order[k]` is the arena node of
+    // slot k; the queue is `order` itself (slots are handed out in the
+    // order nodes are reached).
+    let mut order = Vec::with_capacity(total);
+    let mut slot_of = vec![u32::MAX; arena.len()];
+    let mut parent = vec![NO_LIGHT; total];
+    let mut depth_of = vec![1u32; total];
+    let mut left_of = vec![0u32; total];
+    order.push(root as u32);
+    slot_of[root] = 0;
+    let mut next = 0;
+    while next < order.len() {
+        let slot = next;
+        next += 1;
+        let (l, r) = kids[order[slot] as usize];
+        if (l, r) == LEAF {
+            continue;
+        }
+        let left = order.len();
+        left_of[slot] = left as u32;
+        for (child, at) in [(l, left), (r, left + 1)] {
+            slot_of[child as usize] = at as u32;
+            parent[at] = slot as u32;
+            depth_of[at] = depth_of[slot] + 1;
+            order.push(child);
         }
     }
-    assert_eq!(used, 2 * n - 1, "a full binary tree over {n} leaves");
+    assert_eq!(order.len(), total, "a full binary tree over {n} leaves");
+    let depth = depth_of.iter().copied().max().unwrap_or(1);
     assert!(depth <= MAX_DEPTH, "two-level tree depth {depth}");
+    // Pass 2: the nodes, in arena order.
+    let mut nodes = vec![TreeNode::EMPTY; total];
+    let mut cones = vec![LightCone::EMPTY; total];
+    let mut leaf_of_light = vec![NO_LIGHT; n];
+    for (t, temp) in arena.iter().enumerate() {
+        let slot = slot_of[t];
+        if slot == u32::MAX {
+            continue; // not below the root
+        }
+        let slot = slot as usize;
+        cones[slot] = temp.cone;
+        nodes[slot] = match temp.children {
+            None => {
+                leaf_of_light[temp.node.id as usize] = slot as u32;
+                temp.node
+            }
+            Some(_) => TreeNode {
+                id: INTERNAL_BIT | left_of[slot],
+                ..temp.node
+            },
+        };
+    }
     LightBvh {
         nodes,
         parent,
@@ -484,5 +510,84 @@ mod tests {
     fn perfect_levels_counts_the_root_and_the_leaves() {
         let levels: Vec<u32> = [1, 2, 3, 4, 5, 8, 9].map(perfect_levels).to_vec();
         assert_eq!(levels, [1, 2, 3, 3, 4, 4, 5]);
+    }
+
+    /// The breadth-first layout as first written (one pass, a queue of
+    /// arena nodes), the oracle of [`flatten`]'s two passes.
+    fn flatten_reference(arena: &[Temp], root: usize, n: usize) -> LightBvh {
+        let mut nodes = vec![TreeNode::EMPTY; 2 * n - 1];
+        let mut cones = vec![LightCone::EMPTY; 2 * n - 1];
+        let mut parent = vec![NO_LIGHT; 2 * n - 1];
+        let mut leaf_of_light = vec![NO_LIGHT; n];
+        let mut depth_of = vec![1u32; 2 * n - 1];
+        // (arena index, output slot)
+        let mut queue = std::collections::VecDeque::from([(root, 0usize)]);
+        let mut used = 1usize;
+        let mut depth = 1;
+        while let Some((t, slot)) = queue.pop_front() {
+            let temp = &arena[t];
+            cones[slot] = temp.cone;
+            depth = depth.max(depth_of[slot]);
+            match temp.children {
+                None => {
+                    nodes[slot] = temp.node;
+                    leaf_of_light[temp.node.id as usize] = slot as u32;
+                }
+                Some((l, r)) => {
+                    let left = used;
+                    used += 2;
+                    nodes[slot] = TreeNode {
+                        id: INTERNAL_BIT | left as u32,
+                        ..temp.node
+                    };
+                    for (child, at) in [(l, left), (r, left + 1)] {
+                        parent[at] = slot as u32;
+                        depth_of[at] = depth_of[slot] + 1;
+                        queue.push_back((child, at));
+                    }
+                }
+            }
+        }
+        assert_eq!(used, 2 * n - 1, "a full binary tree over {n} leaves");
+        assert!(depth <= MAX_DEPTH, "two-level tree depth {depth}");
+        LightBvh {
+            nodes,
+            parent,
+            leaf_of_light,
+            depth,
+            cones,
+        }
+    }
+
+    /// [`flatten`] lays out trees exactly as the one-pass breadth-first
+    /// walk does: bottom levels of 1 to 300 random lights, chained under
+    /// joins into trees of very uneven depth.
+    #[test]
+    fn flatten_equals_the_one_pass_walk() {
+        use rand::rngs::StdRng;
+        use rand::{RngExt, SeedableRng};
+        let mut rng = StdRng::seed_from_u64(47);
+        for groups in [1usize, 2, 5, 9] {
+            let mut prims = Vec::new();
+            let mut arena = Vec::new();
+            let mut root = None;
+            for _ in 0..groups {
+                let base = prims.len() as u32;
+                let count = rng.random_range(1..300);
+                for _ in 0..count {
+                    let p = Vec3::new(rng.random(), rng.random(), rng.random()) * 10.0;
+                    prims.push(LightPrim::triangle(p, p + Vec3::X, p + Vec3::Y, Vec3::ONE));
+                }
+                let lights = &prims[base as usize..];
+                let r = place(&sorted_order(lights), &prims, base, &mut arena);
+                root = join(root, Some(r), &mut arena);
+            }
+            let (root, n) = (root.unwrap(), prims.len());
+            assert_eq!(
+                flatten(&arena, root, n),
+                flatten_reference(&arena, root, n),
+                "{groups} groups"
+            );
+        }
     }
 }
