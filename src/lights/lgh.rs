@@ -1061,23 +1061,25 @@ mod tests {
         assert_eq!((h.index[0], h.index[7]), (0, 1));
     }
 
-    /// The level-2 gather, vertex by vertex: one light at (1/2, 1, 3/2)
+    /// The level-2 gather, vertex by vertex: one light at (1/2, 1/4, 3/2)
     /// between dark lights fixing the bounds (0,0,0)–(2,2,2), L = 2. Every
     /// level-1 grid light is centred on the light, so level 2 (one cell of
-    /// side 2) splits it with the trilinear weights of t = (1/4, 1/2, 3/4),
-    /// up to the rounding of the centres P/W (relative 1e-6).
+    /// side 2) splits it with the trilinear weights of t = (1/4, 1/8, 3/4),
+    /// up to the rounding of the centres P/W (relative 1e-6). No two
+    /// coordinates of t are equal or 1/2, so a corner's weight names its
+    /// corner (a wrong delta bit or axis changes it).
     #[test]
     fn coarse_levels_gather_at_the_centres() {
         let prims = [
             LightPrim::point(Vec3::ZERO, Vec3::ZERO),
-            LightPrim::point(Vec3::new(0.5, 1.0, 1.5), Vec3::new(0.0, 0.0, 8.0)),
+            LightPrim::point(Vec3::new(0.5, 0.25, 1.5), Vec3::new(0.0, 0.0, 8.0)),
             LightPrim::point(Vec3::splat(2.0), Vec3::ZERO),
         ];
         let h = build(&prims, 2).unwrap();
         assert_eq!((h.grid.h1, h.grid.res(1), h.grid.res(2)), (1.0, 3, 2));
-        // Level 1: cell (0, 1, 1) at t = (1/2, 0, 1/2): four vertices.
-        assert_eq!(h.lights.iter().filter(|g| g.level == 1).count(), 4);
-        let t = Vec3::new(0.25, 0.5, 0.75);
+        // Level 1: cell (0, 0, 1) at t = (1/2, 1/4, 1/2): eight vertices.
+        assert_eq!(h.lights.iter().filter(|g| g.level == 1).count(), 8);
+        let t = Vec3::new(0.25, 0.125, 0.75);
         for delta in 0..8u32 {
             let v = [delta & 1, (delta >> 1) & 1, (delta >> 2) & 1];
             let g = h.light_at(2, v).expect("every coarse corner holds light");
@@ -1238,5 +1240,67 @@ mod tests {
         assert_eq!(pick(&cands, 8, 0.5), vec![0, 0, 1, 1, 1, 1, 2, 2]);
         assert_eq!(pick(&[], 4, 0.5), Vec::<usize>::new());
         assert_eq!(pick(&[c(0.0), c(0.0)], 2, 0.5), Vec::<usize>::new());
+    }
+
+    /// Each coarse level gathers from the fine vertices within three of
+    /// twice its own (a fine grid light's centre lies within one fine cell
+    /// of its vertex, so no other can reach a coarse vertex's cells): the
+    /// gathers must equal, bit for bit, gathers over *every* fine vertex
+    /// in the same (z-major) order. 600 points and VPLs, five levels, so
+    /// that levels 2–5 have vertices far from the origin on every axis.
+    #[test]
+    fn coarse_gathers_equal_gathers_over_every_fine_vertex() {
+        use rand::rngs::StdRng;
+        use rand::{RngExt, SeedableRng};
+        let mut rng = StdRng::seed_from_u64(53);
+        let prims: Vec<LightPrim> = (0..600)
+            .map(|i| {
+                let p = Vec3::new(rng.random(), rng.random(), rng.random()) * 16.0;
+                let e = Vec3::new(rng.random(), rng.random(), rng.random()) + Vec3::splat(0.1);
+                if i % 2 == 0 {
+                    LightPrim::point(p, e)
+                } else {
+                    let n = Vec3::new(rng.random(), rng.random(), rng.random()) - 0.5;
+                    LightPrim::vpl(p, n.normalize(), e)
+                }
+            })
+            .collect();
+        let h = build(&prims, 5).unwrap();
+        let g = &h.grid;
+        assert_eq!(g.levels, 5);
+        let mut compared = 0;
+        for level in 2..=g.levels {
+            let fine = g.res(level - 1);
+            let r = g.res(level);
+            for_box([0; 3], [r - 1; 3], |v| {
+                let vpos = g.vertex_pos(level, v);
+                let mut acc = GridLight::default();
+                for_box([0; 3], [fine - 1; 3], |u| {
+                    let Some(fl) = h.light_at(level - 1, u) else {
+                        return;
+                    };
+                    let upos = g.vertex_pos(level - 1, u);
+                    let (cell, t) = g.cell_of(level, fl.centre(upos));
+                    let d = [0, 1, 2].map(|a| v[a].wrapping_sub(cell[a]));
+                    if d.iter().all(|&x| x <= 1) {
+                        let delta = d[0] + 2 * d[1] + 4 * d[2];
+                        acc.add_grid(LghGrid::trilinear(t, delta), fl, upos - vpos);
+                    }
+                });
+                match h.light_at(level, v) {
+                    Some(got) => {
+                        let want = GridLight {
+                            vertex: g.vertex_index(level, v),
+                            level,
+                            ..acc
+                        };
+                        assert_eq!(*got, want, "level {level}, vertex {v:?}");
+                        compared += 1;
+                    }
+                    None => assert!(acc.w <= 0.0, "level {level}, vertex {v:?} lost its light"),
+                }
+            });
+        }
+        assert!(compared > 100, "{compared} grid lights compared");
     }
 }
