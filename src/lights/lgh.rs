@@ -1132,8 +1132,9 @@ mod tests {
     /// vertices within 2α + 1 at the finer levels); it must find exactly
     /// what a visit of every light and every vertex of every level finds
     /// (the same blending and emitters: equal bits). Points and VPLs
-    /// scattered over [0, 8]³, shading points inside and just outside the
-    /// bounds, α from below one cell to two, with and without level 0.
+    /// scattered over [3, 23]³ (a grid whose origin and cell size are not
+    /// 0 and 1), shading points inside and just outside the bounds, α from
+    /// below one cell to two, with and without level 0.
     #[test]
     fn candidates_equal_a_visit_of_everything() {
         use rand::rngs::StdRng;
@@ -1148,7 +1149,7 @@ mod tests {
         };
         let prims: Vec<LightPrim> = (0..400)
             .map(|i| {
-                let p = v3(&mut rng, 0.0, 8.0);
+                let p = v3(&mut rng, 3.0, 23.0);
                 let e = v3(&mut rng, 0.1, 1.0);
                 if i % 2 == 0 {
                     LightPrim::point(p, e)
@@ -1159,6 +1160,12 @@ mod tests {
             .collect();
         let h = build(&prims, 4).unwrap();
         let g = &h.grid;
+        assert!(
+            g.lo.min_element() > 2.0 && g.h1 != 1.0,
+            "{:?}, {}",
+            g.lo,
+            g.h1
+        );
         let clamp2 = 0.05;
         let key = |c: &Candidate| (c.level, c.id);
         let mut compared = 0;
@@ -1172,7 +1179,7 @@ mod tests {
                 let first = if level0 { 0 } else { 1 };
                 let soft2 = g.soft2(params.clamp);
                 for _ in 0..40 {
-                    let x = v3(&mut rng, -0.5, 8.5);
+                    let x = v3(&mut rng, 2.5, 23.5);
                     let n = v3(&mut rng, -1.0, 1.0).normalize();
                     let mut got = h.candidates(&prims, &params, clamp2, x, n);
                     // Everything, with the same filter.
