@@ -1133,8 +1133,9 @@ mod tests {
     /// what a visit of every light and every vertex of every level finds
     /// (the same blending and emitters: equal bits). Points and VPLs
     /// scattered over [3, 23]³ (a grid whose origin and cell size are not
-    /// 0 and 1), shading points inside and just outside the bounds, α from
-    /// below one cell to two, with and without level 0.
+    /// 0 and 1), shading points inside and just outside the bounds and
+    /// far outside them, α from below one cell to four, with and without
+    /// level 0.
     #[test]
     fn candidates_equal_a_visit_of_everything() {
         use rand::rngs::StdRng;
@@ -1169,7 +1170,7 @@ mod tests {
         let clamp2 = 0.05;
         let key = |c: &Candidate| (c.level, c.id);
         let mut compared = 0;
-        for alpha in [0.4, 1.0, 2.0] {
+        for alpha in [0.4, 1.0, 2.0, 4.0] {
             for level0 in [false, true] {
                 let params = LghParams {
                     alpha,
@@ -1178,8 +1179,12 @@ mod tests {
                 };
                 let first = if level0 { 0 } else { 1 };
                 let soft2 = g.soft2(params.clamp);
-                for _ in 0..40 {
-                    let x = v3(&mut rng, 2.5, 23.5);
+                for k in 0..40 {
+                    let x = if k < 30 {
+                        v3(&mut rng, 2.5, 23.5)
+                    } else {
+                        v3(&mut rng, -30.0, 56.0)
+                    };
                     let n = v3(&mut rng, -1.0, 1.0).normalize();
                     let mut got = h.candidates(&prims, &params, clamp2, x, n);
                     // Everything, with the same filter.
