@@ -57,7 +57,8 @@ pub(crate) struct RenderArgs {
     /// excluded) or A..=B. Frame f is at scene time `time + f ·
     /// frame_duration` of the scene's [integrand] and rotates its random
     /// choices; the lights, the light tree (or BVH, grid) and the cuts are
-    /// made again every frame, all else is reused. Writes X.NNNN.exr (and
+    /// made again every frame (tree2 sorts its bottom levels once, in
+    /// object space), all else is reused. Writes X.NNNN.exr (and
     /// .png) per frame for -o X.exr, and X.frames.csv with every frame's
     /// set-up (light build, cuts, VPLs) and render times. The seed is the
     /// same every frame.
