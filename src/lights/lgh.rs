@@ -1232,7 +1232,8 @@ mod tests {
     /// The stratified picks, worked by hand: ‖f‖ = 1, 2, 1 (F = 4) with
     /// s = 4 and ξ = 1/2 aim at 0.5, 1.5, 2.5, 3.5 of the running sums 1,
     /// 3, 4; ξ = 0 at 0, 1, 2, 3 (a target equal to a running sum goes to
-    /// the next candidate); no candidate or F = 0 gives no pick.
+    /// the next candidate); no candidate or F = 0 gives no pick; a target
+    /// that rounding puts at F goes to the last candidate.
     #[test]
     fn picks_follow_the_running_sum() {
         let c = |lum: f32| Candidate {
@@ -1250,6 +1251,12 @@ mod tests {
         assert_eq!(pick(&cands, 2, 0.75), vec![1, 2]);
         assert_eq!(pick(&cands, 1, 0.3), vec![1]);
         assert_eq!(pick(&cands, 8, 0.5), vec![0, 0, 1, 1, 1, 1, 2, 2]);
+        // ξ just below 1: k + ξ rounds to k + 1 for k ≥ 1, so the last
+        // target is F itself, which no running sum exceeds; the last
+        // candidate takes it.
+        let xi = 1.0 - f32::EPSILON / 2.0;
+        assert_eq!(3.0 + xi, 4.0);
+        assert_eq!(pick(&cands, 4, xi), vec![0, 1, 2, 2]);
         assert_eq!(pick(&[], 4, 0.5), Vec::<usize>::new());
         assert_eq!(pick(&[c(0.0), c(0.0)], 2, 0.5), Vec::<usize>::new());
     }
