@@ -6,7 +6,9 @@
 //! luminance light `i` would bring (points: `I·cosθ/d²`; triangles at their
 //! centroid: `L·A·cosθ·cosθ'/d²`, one-sided) and `p_i` the sampler's pmf
 //! (the tree kinds from their root: no cut). Seed-free: every run prints the
-//! same table. `tree2` uses the scene's light groups, as a render does.
+//! same table. `tree2` uses the scene's light groups with their leaf orders
+//! sorted once in object space, as a render does; `tree2 (sort at t)` sorts
+//! them at the frame time instead (the same tree where nothing moves).
 //!
 //! ```text
 //! cargo run --release --example light_tree_quality SCENE [GRID_WIDTH] [KINDS]
@@ -20,7 +22,7 @@ use anyhow::{bail, Context, Result};
 use glam::Vec3;
 use mdas::accel::{BuiltScene, Ray};
 use mdas::lights::cut::{Importance, TreeSampler};
-use mdas::lights::scene_lights::{light_groups, light_prims};
+use mdas::lights::scene_lights::{bottom_levels, light_groups, light_prims};
 use mdas::lights::{
     new_sampler, two_level, LightPrim, LightSampler, SamplerKind, Shading, KIND_TRIANGLE,
 };
@@ -68,16 +70,27 @@ fn main() -> Result<()> {
         "{:<18} {:>10} {:>10} {:>10} {:>10} {:>8}",
         "sampler", "mean V", "median V", "p90 V", "max V", "p = 0"
     );
+    let mut rows: Vec<(String, Box<dyn LightSampler>)> = Vec::new();
     for kind in kinds {
         if !kind.picks_lights() {
             bail!("'{kind}' picks no single light");
         }
-        let sampler: Box<dyn LightSampler> = if kind == SamplerKind::Tree2 {
+        if kind == SamplerKind::Tree2 {
+            let tree = bottom_levels(&file.scene).tree(&prims).context("lights")?;
+            rows.push((
+                kind.name().into(),
+                Box::new(TreeSampler::new(tree, Importance::Cones)),
+            ));
             let tree = two_level::build(&prims, &light_groups(&file.scene)).context("lights")?;
-            Box::new(TreeSampler::new(tree, Importance::Cones))
+            rows.push((
+                "tree2 (sort at t)".into(),
+                Box::new(TreeSampler::new(tree, Importance::Cones)),
+            ));
         } else {
-            new_sampler(kind, &prims, None)
-        };
+            rows.push((kind.name().into(), new_sampler(kind, &prims, None)));
+        }
+    }
+    for (name, sampler) in rows {
         let mut v = Vec::new();
         let mut missed = 0;
         for s in &points {
@@ -103,7 +116,7 @@ fn main() -> Result<()> {
         let at = |q: f64| v[((v.len() - 1) as f64 * q).round() as usize];
         println!(
             "{:<18} {:>10.3} {:>10.3} {:>10.3} {:>10.3} {:>8}",
-            kind.name(),
+            name,
             v.iter().sum::<f64>() / v.len() as f64,
             at(0.5),
             at(0.9),
