@@ -80,7 +80,30 @@ pub fn light_counts(scene: &Scene) -> LightCounts {
 /// order: the `[[light]]` points together, each `[[light_set]]`, each
 /// emissive mesh. Empty groups are left out.
 pub fn light_groups(scene: &Scene) -> Vec<std::ops::Range<u32>> {
-    group_lights(scene).into_iter().map(|(g, _)| g).collect()
+    group_ranges(scene).into_iter().flatten().collect()
+}
+
+/// The id range of every group of [`light_groups`] in order, `None` for
+/// an empty one.
+fn group_ranges(scene: &Scene) -> Vec<Option<std::ops::Range<u32>>> {
+    let mut sizes = vec![light_counts(scene).points];
+    sizes.extend(scene.point_light_sets.iter().map(|s| s.len()));
+    sizes.extend(
+        scene
+            .meshes
+            .iter()
+            .filter(|m| is_emissive(scene, m))
+            .map(|m| m.indices.len()),
+    );
+    let mut start = 0u32;
+    sizes
+        .into_iter()
+        .map(|size| {
+            let range = start..start + size as u32;
+            start = range.end;
+            (!range.is_empty()).then_some(range)
+        })
+        .collect()
 }
 
 /// [`light_groups`] with the lights of each group in object space where
@@ -89,36 +112,27 @@ pub fn light_groups(scene: &Scene) -> Vec<std::ops::Range<u32>> {
 /// frame moves them all by one transform) — and `None` for a set that
 /// orbits (each light on its own circle).
 fn group_lights(scene: &Scene) -> Vec<(std::ops::Range<u32>, Option<Vec<LightPrim>>)> {
-    let counts = light_counts(scene);
-    let points = light_prims_points(scene);
-    debug_assert_eq!(points.len(), counts.points);
-    let mut lists: Vec<(usize, Option<Vec<LightPrim>>)> = vec![(points.len(), Some(points))];
+    let mut lists: Vec<Option<Vec<LightPrim>>> = vec![Some(light_prims_points(scene))];
     lists.extend(scene.point_light_sets.iter().map(|set| {
-        let fixed = (set.orbit_radius == 0.0).then(|| {
+        (set.orbit_radius == 0.0).then(|| {
             set.lights
                 .iter()
                 .map(|l| LightPrim::point(l.base, l.intensity))
                 .collect()
-        });
-        (set.len(), fixed)
+        })
     }));
     lists.extend(
         scene
             .meshes
             .iter()
             .filter(|m| is_emissive(scene, m))
-            .map(|mesh| (mesh.indices.len(), Some(mesh_triangles(scene, mesh, None)))),
+            .map(|mesh| Some(mesh_triangles(scene, mesh, None))),
     );
-    let mut start = 0u32;
-    let mut groups = Vec::new();
-    for (size, lights) in lists {
-        let end = start + size as u32;
-        if end > start {
-            groups.push((start..end, lights));
-        }
-        start = end;
-    }
-    groups
+    group_ranges(scene)
+        .into_iter()
+        .zip(lists)
+        .filter_map(|(range, lights)| Some((range?, lights)))
+        .collect()
 }
 
 /// The two-level tree's bottom levels of `scene` for a sequence of frames
