@@ -417,13 +417,14 @@ fn bvh_invariants() {
 
 // ---------------------------------------------------------------- two-level tree
 
-/// The light ids of the leaves below `node` of a light BVH.
+/// The light ids of the leaves below `node` of a light BVH, left to
+/// right.
 fn lights_below(t: &LightBvh, node: usize) -> Vec<u32> {
     let mut out = Vec::new();
     let mut stack = vec![node];
     while let Some(x) = stack.pop() {
         match t.children(x) {
-            Some((l, r)) => stack.extend([l, r]),
+            Some((l, r)) => stack.extend([r, l]),
             None => out.push(t.nodes[x].id),
         }
     }
@@ -620,19 +621,6 @@ fn random_rigid(rng: &mut StdRng) -> Rigid {
     }
 }
 
-/// The light ids below `node` of a light BVH, left to right.
-fn leaf_order(t: &LightBvh, node: usize) -> Vec<u32> {
-    let mut out = Vec::new();
-    let mut stack = vec![node];
-    while let Some(x) = stack.pop() {
-        match t.children(x) {
-            Some((l, r)) => stack.extend([r, l]),
-            None => out.push(t.nodes[x].id),
-        }
-    }
-    out
-}
-
 /// For lights that do not move, the bottom levels sorted once give the
 /// tree `two_level::build` sorts in full, bit for bit — with every group
 /// sorted once, with every other group sorted per frame, and with the
@@ -738,7 +726,7 @@ fn moved_bottom_levels_keep_their_order_and_bound_the_frame() {
             while lights_below(&t, node).len() < g.len() {
                 node = t.parent(node).unwrap();
             }
-            assert_eq!(&leaf_order(&t, node), order, "{what}: group {g:?}");
+            assert_eq!(&lights_below(&t, node), order, "{what}: group {g:?}");
             let world: Vec<u32> = perfect::sort_lights(&prims[g.start as usize..g.end as usize])
                 .into_iter()
                 .map(|i| i + g.start)
@@ -2419,27 +2407,6 @@ mod lgh_oracle {
             let (p, dof) = chi_square_p(&counts, &expected);
             assert!(p > 1e-4, "at {x}: chi-square p = {p} ({dof} dof)");
         }
-    }
-
-    /// The stratified picks are in candidate order and cover the running
-    /// sum: a candidate holding a whole number of strata (S·‖f‖/F) gets
-    /// that many picks for every ξ; one candidate takes every pick.
-    #[test]
-    fn shadow_picks_cover_the_running_sum() {
-        let c = |lum: f32| lgh::Candidate {
-            f: Vec3::splat(lum),
-            lum,
-            pos: Vec3::ZERO,
-            sigma: Vec3::ZERO,
-            level: 1,
-            id: 0,
-        };
-        let cands = [c(1.0), c(2.0), c(1.0)];
-        assert_eq!(lgh::pick(&cands, 4, 0.0), vec![0, 1, 1, 2]);
-        assert_eq!(lgh::pick(&cands, 4, 0.5), vec![0, 1, 1, 2]);
-        assert_eq!(lgh::pick(&cands, 4, 0.999_999), vec![0, 1, 1, 2]);
-        assert_eq!(lgh::pick(&cands[..1], 3, 0.5), vec![0, 0, 0]);
-        assert!(lgh::pick(&[], 4, 0.5).is_empty());
     }
 
     /// Hard cases: no lights; all lights at one point (one cell, zero

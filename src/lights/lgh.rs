@@ -1232,8 +1232,11 @@ mod tests {
     /// The stratified picks, worked by hand: ‖f‖ = 1, 2, 1 (F = 4) with
     /// s = 4 and ξ = 1/2 aim at 0.5, 1.5, 2.5, 3.5 of the running sums 1,
     /// 3, 4; ξ = 0 at 0, 1, 2, 3 (a target equal to a running sum goes to
-    /// the next candidate); no candidate or F = 0 gives no pick; a target
-    /// that rounding puts at F goes to the last candidate.
+    /// the next candidate); a candidate holding a whole number of strata
+    /// (s·‖f‖/F) gets that many picks for every ξ, and a lone one every
+    /// pick; no candidate or F = 0 gives no pick; a target that rounding
+    /// puts at F goes to the last candidate. (Moved here from
+    /// `tests/lights_cpu.rs`, whose cases it keeps.)
     #[test]
     fn picks_follow_the_running_sum() {
         let c = |lum: f32| Candidate {
@@ -1250,7 +1253,9 @@ mod tests {
         assert_eq!(pick(&cands, 2, 0.0), vec![0, 1]);
         assert_eq!(pick(&cands, 2, 0.75), vec![1, 2]);
         assert_eq!(pick(&cands, 1, 0.3), vec![1]);
+        assert_eq!(pick(&cands, 4, 0.999_999), vec![0, 1, 1, 2]);
         assert_eq!(pick(&cands, 8, 0.5), vec![0, 0, 1, 1, 1, 1, 2, 2]);
+        assert_eq!(pick(&cands[..1], 3, 0.5), vec![0, 0, 0]);
         // ξ just below 1: k + ξ rounds to k + 1 for k ≥ 1, so the last
         // target is F itself, which no running sum exceeds; the last
         // candidate takes it.
