@@ -626,7 +626,7 @@ fn random_rigid(rng: &mut StdRng) -> Rigid {
 /// sorted once, with every other group sorted per frame, and with the
 /// frame's lights past the groups (the VPLs) as one more group.
 #[test]
-fn bottom_levels_of_lights_that_stay_put_are_the_full_build() {
+fn two_level_bottom_levels_of_lights_that_stay_put_are_the_full_build() {
     assert!(BottomLevels::new(vec![], &[]).tree(&[]).is_none());
     let mut rng = StdRng::seed_from_u64(31);
     for n in [1usize, 2, 7, 300, 1000] {
@@ -675,7 +675,7 @@ fn bottom_levels_of_lights_that_stay_put_are_the_full_build() {
 /// object-space one in these frames, so a per-frame sort would fail the
 /// order check.
 #[test]
-fn moved_bottom_levels_keep_their_order_and_bound_the_frame() {
+fn two_level_moved_bottom_levels_keep_their_order_and_bound_the_frame() {
     let mut rng = StdRng::seed_from_u64(37);
     let mut object = random_triangles(&mut rng, 500);
     object.extend(random_scene(&mut rng, 200));
@@ -762,7 +762,7 @@ fn moved_bottom_levels_keep_their_order_and_bound_the_frame() {
 /// several transforms) share one sorted order; a group that differs in
 /// one light's emission gets its own, and groups sorted every frame none.
 #[test]
-fn instanced_groups_share_one_sorted_order() {
+fn two_level_instanced_groups_share_one_sorted_order() {
     let mut rng = StdRng::seed_from_u64(41);
     let lamp = random_triangles(&mut rng, 64);
     let mut other = lamp.clone();
