@@ -597,6 +597,23 @@ fn moved(p: &LightPrim, r: &Rigid) -> LightPrim {
     }
 }
 
+/// The lights of each group `groups[i]` moved by `rigid[i]`.
+fn moved_groups(
+    lights: &[LightPrim],
+    groups: &[std::ops::Range<u32>],
+    rigid: &[Rigid],
+) -> Vec<LightPrim> {
+    groups
+        .iter()
+        .zip(rigid)
+        .flat_map(|(g, r)| {
+            lights[g.start as usize..g.end as usize]
+                .iter()
+                .map(|p| moved(p, r))
+        })
+        .collect()
+}
+
 /// A rotation uniform over SO(3) (a unit quaternion: a point uniform in
 /// the 4D unit ball, normalized) and a translation in [−20, 20]³.
 fn random_rigid(rng: &mut StdRng) -> Rigid {
@@ -708,15 +725,7 @@ fn two_level_moved_bottom_levels_keep_their_order_and_bound_the_frame() {
                 }
             })
             .collect();
-        let prims: Vec<LightPrim> = groups
-            .iter()
-            .zip(&rigid)
-            .flat_map(|(g, r)| {
-                object[g.start as usize..g.end as usize]
-                    .iter()
-                    .map(|p| moved(p, r))
-            })
-            .collect();
+        let prims = moved_groups(&object, &groups, &rigid);
         let what = format!("frame {frame}");
         let t = bottoms.tree(&prims).unwrap();
         check_bvh(&prims, &t);
@@ -784,15 +793,7 @@ fn two_level_instanced_groups_share_one_sorted_order() {
     assert_eq!(b.shared_orders(), 2);
     // Placed at five transforms: one valid tree over all the instances.
     let rigid: Vec<Rigid> = (0..5).map(|_| random_rigid(&mut rng)).collect();
-    let prims: Vec<LightPrim> = groups
-        .iter()
-        .zip(&rigid)
-        .flat_map(|(g, r)| {
-            lights[g.start as usize..g.end as usize]
-                .iter()
-                .map(|p| moved(p, r))
-        })
-        .collect();
+    let prims = moved_groups(&lights, &groups, &rigid);
     let t = b.tree(&prims).unwrap();
     check_bvh(&prims, &t);
     check_cones_bound_their_lights(&prims, &t, "instances");
