@@ -104,17 +104,23 @@ fn decide(k: u32) -> Decision {
     // number of times (MAX_PER_LEAF, DIMS), masked by `i < count` where
     // needed, so that compilers unroll them and keep these arrays in
     // registers (indexed by a loop counter that is not a constant, a
-    // private array lives in memory: on lavapipe per-lane gathers).
-    let head = header_head(h);
+    // private array lives in memory: on lavapipe per-lane gathers). The
+    // slots are loaded first: every load after them is independent.
     let count = min(header_count(h), MAX_PER_LEAF);
+    var slots: array<u32, MAX_PER_LEAF>;
+    for (var i = 0u; i < MAX_PER_LEAF; i++) {
+        if (i < count) {
+            slots[i] = leaf_slot(k, h, i);
+        }
+    }
     var coords: array<u32, MAX_PER_LEAF * COORD_WORDS>;
     // With the contrast split: each sample's channel sum, and whether it
     // is finite.
     var value: array<f32, MAX_PER_LEAF>;
     var finite: array<bool, MAX_PER_LEAF>;
-    var s = head;
     for (var i = 0u; i < MAX_PER_LEAF; i++) {
         if (i < count) {
+            let s = slots[i];
             for (var w = 0u; w < COORD_WORDS; w++) {
                 coords[i * COORD_WORDS + w] = samples_get(s * SAMPLE_STRIDE + w);
             }
@@ -124,7 +130,6 @@ fn decide(k: u32) -> Decision {
                 let v = bitcast<vec3<f32>>(bits);
                 value[i] = v.x + v.y + v.z;
             }
-            s = sample_next(s);
         }
     }
 
@@ -386,39 +391,60 @@ fn apply_leaf(k: u32, local: vec2<u32>, g: u32) {
     for (var w = 0u; w < COORD_WORDS; w++) {
         samples_set(slot * SAMPLE_STRIDE + w, words[w]);
     }
-    values_set(4u * slot, leaves_get(base));
-    let head = header_head(h);
+    values_set(3u * slot, leaves_get(base));
     let count = header_count(h);
 
     if (!d.split || truncate) {
-        set_sample_next(slot, head);
-        leaves_set(base + 1u, make_header(slot, count + 1u));
+        // Appended in slot `count` (≤ MAX_PER_LEAF: a trimmed iteration
+        // may fill a full leaf's last slot, the error word marked DIRTY
+        // above; no error pass follows that iteration).
+        set_leaf_slot(k, count, slot);
+        leaves_set(base + 1u, make_header(header_first(h), count + 1u));
         return;
     }
 
-    // Object-median split: relink the m + 1 samples into two lists.
-    var left_head = NIL;
-    var left_count = 0u;
-    var right_head = NIL;
-    var right_count = 0u;
-    var s = slot;
-    var next = head;
-    for (var i = 0u; i <= count; i++) {
-        if (sample_q(s, d.axis) < d.plane) {
-            set_sample_next(s, left_head);
-            left_head = s;
-            left_count += 1u;
-        } else {
-            set_sample_next(s, right_head);
-            right_head = s;
-            right_count += 1u;
+    // Object-median split of the m + 1 samples (slots in order, then the
+    // new one): the left ones stay in leaf k's slots, compacted in order
+    // (each is written at or before where it was read, and all were read
+    // first), the right ones go to the new leaf in order.
+    var all: array<u32, SPLIT_N>;
+    for (var i = 0u; i < MAX_PER_LEAF; i++) {
+        if (i < count) {
+            all[i] = leaf_slot(k, h, i);
         }
-        s = next;
-        if (s != NIL) {
-            next = sample_next(s);
+    }
+    all[min(count, MAX_PER_LEAF)] = slot;
+    var side: array<bool, SPLIT_N>;
+    for (var i = 0u; i < SPLIT_N; i++) {
+        if (i <= count) {
+            side[i] = sample_q(all[i], d.axis) >= d.plane;
         }
     }
     let right = leaf_total + partials[2u * g + 1u] + local.y;
+    var left_count = 0u;
+    var right_count = 0u;
+    var left_first = 0u;
+    var right_first = 0u;
+    for (var i = 0u; i < SPLIT_N; i++) {
+        if (i <= count) {
+            let s = all[i];
+            if (side[i]) {
+                if (right_count == 0u) {
+                    right_first = s;
+                } else {
+                    set_leaf_slot(right, right_count, s);
+                }
+                right_count += 1u;
+            } else {
+                if (left_count == 0u) {
+                    left_first = s;
+                } else {
+                    set_leaf_slot(k, left_count, s);
+                }
+                left_count += 1u;
+            }
+        }
+    }
     let rbase = leaf_base(right);
     let axis_word = boxes_get(box_base(k) + d.axis);
     for (var axis = 0u; axis < DIMS; axis++) {
@@ -426,8 +452,8 @@ fn apply_leaf(k: u32, local: vec2<u32>, g: u32) {
     }
     boxes_set(box_base(k) + d.axis, make_box(box_lo(axis_word), d.plane));
     boxes_set(box_base(right) + d.axis, make_box(d.plane, box_hi(axis_word)));
-    leaves_set(base + 1u, make_header(left_head, left_count));
+    leaves_set(base + 1u, make_header(left_first, left_count));
     leaves_set(rbase, leaves_get(base));
-    leaves_set(rbase + 1u, make_header(right_head, right_count));
+    leaves_set(rbase + 1u, make_header(right_first, right_count));
     leaves_set(rbase + 2u, DIRTY);
 }

@@ -2,7 +2,7 @@
 // src/integrator/mdas/mod.rs documents the layout and generates the
 // constants used here: DIMS, BITS_PER_DIM, EXTRA_BITS, SAMPLES_PER_CELL,
 // MAX_PER_LEAF, CANDIDATES, RECONSTRUCT_PIXEL, COORD_WORDS, SAMPLE_STRIDE, LEAF_STRIDE, WG,
-// STATS_PER_INVOCATION, PIXELS_PER_PASS, the leaf header's NIL,
+// STATS_PER_INVOCATION, PIXELS_PER_PASS, the leaf header's INDEX_MASK,
 // COUNT_SHIFT, COLLAPSED_BIT and DIRTY (src/integrator/mdas/words.rs) and
 // the indices C_* (counters) and S_* (state). Needs shared/rng.wgsl and shared/morton.wgsl.
 //
@@ -13,16 +13,22 @@
 // iterations in one submission and never waits inside the loop.
 //
 // leaves[k·LEAF_STRIDE + …] (LEAF_STRIDE = 3): 0 Morton cell, 1 header
-// (head sample | count << COUNT_SHIFT | collapsed << 31), 2 error bits (DIRTY =
-// recompute). boxes[k·DIMS + a]: the box along axis a (lo | hi << 16,
-// inclusive quanta of the cell, 2^16 each). Two buffers so that neither
+// (slot 0 | count << COUNT_SHIFT | collapsed << 31), 2 error bits (DIRTY =
+// recompute): the words every pass reads for every leaf.
+// boxes[k·BOX_STRIDE + …] (BOX_STRIDE = DIMS + MAX_PER_LEAF − 1), read only
+// for the leaves that change: 0 … DIMS − 1 the box along each axis (lo |
+// hi << 16, inclusive quanta of the cell, 2^16 each), then slots 1 …
+// MAX_PER_LEAF − 1. The slots are the indices of the leaf's samples, in
+// order. Slot MAX_PER_LEAF (m + 1 samples) occurs only in a trimmed last
+// iteration, after which no error is computed: it is kept in the error
+// word. Inline indices: a kernel loads a leaf's samples with independent
+// loads, not a chain through the samples. Two buffers so that neither
 // binding outgrows 128 MiB as soon as the samples' values do.
 // samples[s·SAMPLE_STRIDE + …]: SAMPLE_STRIDE = ⌈DIMS/2⌉ words of two
 // 16-bit quanta (cell-relative). Only placement reads them, so the
 // reconstruction reuses this buffer for its accumulators.
-// values[4s + c]: f32 bits of channel c (an unevaluated sample holds its
-// Morton cell in values[4s]); values[4s + 3]: the next sample of the
-// leaf's list (NIL ends it).
+// values[3s + c]: f32 bits of channel c (an unevaluated sample holds its
+// Morton cell in values[3s]).
 
 struct Params {
     seed: u32,
@@ -117,12 +123,15 @@ fn leaf_base(k: u32) -> u32 {
     return k * LEAF_STRIDE;
 }
 
+const BOX_STRIDE: u32 = DIMS + MAX_PER_LEAF - 1u;
+
 fn box_base(k: u32) -> u32 {
-    return k * DIMS;
+    return k * BOX_STRIDE;
 }
 
-fn header_head(h: u32) -> u32 {
-    return h & NIL;
+// Slot 0 of a leaf (its first sample), kept in the header.
+fn header_first(h: u32) -> u32 {
+    return h & INDEX_MASK;
 }
 
 fn header_count(h: u32) -> u32 {
@@ -133,8 +142,29 @@ fn header_collapsed(h: u32) -> bool {
     return (h & COLLAPSED_BIT) != 0u;
 }
 
-fn make_header(head: u32, count: u32) -> u32 {
-    return head | (count << COUNT_SHIFT);
+fn make_header(first: u32, count: u32) -> u32 {
+    return first | (count << COUNT_SHIFT);
+}
+
+// Sample index in slot i of leaf k with header h (i < header_count(h)).
+fn leaf_slot(k: u32, h: u32, i: u32) -> u32 {
+    if (i == 0u) {
+        return header_first(h);
+    }
+    if (i == MAX_PER_LEAF) {
+        return leaves_get(leaf_base(k) + 2u);
+    }
+    return boxes_get(box_base(k) + DIMS + i - 1u);
+}
+
+// Stores sample s in slot i ≥ 1 of leaf k (slot 0 goes in the header,
+// slot MAX_PER_LEAF in the error word: trimmed last iteration only).
+fn set_leaf_slot(k: u32, i: u32, s: u32) {
+    if (i == MAX_PER_LEAF) {
+        leaves_set(leaf_base(k) + 2u, s);
+    } else {
+        boxes_set(box_base(k) + DIMS + i - 1u, s);
+    }
 }
 
 fn box_lo(word: u32) -> u32 {
@@ -156,16 +186,8 @@ fn sample_q(s: u32, axis: u32) -> u32 {
     return (samples_get(s * SAMPLE_STRIDE + axis / 2u) >> (16u * (axis % 2u))) & 0xffffu;
 }
 
-fn sample_next(s: u32) -> u32 {
-    return values_get(4u * s + 3u);
-}
-
-fn set_sample_next(s: u32, next: u32) {
-    values_set(4u * s + 3u, next);
-}
-
 fn sample_value_bits(s: u32) -> vec3<u32> {
-    return vec3<u32>(values_get(4u * s), values_get(4u * s + 1u), values_get(4u * s + 2u));
+    return vec3<u32>(values_get(3u * s), values_get(3u * s + 1u), values_get(3u * s + 2u));
 }
 
 fn finite_bits(v: vec3<u32>) -> bool {
@@ -227,24 +249,27 @@ fn leaf_cell_coords(k: u32) -> array<u32, MAX_DIMS> {
 // one more splits, except in the trimmed last iteration).
 const LEAF_SAMPLES: u32 = MAX_PER_LEAF + 1u;
 
-// The value bits of a leaf's samples, read with one walk of its list.
-// Loops over them run LEAF_SAMPLES times, masked by `i < count`, so that
-// compilers unroll them and keep the array in registers (a walk of the
-// list is a chain of dependent loads: the error pass walked it three
-// times).
+// The value bits of a leaf's samples. Loops over them run LEAF_SAMPLES
+// times, masked by `i < count`, so that compilers unroll them and keep
+// the array in registers; the slots are loaded first, then the values,
+// all independent loads.
 struct LeafValues {
     bits: array<vec3<u32>, LEAF_SAMPLES>,
     count: u32,
 }
 
-fn leaf_values(head: u32, count: u32) -> LeafValues {
+fn leaf_values(k: u32, h: u32) -> LeafValues {
     var v: LeafValues;
-    v.count = min(count, LEAF_SAMPLES);
-    var s = head;
+    v.count = min(header_count(h), LEAF_SAMPLES);
+    var slots: array<u32, LEAF_SAMPLES>;
     for (var i = 0u; i < LEAF_SAMPLES; i++) {
         if (i < v.count) {
-            v.bits[i] = sample_value_bits(s);
-            s = sample_next(s);
+            slots[i] = leaf_slot(k, h, i);
+        }
+    }
+    for (var i = 0u; i < LEAF_SAMPLES; i++) {
+        if (i < v.count) {
+            v.bits[i] = sample_value_bits(slots[i]);
         }
     }
     return v;
@@ -279,8 +304,8 @@ fn values_mean(v: LeafValues) -> LeafMean {
     return LeafMean(mean, n);
 }
 
-fn leaf_mean(head: u32, count: u32) -> LeafMean {
-    return values_mean(leaf_values(head, count));
+fn leaf_mean(k: u32, h: u32) -> LeafMean {
+    return values_mean(leaf_values(k, h));
 }
 
 // ---- workgroup scan (two-level, deterministic) ----

@@ -14,10 +14,7 @@
 
 fn leaf_error(k: u32) -> f32 {
     let base = leaf_base(k);
-    let h = leaves_get(base + 1u);
-    let head = header_head(h);
-    let count = header_count(h);
-    let values = leaf_values(head, count);
+    let values = leaf_values(k, leaves_get(base + 1u));
     let m = values_mean(values);
     var contrast = 0.0;
     if (m.finite > 0u) {

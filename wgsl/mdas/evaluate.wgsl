@@ -2,7 +2,7 @@
 // S_EVAL_FIRST .. S_EVAL_FIRST + S_EVAL_COUNT − 1 in state (written by
 // the host for the initial samples and by plan.wgsl after every
 // iteration; only new samples are ever evaluated). A sample's point is the
-// centre of its quantum; its Morton cell was left in values[4s] by the
+// centre of its quantum; its Morton cell was left in values[3s] by the
 // kernel that placed it.
 //
 // Invocation i evaluates sample first + i: neighbouring invocations take
@@ -14,7 +14,7 @@
 // max |f| once, before the reconstruction.
 
 fn evaluate_sample(s: u32) {
-    let cell = morton_decode(values_get(4u * s), DIMS, BITS_PER_DIM, EXTRA_BITS);
+    let cell = morton_decode(values_get(3u * s), DIMS, BITS_PER_DIM, EXTRA_BITS);
     var point: IntegrandPoint;
     point.film = vec2<f32>(sample_raster(0u, cell[0], sample_q(s, 0u)),
                            sample_raster(1u, cell[1], sample_q(s, 1u)));
@@ -22,9 +22,9 @@ fn evaluate_sample(s: u32) {
         point.u[axis - 2u] = sample_coord(axis, cell[axis], sample_q(s, axis));
     }
     let bits = bitcast<vec3<u32>>(integrand(&point));
-    values_set(4u * s, bits.x);
-    values_set(4u * s + 1u, bits.y);
-    values_set(4u * s + 2u, bits.z);
+    values_set(3u * s, bits.x);
+    values_set(3u * s + 1u, bits.y);
+    values_set(3u * s + 2u, bits.z);
 }
 
 @compute @workgroup_size(WG)

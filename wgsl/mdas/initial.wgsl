@@ -1,6 +1,6 @@
 // Initial sampling (paper §4.1): one invocation per Morton cell. The cell
 // becomes leaf `cell` (full box, error DIRTY) holding SAMPLES_PER_CELL
-// samples at indices cell·l .. cell·l + l − 1, Latin-hypercube stratified
+// samples at indices cell·l .. cell·l + l − 1 in slots 0 … l − 1, Latin-hypercube stratified
 // inside the cell: along every axis sample j takes stratum rank_a(j) of l
 // equal strata, rank_a a random permutation (ranks of hashed keys), and a
 // uniform quantum inside it. Random numbers: draw(leaf_key(cell, 0), …).
@@ -36,12 +36,14 @@ fn initial(@builtin(global_invocation_id) gid: vec3<u32>,
         for (var w = 0u; w < COORD_WORDS; w++) {
             samples_set(s * SAMPLE_STRIDE + w, words[w]);
         }
-        set_sample_next(s, select(s - 1u, NIL, j == 0u));
-        values_set(4u * s, cell);
+        values_set(3u * s, cell);
+        if (j > 0u) {
+            set_leaf_slot(cell, j, s);
+        }
     }
     let base = leaf_base(cell);
     leaves_set(base, cell);
-    leaves_set(base + 1u, make_header(first + SAMPLES_PER_CELL - 1u, SAMPLES_PER_CELL));
+    leaves_set(base + 1u, make_header(first, SAMPLES_PER_CELL));
     leaves_set(base + 2u, DIRTY);
     for (var axis = 0u; axis < DIMS; axis++) {
         boxes_set(box_base(cell) + axis, make_box(0u, 65536u));

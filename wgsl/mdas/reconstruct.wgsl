@@ -60,7 +60,7 @@ fn reconstruct(@builtin(global_invocation_id) gid: vec3<u32>,
     let fixed_exp = bitcast<i32>(state[S_FIXED_EXP]);
     let base = leaf_base(k);
     let h = leaves_get(base + 1u);
-    let m = leaf_mean(header_head(h), header_count(h));
+    let m = leaf_mean(k, h);
     if (m.finite == 0u) {
         return;
     }
@@ -89,8 +89,8 @@ fn reconstruct(@builtin(global_invocation_id) gid: vec3<u32>,
     var pixel_of: array<u32, MAX_PER_LEAF + 1u>;
     var value_of: array<vec3<f32>, MAX_PER_LEAF + 1u>;
     if (RECONSTRUCT_PIXEL != 0u) {
-        var s = header_head(h);
         for (var n = 0u; n < min(header_count(h), MAX_PER_LEAF + 1u); n++) {
+            let s = leaf_slot(k, h, n);
             let bits = sample_value_bits(s);
             if (finite_bits(bits)) {
                 let i = u32(sample_raster(0u, cell[0], sample_q(s, 0u)));
@@ -101,7 +101,6 @@ fn reconstruct(@builtin(global_invocation_id) gid: vec3<u32>,
                 value_of[own] = bitcast<vec3<f32>>(bits);
                 own += 1u;
             }
-            s = sample_next(s);
         }
     }
     let end = min(total, params.pass_offset + PIXELS_PER_PASS);

@@ -197,8 +197,8 @@ impl MdasParams {
 }
 
 /// Sample indices live in 27 bits of a leaf header (the rest: a 4-bit
-/// count and the collapsed flag), and 0x7ffffff marks the end of a list.
-pub const SAMPLE_LIMIT: u64 = super::words::leaf::NIL as u64;
+/// count and the collapsed flag).
+pub const SAMPLE_LIMIT: u64 = super::words::leaf::INDEX_MASK as u64;
 /// Widest Morton code: every cell is a leaf and holds at least one sample.
 pub const MORTON_BITS_MAX: u32 = 27;
 /// A leaf's count has 4 bits and may reach m + 1 after the trimmed last
@@ -546,18 +546,25 @@ impl Config {
         self.leaf_capacity as u64 * self.leaf_stride as u64 * 4
     }
 
-    /// Boxes, one word per axis: 4d bytes per leaf.
+    /// Words per leaf in the boxes buffer: d box words, slots 1 … m − 1
+    /// (slot 0 is in the header, slot m in the error word).
+    pub fn box_stride(&self) -> u32 {
+        self.dims + self.params.max_samples_per_leaf - 1
+    }
+
+    /// Box (one word per axis) and sample slots 1 … m − 1: 4(d + m − 1)
+    /// bytes per leaf.
     pub fn boxes_bytes(&self) -> u64 {
-        self.leaf_capacity as u64 * self.dims as u64 * 4
+        self.leaf_capacity as u64 * self.box_stride() as u64 * 4
     }
 
     pub fn samples_bytes(&self) -> u64 {
         self.budget as u64 * self.sample_stride as u64 * 4
     }
 
-    /// RGB bits and the list link: 16 bytes per sample.
+    /// RGB bits: 12 bytes per sample.
     pub fn values_bytes(&self) -> u64 {
-        self.budget as u64 * 16
+        self.budget as u64 * 12
     }
 
     pub fn partials_bytes(&self) -> u64 {

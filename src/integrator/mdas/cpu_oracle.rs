@@ -7,7 +7,7 @@
 
 use super::config::SplitRule;
 use super::debug::Snapshot;
-use super::words::leaf::{self, COLLAPSED_BIT, DIRTY, NIL};
+use super::words::leaf::{self, COLLAPSED_BIT, DIRTY};
 
 pub fn hash_u32(mut x: u32) -> u32 {
     x ^= x >> 16;
@@ -209,8 +209,8 @@ fn side_contrast(s: &Snapshot, list: &[u32], axis: u32, plane: u32) -> f32 {
     }
 }
 
-/// The predicted state after one iteration: raw leaf words, sample
-/// coordinate words and list links (values of new samples are not
+/// The predicted state after one iteration: raw leaf words (slots
+/// included) and sample coordinate words (values of new samples are not
 /// predicted).
 #[derive(Clone, Debug)]
 pub struct Predicted {
@@ -218,7 +218,6 @@ pub struct Predicted {
     pub sample_count: u32,
     pub leaves: Vec<u32>,
     pub samples: Vec<u32>,
-    pub next: Vec<u32>,
     pub decisions: Vec<Decision>,
 }
 
@@ -239,12 +238,19 @@ pub fn step(before: &Snapshot) -> Predicted {
     let mut samples = before.samples.clone();
     let added = selected_total.min(left);
     samples.resize((n + added) as usize * ss, 0);
-    let mut next: Vec<u32> = (0..n).map(|s| before.sample_next(s)).collect();
-    next.resize((n + added) as usize, 0);
     let mut leaf_count = before.leaf_count;
     let mut rank = 0u32;
     let q_of = |samples: &Vec<u32>, s: u32, a: u32| {
         (samples[s as usize * ss + a as usize / 2] >> (16 * (a % 2))) & 0xffff
+    };
+    // The samples of the leaf record at `base`: slot 0 in the header, the
+    // rest after the box (slots past the count keep stale words, as in the
+    // kernel).
+    let set_slots = |leaves: &mut Vec<u32>, base: usize, list: &[u32]| {
+        leaves[base + 1] = leaf::header(list[0], list.len() as u32);
+        for (i, &s) in list.iter().enumerate().skip(1) {
+            leaves[base + before.slot_word(i)] = s;
+        }
     };
     for (k, d) in decisions.iter().enumerate() {
         let base = k * ls;
@@ -276,32 +282,17 @@ pub fn step(before: &Snapshot) -> Predicted {
             words[a as usize / 2] |= d.cand[a as usize] << (16 * (a % 2));
         }
         samples[slot as usize * ss..][..ss].copy_from_slice(&words);
-        let head = h & NIL;
-        let count = leaf::count(h);
+        // The leaf's samples in slot order, then the new one.
+        let mut order = before.leaf_samples(k as u32);
+        order.push(slot);
         if !d.split || truncate {
-            next[slot as usize] = head;
-            leaves[base + 1] = leaf::header(slot, count + 1);
+            set_slots(&mut leaves, base, &order);
             continue;
         }
-        // Relink exactly as the kernel does (new sample first, then the list).
-        let mut order = vec![slot];
-        let mut s = head;
-        for _ in 0..count {
-            order.push(s);
-            s = next[s as usize];
-        }
-        let (mut lh, mut lc, mut rh, mut rc) = (NIL, 0, NIL, 0);
-        for &s in &order {
-            if q_of(&samples, s, d.axis) < d.plane {
-                next[s as usize] = lh;
-                lh = s;
-                lc += 1;
-            } else {
-                next[s as usize] = rh;
-                rh = s;
-                rc += 1;
-            }
-        }
+        // Split exactly as the kernel does: each side keeps the order.
+        let (right_list, left_list): (Vec<u32>, Vec<u32>) = order
+            .iter()
+            .partition(|&&s| q_of(&samples, s, d.axis) >= d.plane);
         let right = leaf_count as usize;
         leaf_count += 1;
         leaves.resize(leaf_count as usize * ls, 0);
@@ -312,9 +303,9 @@ pub fn step(before: &Snapshot) -> Predicted {
         let (lo, hi) = (word & 0xffff, (word >> 16) + 1);
         leaves[base + 3 + d.axis as usize] = lo | ((d.plane - 1) << 16);
         leaves[right * ls + 3 + d.axis as usize] = d.plane | ((hi - 1) << 16);
-        leaves[base + 1] = leaf::header(lh, lc);
+        set_slots(&mut leaves, base, &left_list);
         leaves[right * ls] = leaves[base];
-        leaves[right * ls + 1] = leaf::header(rh, rc);
+        set_slots(&mut leaves, right * ls, &right_list);
         leaves[right * ls + 2] = DIRTY;
     }
     Predicted {
@@ -322,7 +313,6 @@ pub fn step(before: &Snapshot) -> Predicted {
         sample_count: n + added,
         leaves,
         samples,
-        next,
         decisions,
     }
 }

@@ -6,7 +6,7 @@ use super::{MdasParams, Reconstruction};
 use crate::film::Film;
 
 use super::words::leaf::{self, COLLAPSED_BIT};
-pub use super::words::leaf::{DIRTY, NIL};
+pub use super::words::leaf::{DIRTY, INDEX_MASK};
 
 /// The state after an error pass (errors current, `emax_bits` set), or
 /// after the last iteration (`is_final`: errors of changed leaves DIRTY).
@@ -24,11 +24,12 @@ pub struct Snapshot {
     pub inv_alpha: f32,
     pub select_all: bool,
     pub epsilon: f32,
-    /// Raw words: `leaf_count × (3 + dims)`.
+    /// Raw words: `leaf_count × (3 + dims + m − 1)`: cell, header, error
+    /// (slot m after a trimmed last iteration), the box, slots 1 … m − 1.
     pub leaves: Vec<u32>,
     /// Raw coordinate words: `sample_count × ⌈dims/2⌉`.
     pub samples: Vec<u32>,
-    /// Per sample: 3 f32 bits and the next sample of its leaf.
+    /// Per sample: 3 f32 bits.
     pub values: Vec<u32>,
 }
 
@@ -36,9 +37,12 @@ pub struct Snapshot {
 #[derive(Clone, Debug, PartialEq)]
 pub struct Leaf {
     pub cell: u32,
-    pub head: u32,
+    /// The leaf's sample indices in slot order (`count` of them).
+    pub samples: Vec<u32>,
     pub count: u32,
     pub collapsed: bool,
+    /// The error word: error bits, DIRTY, or, in a leaf of m + 1 samples
+    /// after a trimmed last iteration, the index of its sample m.
     pub error_bits: u32,
     /// Per axis: [lo, hi) in quanta of the cell (0..=65536).
     pub bounds: Vec<(u32, u32)>,
@@ -46,7 +50,17 @@ pub struct Leaf {
 
 impl Snapshot {
     pub fn leaf_stride(&self) -> usize {
-        3 + self.dims as usize
+        2 + self.dims as usize + self.params.max_samples_per_leaf as usize
+    }
+
+    /// Word of slot i ≥ 1 in a leaf record (slot 0 is in the header's
+    /// low bits, slot m in the error word).
+    pub fn slot_word(&self, i: usize) -> usize {
+        if i == self.params.max_samples_per_leaf as usize {
+            2
+        } else {
+            2 + self.dims as usize + i
+        }
     }
 
     pub fn sample_stride(&self) -> usize {
@@ -55,10 +69,16 @@ impl Snapshot {
 
     pub fn leaf(&self, k: u32) -> Leaf {
         let w = &self.leaves[k as usize * self.leaf_stride()..][..self.leaf_stride()];
+        let count = leaf::count(w[1]);
         Leaf {
             cell: w[0],
-            head: w[1] & NIL,
-            count: leaf::count(w[1]),
+            samples: (0..count as usize)
+                .map(|i| match i {
+                    0 => w[1] & INDEX_MASK,
+                    _ => w[self.slot_word(i)],
+                })
+                .collect(),
+            count,
             collapsed: w[1] & COLLAPSED_BIT != 0,
             error_bits: w[2],
             bounds: (0..self.dims as usize)
@@ -72,24 +92,13 @@ impl Snapshot {
         (w >> (16 * (axis % 2))) & 0xffff
     }
 
-    pub fn sample_next(&self, s: u32) -> u32 {
-        self.values[4 * s as usize + 3]
-    }
-
     pub fn value(&self, s: u32) -> [f32; 3] {
-        std::array::from_fn(|c| f32::from_bits(self.values[4 * s as usize + c]))
+        std::array::from_fn(|c| f32::from_bits(self.values[3 * s as usize + c]))
     }
 
-    /// The samples of leaf k, following its list.
+    /// The samples of leaf k, in slot order.
     pub fn leaf_samples(&self, k: u32) -> Vec<u32> {
-        let leaf = self.leaf(k);
-        let mut out = Vec::new();
-        let mut s = leaf.head;
-        for _ in 0..leaf.count {
-            out.push(s);
-            s = self.sample_next(s);
-        }
-        out
+        self.leaf(k).samples
     }
 
     /// Cell-coordinate bits along `axis`.

@@ -60,15 +60,23 @@
 //! Coordinates are 16-bit quanta relative to the sample's Morton cell (a
 //! cell is 2^16 quanta wide on every axis, so a film axis with b + e = 8 is
 //! resolved to 2⁻²⁴ of its side, as fine as f32), and a leaf is stored only
-//! as its cell, its box in those quanta, a list head and its error:
+//! as its cell, its box in those quanta, its samples' indices and its
+//! error:
 //!
-//! * sample: ⌈d/2⌉ words of coordinates + 3 f32 value + 1 word "next in
-//!   leaf" = 24 B at 3D and 4D, 32 B at 8D;
-//! * leaf: cell + header (head, 4-bit count, collapsed bit) + error, and in
-//!   a second buffer d box words (lo | hi) = 28 B at 4D, 44 B at 8D;
+//! * sample: ⌈d/2⌉ words of coordinates + 3 f32 value = 20 B at 3D and 4D,
+//!   28 B at 8D;
+//! * leaf: cell + header (slot 0, 4-bit count, collapsed bit) + error,
+//!   the words every pass reads for every leaf, and in a second buffer,
+//!   read only for the leaves that change, d box words (lo | hi) and
+//!   sample slots 1 … m − 1 = (2 + d + m)·4 B: 40 B at 4D and m = 4, 56 B
+//!   at 8D. Slot m (m + 1 samples) occurs only in a trimmed last
+//!   iteration, after which no error is computed: it lives in the error
+//!   word;
 //! * at most L ≤ C + (N − C·min(l, h))/h leaves, h = ⌊(m+1)/2⌋ ([`config`]);
-//!   with the paper's l = m = 4 that is N/2: 24 + 14 = 38 B per sample at
-//!   4D; with l = 1 the leaf share is larger (up to 52 B when N = C);
+//!   with the paper's l = m = 4 that is N/2: 20 + 20 = 40 B per sample at
+//!   4D (38 B with the linked sample lists this replaced, which cost a
+//!   chain of dependent loads per leaf, see below); with l = 1 the leaf
+//!   share is larger (up to 60 B when N = C);
 //! * per pixel 32 B of fixed-point accumulators, placed in the coordinate
 //!   buffer (dead once the last sample is placed) when it is large enough
 //!   (spp·⌈d/2⌉ ≥ 8), else allocated; plus 8 B per 256 leaves of scan
@@ -98,8 +106,11 @@
 //! a listed leaf computes depends on the leaf alone and the workgroup's
 //! totals (selected, splits, the error maximum) are order-independent,
 //! while slots still come from the deterministic scan in leaf order. A
-//! leaf's samples are read with one walk of its list into arrays indexed
-//! only in loops of constant length (registers, not memory).
+//! leaf's sample indices are stored inline in its record (slot 0 in the
+//! header, slots 1 … m after its box), so a pass loads them and
+//! then the samples with independent loads, into arrays indexed only in
+//! loops of constant length (registers, not memory); a linked list of
+//! samples cost one dependent load per sample.
 //!
 //! ## Departures from the reference CUDA code (issue #3)
 //!

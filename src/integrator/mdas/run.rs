@@ -174,17 +174,17 @@ impl Mdas {
                     inv_alpha: gp.inv_alpha,
                     select_all: gp.select_all != 0,
                     epsilon: gp.epsilon,
-                    // The snapshot keeps one record per leaf: meta, then box.
+                    // The snapshot keeps one record per leaf: meta, box, slots.
                     leaves: {
                         let meta = read_paged(&bufs.leaves, (leaves * cfg.leaf_stride) as usize)?;
-                        let boxes = read_paged(&bufs.boxes, (leaves * cfg.dims) as usize)?;
+                        let boxes = read_paged(&bufs.boxes, (leaves * cfg.box_stride()) as usize)?;
                         meta.chunks(cfg.leaf_stride as usize)
-                            .zip(boxes.chunks(cfg.dims as usize))
+                            .zip(boxes.chunks(cfg.box_stride() as usize))
                             .flat_map(|(m, b)| m.iter().chain(b).copied())
                             .collect()
                     },
                     samples: read_paged(&bufs.samples, (n * cfg.sample_stride) as usize)?,
-                    values: read_paged(&bufs.values, 4 * n as usize)?,
+                    values: read_paged(&bufs.values, 3 * n as usize)?,
                 })
             };
 

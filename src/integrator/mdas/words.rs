@@ -58,14 +58,14 @@ pub(crate) mod state {
     pub const LEN: usize = 16;
 }
 
-/// The leaf record's header word, `head | count << COUNT_SHIFT |
-/// collapsed << 31`, and the error word's DIRTY mark: one definition,
+/// The leaf record's header word, `slot 0 | count << COUNT_SHIFT |
+/// collapsed << 31` (slot 0: the index of the leaf's first sample), and the error word's DIRTY mark: one definition,
 /// generated into every kernel ([`super::config::Config::constants`]) and
 /// used by the CPU oracle and the snapshot reader.
 pub mod leaf {
-    /// Bits of the head sample index; all ones ends a sample list.
-    pub const NIL: u32 = (1 << 27) - 1;
-    /// The leaf's sample count sits above the head index.
+    /// Bits of a sample index (slot 0 of the header).
+    pub const INDEX_MASK: u32 = (1 << 27) - 1;
+    /// The leaf's sample count sits above the slot-0 index.
     pub const COUNT_SHIFT: u32 = 27;
     /// Four bits of count: up to m + 1 = 15 after the trimmed last iteration.
     pub const COUNT_MASK: u32 = 15;
@@ -73,9 +73,10 @@ pub mod leaf {
     /// The error word of a leaf whose error must be recomputed.
     pub const DIRTY: u32 = u32::MAX;
 
-    /// The header of a leaf whose list starts at `head` with `count` samples.
-    pub const fn header(head: u32, count: u32) -> u32 {
-        head | (count << COUNT_SHIFT)
+    /// The header of a leaf whose first sample is `first`, with `count`
+    /// samples.
+    pub const fn header(first: u32, count: u32) -> u32 {
+        first | (count << COUNT_SHIFT)
     }
 
     /// The sample count of a header.
@@ -85,7 +86,7 @@ pub mod leaf {
 
     /// WGSL names and values.
     pub const ALL: &[(&str, u32)] = &[
-        ("NIL", NIL),
+        ("INDEX_MASK", INDEX_MASK),
         ("COUNT_SHIFT", COUNT_SHIFT),
         ("COLLAPSED_BIT", COLLAPSED_BIT),
         ("DIRTY", DIRTY),
