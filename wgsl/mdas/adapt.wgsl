@@ -403,22 +403,20 @@ fn apply_leaf(k: u32, local: vec2<u32>, g: u32) {
         return;
     }
 
-    // Object-median split of the m + 1 samples (slots in order, then the
-    // new one): the left ones stay in leaf k's slots, compacted in order
-    // (each is written at or before where it was read, and all were read
-    // first), the right ones go to the new leaf in order.
+    // Object-median split of the m + 1 samples (a leaf splits only when
+    // full: its m slots in order, then the new one): the left ones stay in
+    // leaf k's slots, compacted in order (each is written at or before
+    // where it was read, and all were read first), the right ones go to
+    // the new leaf in order. Every index into `all` and `side` is a
+    // constant once the loops are unrolled: registers, not memory.
     var all: array<u32, SPLIT_N>;
     for (var i = 0u; i < MAX_PER_LEAF; i++) {
-        if (i < count) {
-            all[i] = leaf_slot(k, h, i);
-        }
+        all[i] = leaf_slot(k, h, i);
     }
-    all[min(count, MAX_PER_LEAF)] = slot;
+    all[MAX_PER_LEAF] = slot;
     var side: array<bool, SPLIT_N>;
     for (var i = 0u; i < SPLIT_N; i++) {
-        if (i <= count) {
-            side[i] = sample_q(all[i], d.axis) >= d.plane;
-        }
+        side[i] = sample_q(all[i], d.axis) >= d.plane;
     }
     let right = leaf_total + partials[2u * g + 1u] + local.y;
     var left_count = 0u;
@@ -426,23 +424,21 @@ fn apply_leaf(k: u32, local: vec2<u32>, g: u32) {
     var left_first = 0u;
     var right_first = 0u;
     for (var i = 0u; i < SPLIT_N; i++) {
-        if (i <= count) {
-            let s = all[i];
-            if (side[i]) {
-                if (right_count == 0u) {
-                    right_first = s;
-                } else {
-                    set_leaf_slot(right, right_count, s);
-                }
-                right_count += 1u;
+        let s = all[i];
+        if (side[i]) {
+            if (right_count == 0u) {
+                right_first = s;
             } else {
-                if (left_count == 0u) {
-                    left_first = s;
-                } else {
-                    set_leaf_slot(k, left_count, s);
-                }
-                left_count += 1u;
+                set_leaf_slot(right, right_count, s);
             }
+            right_count += 1u;
+        } else {
+            if (left_count == 0u) {
+                left_first = s;
+            } else {
+                set_leaf_slot(k, left_count, s);
+            }
+            left_count += 1u;
         }
     }
     let rbase = leaf_base(right);
