@@ -32,6 +32,8 @@ MUTATIONS=(
   "voxel_column|wgsl/voxel_build.wgsl|floor(kmin - 1e-3)|floor(kmin + 1e-3)|bvh_traversal"
   "pixel_prior|wgsl/mdas/reconstruct.wgsl|value = m.mean * (params.pixel_prior * inv);|value = m.mean * inv;|mdas_invariants mdas_quality"
   "pixel_own|wgsl/mdas/reconstruct.wgsl|                    if (pixel_of[n] == t) {|                    if (pixel_of[n] <= t) {|mdas_invariants mdas_quality"
+  "slot_last|wgsl/mdas/common.wgsl|        leaves_set(leaf_base(k) + 2u, s);|        boxes_set(box_base(k) + DIMS, s);|mdas_invariants"
+  "split_side|wgsl/mdas/adapt.wgsl|        side[i] = sample_q(all[i], d.axis) >= d.plane;|        side[i] = sample_q(all[i], d.axis) > d.plane;|mdas_invariants"
 )
 
 # shellcheck source=.ci/worktree.sh
