@@ -63,6 +63,27 @@ fn cases() -> Vec<(&'static str, u32, u32, Film, MdasParams)> {
     wide.alpha = 1.0;
     wide.scale_factor = 0.25;
     wide.candidates = 7;
+    // Deep refinement at the slab's two edges (one cell, m = 8, α = 64,
+    // ε = 10⁻²⁰, 600 samples): the straddling leaves split along u0 down
+    // to boxes one quantum wide, where a median plane falls on a sample's
+    // own quantum (which belongs to the right half). With m = 2 the
+    // contrast rule ties on every axis and the boxes stayed ~400 quanta
+    // wide.
+    let mut deep = params(0, 0, 2, 600.0, 13);
+    deep.max_samples_per_leaf = 8;
+    deep.alpha = 64.0;
+    deep.epsilon = 1e-20;
+    deep.split = SplitRule::Contrast;
+    v.push((
+        "deep 3D",
+        4,
+        3,
+        Film {
+            width: 1,
+            height: 1,
+        },
+        deep,
+    ));
     v.push((
         "m=5 sf=1/4 α=1",
         3,
@@ -206,6 +227,9 @@ fn cpu_oracle_builds_the_same_leaves_and_samples() {
     // Leaves of m + 1 samples after a trimmed last iteration: their last
     // slot lives in the error word, and the comparison must see some.
     let mut overfull = 0;
+    // Splits whose plane is a sample's own quantum (that sample goes
+    // right): the comparison must see some too.
+    let mut on_plane = 0;
     for (name, case, dims, film, p) in cases() {
         let (_, snaps) = render_observed(case, dims, film, p);
         let mut splits = 0;
@@ -213,6 +237,17 @@ fn cpu_oracle_builds_the_same_leaves_and_samples() {
             let (before, after) = (&pair[0], &pair[1]);
             let ctx = format!("{name}, iteration {}", before.iteration);
             let predicted = cpu_oracle::step(before);
+            for (k, d) in predicted.decisions.iter().enumerate() {
+                if d.selected && d.split {
+                    let axis = d.axis as usize;
+                    on_plane += (d.cand[axis] == d.plane) as u32;
+                    on_plane += before
+                        .leaf_samples(k as u32)
+                        .iter()
+                        .filter(|&&i| before.sample_q(i, d.axis) == d.plane)
+                        .count() as u32;
+                }
+            }
             splits += predicted
                 .decisions
                 .iter()
@@ -259,6 +294,7 @@ fn cpu_oracle_builds_the_same_leaves_and_samples() {
         );
     }
     assert!(overfull > 0, "no case filled a leaf's last slot");
+    assert!(on_plane > 0, "no split plane fell on a sample");
 }
 
 /// Σ over pixels of value × area (= 1) equals Σ over leaves of V·f̄ with V in
@@ -410,6 +446,11 @@ fn paged_arrays_agree_with_whole_arrays_bit_for_bit() {
     };
     let mut most_pages = 0;
     for (name, case, dims, film, p) in cases() {
+        if name == "deep 3D" {
+            // m = 8: its leaf array is a quarter of its values, so no page
+            // size puts every array on two pages within 32 bindings.
+            continue;
+        }
         let integrand = common::TestIntegrand::new(gpu, case, dims, film);
         let (whole, whole_snaps) = render_observed(case, dims, film, p);
         let whole_cfg = Mdas::new(p).unwrap().config_for(gpu, &integrand).unwrap();
