@@ -94,22 +94,47 @@ fn cases() -> Vec<(&'static str, u32, u32, Film, MdasParams)> {
         },
         wide,
     ));
-    // The contrast split rule on the edge (its halves differ), the linear
-    // integrand (every axis has some contrast) and the NaN/Inf case
-    // (non-finite samples left out of the halves' means).
-    for (of, name) in [
-        ("edge 3D", "edge 3D contrast"),
-        ("linear 4D l=2", "linear 4D contrast"),
-        ("nan 3D", "nan 3D contrast"),
+    // The contrast and trimmed split rules on the edge (its halves
+    // differ; a lone sample across it is what trimming leaves out), the
+    // linear integrand (every axis has some contrast) and the NaN/Inf case
+    // (non-finite samples left out of the halves' means and of the
+    // outlier's choice).
+    for (of, name, split) in [
+        ("edge 3D", "edge 3D contrast", SplitRule::Contrast),
+        ("linear 4D l=2", "linear 4D contrast", SplitRule::Contrast),
+        ("nan 3D", "nan 3D contrast", SplitRule::Contrast),
+        ("edge 3D", "edge 3D trimmed", SplitRule::Trimmed),
+        ("linear 4D l=2", "linear 4D trimmed", SplitRule::Trimmed),
+        ("nan 3D", "nan 3D trimmed", SplitRule::Trimmed),
     ] {
         let (_, case, dims, film, p) = *v.iter().find(|c| c.0 == of).expect("a listed case");
-        let p = MdasParams {
-            split: SplitRule::Contrast,
-            ..p
-        };
-        v.push((name, case, dims, film, p));
+        v.push((name, case, dims, film, MdasParams { split, ..p }));
     }
     v
+}
+
+/// The trimmed rule's cases must exercise the trim: the edge and the
+/// linear case end with other leaves than the contrast rule's runs (so the
+/// oracle test compares a trim that happened, not two identical rules).
+/// The NaN case's few splits come out the same under both rules.
+#[test]
+fn the_trimmed_split_changes_the_leaves() {
+    let all = cases();
+    for name in ["edge 3D", "linear 4D"] {
+        let find = |rule: &str| {
+            *all.iter()
+                .find(|c| c.0.starts_with(name) && c.0.ends_with(rule))
+                .expect("a listed case")
+        };
+        let leaves = |(_, case, dims, film, p): (&str, u32, u32, Film, MdasParams)| {
+            let (_, snaps) = render_observed(case, dims, film, p);
+            snaps.last().expect("a snapshot").leaves.clone()
+        };
+        assert!(
+            leaves(find("contrast")) != leaves(find("trimmed")),
+            "{name}: trimming changed no split"
+        );
+    }
 }
 
 fn check_invariants(name: &str, s: &Snapshot, m: u32) {

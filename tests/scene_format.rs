@@ -571,6 +571,14 @@ fn unknown_keys_are_named_with_their_line() {
     );
     assert!(m.contains("unknown split rule 'median'"), "{m}");
     let (_, ok) = load_text(
+        "mdas-split-trimmed",
+        &format!("{BASE}[mdas]\nsplit = \"trimmed\"\n"),
+    );
+    assert_eq!(
+        ok.unwrap().mdas.split,
+        mdas::integrator::mdas::SplitRule::Trimmed
+    );
+    let (_, ok) = load_text(
         "mdas-reconstruction-ok",
         &format!("{BASE}[mdas]\nreconstruction = \"pixel\"\npixel_prior = 0\n"),
     );

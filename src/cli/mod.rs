@@ -191,8 +191,10 @@ pub(crate) struct MdasArgs {
     /// 0.01; larger is less adaptive and less biased).
     #[arg(long)]
     pub(crate) epsilon: Option<f32>,
-    /// MDAS: split axis rule, extent (the paper's largest scaled extent)
-    /// or contrast (where the two halves' sample means differ most).
+    /// MDAS: split axis rule, extent (the paper's largest scaled extent),
+    /// contrast (where the two halves' sample means differ most) or
+    /// trimmed (contrast without the leaf's most outlying sample: one lucky
+    /// sample cannot steer the split, which cuts contrast's dark bias).
     #[arg(long, value_name = "RULE")]
     pub(crate) split: Option<mdas::integrator::mdas::SplitRule>,
     /// MDAS: reconstruction, box (the paper's eq. 7: a leaf's mean over

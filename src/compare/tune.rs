@@ -44,8 +44,8 @@ use serde::Serialize;
 use std::collections::BTreeMap;
 
 /// The `[mdas]` keys a grid may vary (`split` and `reconstruction` take
-/// the rule names, stored as 0 = extent, 1 = contrast and 0 = box,
-/// 1 = pixel).
+/// the rule names, stored as 0 = extent, 1 = contrast, 2 = trimmed and
+/// 0 = box, 1 = pixel).
 pub const GRID_KEYS: [&str; 11] = [
     "split",
     "reconstruction",
@@ -96,7 +96,7 @@ pub fn parse_grid_entry(s: &str) -> Result<(String, Vec<f64>)> {
             if key == "split" {
                 return v
                     .parse::<SplitRule>()
-                    .map(|r| (r == SplitRule::Contrast) as u32 as f64)
+                    .map(|r| SplitRule::ALL.iter().position(|&x| x == r).unwrap() as f64)
                     .map_err(|e| anyhow::anyhow!("grid entry '{s}': {e}"));
             }
             if key == "reconstruction" {
@@ -131,7 +131,8 @@ fn with_value(p: MdasParams, key: &str, v: f64) -> Result<MdasParams> {
             p.split = match int()? {
                 0 => SplitRule::Extent,
                 1 => SplitRule::Contrast,
-                _ => bail!("split = {v}: 0 (extent) or 1 (contrast)"),
+                2 => SplitRule::Trimmed,
+                _ => bail!("split = {v}: 0 (extent), 1 (contrast) or 2 (trimmed)"),
             }
         }
         "reconstruction" => {
@@ -188,6 +189,7 @@ fn configurations(base: MdasParams, grid: &[(String, Vec<f64>)]) -> Result<Vec<C
             label.push(match (key.as_str(), v) {
                 ("split", 0.0) => "split=extent".to_string(),
                 ("split", 1.0) => "split=contrast".to_string(),
+                ("split", 2.0) => "split=trimmed".to_string(),
                 ("reconstruction", 0.0) => "reconstruction=box".to_string(),
                 ("reconstruction", 1.0) => "reconstruction=pixel".to_string(),
                 _ => format!("{key}={v}"),
@@ -678,8 +680,8 @@ mod tests {
         assert!(parse_grid_entry("alpha=x").is_err());
         assert!(parse_grid_entry("alpha=nan").is_err());
         assert_eq!(
-            parse_grid_entry("split=extent,contrast").unwrap().1,
-            vec![0.0, 1.0]
+            parse_grid_entry("split=extent,contrast,trimmed").unwrap().1,
+            vec![0.0, 1.0, 2.0]
         );
         assert!(parse_grid_entry("split=median").is_err());
         assert_eq!(

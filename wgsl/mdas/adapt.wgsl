@@ -133,6 +133,35 @@ fn decide(k: u32) -> Decision {
         }
     }
 
+    // The trimmed rule: the finite sample whose channel sum lies farthest
+    // from the finite ones' mean (the first on ties) takes no part in the
+    // halves' means, when at least three are finite.
+    if (SPLIT_TRIM == 1u && count >= MAX_PER_LEAF) {
+        var sum = 0.0;
+        var n = 0u;
+        for (var i = 0u; i < MAX_PER_LEAF; i++) {
+            if (i < count && finite[i]) {
+                sum += value[i];
+                n += 1u;
+            }
+        }
+        if (n >= 3u) {
+            let mean = sum / f32(n);
+            var worst = -1.0;
+            var j = 0u;
+            for (var i = 0u; i < MAX_PER_LEAF; i++) {
+                let d = abs(value[i] - mean);
+                if (i < count && finite[i] && d > worst) {
+                    worst = d;
+                    j = i;
+                }
+            }
+            for (var i = 0u; i < MAX_PER_LEAF; i++) {
+                finite[i] = finite[i] && i != j;
+            }
+        }
+    }
+
     // Best candidate among CANDIDATES uniform points of the box.
     var quantum: array<f32, DIMS>;
     var lo: array<u32, DIMS>;

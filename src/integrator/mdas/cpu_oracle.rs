@@ -170,7 +170,8 @@ pub fn decide(s: &Snapshot, k: u32) -> Decision {
                 let plane = (v[half - 1] + v[half]).div_ceil(2);
                 let contrast = match s.params.split {
                     SplitRule::Extent => 0.0,
-                    SplitRule::Contrast => side_contrast(s, &list, a, plane),
+                    SplitRule::Contrast => side_contrast(s, &list, None, a, plane),
+                    SplitRule::Trimmed => side_contrast(s, &list, outlier(s, &list), a, plane),
                 };
                 if contrast > best_contrast || (contrast == best_contrast && extent > best_extent) {
                     best_contrast = contrast;
@@ -190,13 +191,44 @@ pub fn decide(s: &Snapshot, k: u32) -> Decision {
     d
 }
 
+/// The sample the trimmed split rule leaves out, as `adapt.wgsl` picks it:
+/// among the finite samples (at least three), the first whose channel sum
+/// lies farthest from their mean (sample 0 of `list` when every distance
+/// is NaN, as the kernel's strict comparison leaves it).
+fn outlier(s: &Snapshot, list: &[u32]) -> Option<usize> {
+    let sums: Vec<Option<f32>> = list
+        .iter()
+        .map(|&i| {
+            let v = s.value(i);
+            v.iter().all(|c| c.is_finite()).then(|| v[0] + v[1] + v[2])
+        })
+        .collect();
+    let n = sums.iter().flatten().count();
+    if n < 3 {
+        return None;
+    }
+    let mean = sums.iter().flatten().fold(0.0f32, |a, &v| a + v) / n as f32;
+    let (mut worst, mut j) = (-1.0f32, 0);
+    for (i, v) in sums.iter().enumerate() {
+        if let Some(v) = v {
+            let d = (v - mean).abs();
+            if d > worst {
+                worst = d;
+                j = i;
+            }
+        }
+    }
+    Some(j)
+}
+
 /// |mean below `plane` − mean above| along `axis` of the finite samples'
-/// channel sums (0 when a side has none), as `adapt.wgsl` computes it.
-fn side_contrast(s: &Snapshot, list: &[u32], axis: u32, plane: u32) -> f32 {
+/// channel sums, but for `list[skip]` (0 when a side has none), as
+/// `adapt.wgsl` computes it.
+fn side_contrast(s: &Snapshot, list: &[u32], skip: Option<usize>, axis: u32, plane: u32) -> f32 {
     let (mut sum, mut n) = ([0.0f32; 2], [0u32; 2]);
-    for &i in list {
+    for (k, &i) in list.iter().enumerate() {
         let v = s.value(i);
-        if v.iter().all(|c| c.is_finite()) {
+        if v.iter().all(|c| c.is_finite()) && Some(k) != skip {
             let side = (s.sample_q(i, axis) >= plane) as usize;
             sum[side] += v[0] + v[1] + v[2];
             n[side] += 1;
