@@ -34,6 +34,8 @@ MUTATIONS=(
   "pixel_own|wgsl/mdas/reconstruct.wgsl|                    if (pixel_of[n] == t) {|                    if (pixel_of[n] <= t) {|mdas_invariants mdas_quality"
   "slot_last|wgsl/mdas/common.wgsl|        leaves_set(leaf_base(k) + 2u, s);|        boxes_set(box_base(k) + DIMS, s);|mdas_invariants"
   "split_side|wgsl/mdas/adapt.wgsl|        side[i] = sample_q(all[i], d.axis) >= d.plane;|        side[i] = sample_q(all[i], d.axis) > d.plane;|mdas_invariants"
+  "trim_tie|wgsl/mdas/adapt.wgsl|                if (i < count && finite[i] && d > worst) {|                if (i < count && finite[i] && d >= worst) {|mdas_invariants"
+  "trim_min|wgsl/mdas/adapt.wgsl|        if (n >= 3u) {|        if (n >= 5u) {|mdas_invariants mdas_bias"
 )
 
 # shellcheck source=.ci/worktree.sh
