@@ -145,16 +145,20 @@ const ADAPTIVE_PLANE_BOUND: f64 = 2e-3;
 /// revisited.
 #[test]
 fn bias_on_a_thin_slab() {
-    let gpu = gpu();
+    let (integrand, exact) = thin_slab();
+    let adaptive = params(1, 2, 1, 64.0, 0);
+
+    check_bias(adaptive, &integrand, &exact, 3e-2, ADAPTIVE_SLAB_BOUND);
+}
+
+/// The thin slab's integrand (16×12 film, 4D) and its exact image.
+fn thin_slab() -> (TestIntegrand, Vec<[f32; 3]>) {
     let film = Film {
         width: 16,
         height: 12,
     };
-    let integrand = TestIntegrand::new(gpu, 4, 4, film);
     let exact = vec![[1.0f32; 3]; (film.width * film.height) as usize];
-    let adaptive = params(1, 2, 1, 64.0, 0);
-
-    check_bias(adaptive, &integrand, &exact, 3e-2, ADAPTIVE_SLAB_BOUND);
+    (TestIntegrand::new(gpu(), 4, 4, film), exact)
 }
 
 /// Bound on the adaptive configuration's |bias| on the slab (measured
@@ -218,13 +222,7 @@ const T_995_31: f64 = 2.744;
 #[test]
 fn the_trimmed_split_removes_the_contrast_splits_bias_on_a_thin_slab() {
     use mdas::integrator::mdas::SplitRule;
-    let gpu = gpu();
-    let film = Film {
-        width: 16,
-        height: 12,
-    };
-    let integrand = TestIntegrand::new(gpu, 4, 4, film);
-    let exact = vec![[1.0f32; 3]; (film.width * film.height) as usize];
+    let (integrand, exact) = thin_slab();
     let bias = |split| {
         let p = MdasParams {
             split,
