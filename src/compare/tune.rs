@@ -128,12 +128,9 @@ fn with_value(p: MdasParams, key: &str, v: f64) -> Result<MdasParams> {
     let mut p = p;
     match key {
         "split" => {
-            p.split = match int()? {
-                0 => SplitRule::Extent,
-                1 => SplitRule::Contrast,
-                2 => SplitRule::Trimmed,
-                _ => bail!("split = {v}: 0 (extent), 1 (contrast) or 2 (trimmed)"),
-            }
+            p.split = *SplitRule::ALL
+                .get(int()? as usize)
+                .with_context(|| format!("split = {v}: 0 (extent), 1 (contrast) or 2 (trimmed)"))?
         }
         "reconstruction" => {
             p.reconstruction = match int()? {
@@ -187,9 +184,9 @@ fn configurations(base: MdasParams, grid: &[(String, Vec<f64>)]) -> Result<Vec<C
         for (key, _) in grid {
             let v = values[key];
             label.push(match (key.as_str(), v) {
-                ("split", 0.0) => "split=extent".to_string(),
-                ("split", 1.0) => "split=contrast".to_string(),
-                ("split", 2.0) => "split=trimmed".to_string(),
+                ("split", v) => SplitRule::ALL
+                    .get(v as usize)
+                    .map_or_else(|| format!("split={v}"), |r| format!("split={r}")),
                 ("reconstruction", 0.0) => "reconstruction=box".to_string(),
                 ("reconstruction", 1.0) => "reconstruction=pixel".to_string(),
                 _ => format!("{key}={v}"),
@@ -711,6 +708,24 @@ mod tests {
         assert!(configurations(MdasParams::default(), &twice).is_err());
         let big = vec![("alpha".to_string(), vec![0.0; MAX_CONFIGS + 1])];
         assert!(configurations(MdasParams::default(), &big).is_err());
+    }
+
+    #[test]
+    fn split_rules_round_trip_through_the_grid() {
+        let grid = vec![parse_grid_entry("split=trimmed,extent,contrast").unwrap()];
+        let configs = configurations(MdasParams::default(), &grid).unwrap();
+        for ((label, _, p), rule) in
+            configs
+                .iter()
+                .zip([SplitRule::Trimmed, SplitRule::Extent, SplitRule::Contrast])
+        {
+            assert_eq!(label, &format!("split={rule}"));
+            assert_eq!(p.as_ref().unwrap().split, rule);
+        }
+        let beyond = vec![("split".to_string(), vec![3.0])];
+        assert!(configurations(MdasParams::default(), &beyond).unwrap()[0]
+            .2
+            .is_err());
     }
 
     #[test]
