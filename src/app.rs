@@ -375,8 +375,9 @@ pub struct ReferenceSpec {
     pub seed: u32,
 }
 
-/// Cache file of a reference: a hash of the scene file's bytes, the bytes
-/// of every mesh it loads, the parameters and the crate version (an edited
+/// Cache file of a reference: a hash of the scene file's content less its
+/// `[mdas]` table and comments ([`reference_key_text`]), the bytes of every
+/// mesh it loads, the parameters and the crate version (an edited
 /// OBJ makes a new entry, never a stale hit).
 pub fn reference_cache_path(
     cache_dir: &Path,
@@ -405,6 +406,25 @@ fn shading_key(scene: &SceneFile) -> &'static str {
     }
 }
 
+/// The part of a scene file a reference depends on, for its cache key: the
+/// parsed document without its `[mdas]` table (MDAS's parameters never
+/// change a Halton reference) and without comments or layout, written back
+/// in TOML's canonical form — so tuning a scene's `[mdas]` table or editing
+/// its comments keeps its cached references. A file that does not parse
+/// (the caller reports that) is keyed by its bytes.
+fn reference_key_text(bytes: &[u8]) -> Vec<u8> {
+    let parsed = std::str::from_utf8(bytes)
+        .ok()
+        .and_then(|text| text.parse::<toml::Table>().ok());
+    match parsed {
+        Some(mut table) => {
+            table.remove("mdas");
+            toml::to_string(&table).map_or_else(|_| bytes.to_vec(), String::into_bytes)
+        }
+        None => bytes.to_vec(),
+    }
+}
+
 /// [`reference_cache_path`] with `extra` (e.g.
 /// [`IntegrandOverrides::cache_key`]) hashed in too.
 fn reference_cache_path_keyed(
@@ -417,7 +437,7 @@ fn reference_cache_path_keyed(
     let bytes = std::fs::read(scene_path)
         .with_context(|| format!("cannot read {}", scene_path.display()))?;
     let mut h = Sha256::new();
-    h.update(&bytes);
+    h.update(reference_key_text(&bytes));
     for input in inputs {
         let bytes =
             std::fs::read(input).with_context(|| format!("cannot read {}", input.display()))?;
@@ -854,5 +874,41 @@ mod tests {
             let now = reference_cache_path(&dir, &scene, spec).unwrap();
             assert_eq!(now != old, smooth, "{name}");
         }
+    }
+
+    /// Tuning a scene's `[mdas]` table or editing its comments keeps its
+    /// reference key; anything a Halton render reads changes it.
+    #[test]
+    fn reference_keys_ignore_the_mdas_table_and_comments() {
+        let dir = std::env::temp_dir().join(format!("mdas-app-key-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let spec = ReferenceSpec {
+            spp: 4,
+            scale: 1.0,
+            seed: 1,
+        };
+        let base = "[film]\nwidth = 4\nheight = 4\n[camera]\nposition = [0, 0, 3]\n\
+                    look_at = [0, 0, 0]\nup = [0, 1, 0]\nfov_y = 40\n[[material]]\nname = \"w\"\n\
+                    albedo = [0.5, 0.5, 0.5]\n[[shape]]\ntype = \"quad\"\nmaterial = \"w\"\n\
+                    corners = [[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]]\n";
+        let key = |name: &str, text: &str| {
+            let path = dir.join(format!("{name}.toml"));
+            std::fs::write(&path, text).unwrap();
+            let key = reference_cache_path(&dir, &path, spec).unwrap();
+            // The stem is the file's; the hash is what is compared.
+            key.file_name().unwrap().to_str().unwrap()[name.len()..].to_owned()
+        };
+        let plain = key("plain", base);
+        let tuned = key(
+            "tuned",
+            &format!("# a comment\n{base}[mdas]\nalpha = 0.25\nsplit = \"trimmed\"\nspp = 8\n"),
+        );
+        let retuned = key("retuned", &format!("{base}\n[mdas]\nalpha = 1\n"));
+        let wider = key("wider", &base.replace("width = 4", "width = 8"));
+        assert_eq!(plain, tuned);
+        assert_eq!(plain, retuned);
+        assert_ne!(plain, wider);
+        // A file that is not TOML is keyed by its bytes (and does not load).
+        assert_ne!(reference_key_text(b"[film"), reference_key_text(b"[film "));
     }
 }
