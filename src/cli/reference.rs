@@ -15,7 +15,7 @@ pub(crate) struct ReferenceArgs {
     /// Seed of the reference's random shifts.
     #[arg(long, default_value_t = 0)]
     pub(crate) seed: u32,
-    /// Cache directory; references are keyed by a hash of the scene file and these parameters.
+    /// Cache directory; references are keyed by a hash of the scene file (less its `[mdas]` table and comments) and these parameters.
     #[arg(long, default_value = ".cache/references")]
     pub(crate) cache: PathBuf,
     /// Also copy the reference to this path: X.exr (and an sRGB X.png beside
