@@ -14,7 +14,14 @@
 #      bias over seeds, its GPU build and its cost per sample;
 #   6. voxel visibility (issue 15): build, memory, shadow queries per
 #      second and ε_v / ε_s against the BVH, the voxel render against the
-#      BVH render, and `compare --visibility voxel` on vpl_atrium.
+#      BVH render, and `compare --visibility voxel` on vpl_atrium;
+#   7. the light trees (issue 12): uniform, tree, tree_cone, unbalanced and
+#      tree2 at equal time on cornell_lights (1/4 and full size; the
+#      target is MSE uniform / tree_cone >= 2.4) and on street_lights
+#      (sparse mesh lights, full size), per-frame build and sample times
+#      over a frame sequence of cornell_lights, and the GPU tree build of
+#      1k-1M lights with and without cones (`cargo bench --bench
+#      light_tree`).
 # With a baseline binary (another build of mdas that has `bench`), steps 1
 # and 2 also run it, right after the same step of this build.
 #
@@ -95,7 +102,9 @@ step "lgh-bias-vpl_atrium" "$BIN" compare scenes/vpl_atrium.toml --sampler lgh -
 step "lgh-bias-lights_1m" "$BIN" compare scenes/lights_1m.toml --sampler lgh --seeds 8 --spp 16 \
     --scale "$QUARTER_SCALE" --ref-spp "$REF_SPP" --repeats "$REPEATS" --out "$OUT/lgh-bias-lights_1m"
 if [ "${QUICK:-0}" != 1 ]; then
-    cargo bench --bench light_tree -- lgh 2>&1 | tee "$OUT/lgh-build.txt"
+    # Every size of the perfect tree's build, without and with cones
+    # (issue 12), then the lighting grid's (issue 14).
+    cargo bench --bench light_tree 2>&1 | tee "$OUT/light-tree-build.txt"
     MDAS_BENCH_SCALE=$FULL_SCALE cargo bench --bench light_sampling 2>&1 | tee "$OUT/light-sampling.txt"
 fi
 # Voxel visibility (issue 15): build, memory, shadow queries per second
@@ -116,3 +125,21 @@ step "visibility" env CONFIGS="$VIS_CONFIGS" REPEATS="$REPEATS" SCALE="$QUARTER_
     -o "$OUT/vpl_atrium-voxel64.exr" 2>&1 | tee "$OUT/vpl_atrium-voxel-vs-bvh.txt"
 step "compare-vpl_atrium-voxel" "$BIN" compare scenes/vpl_atrium.toml --visibility voxel \
     --scale "$QUARTER_SCALE" --ref-spp "$REF_SPP" --repeats "$REPEATS" --out "$OUT/compare-vpl_atrium-voxel"
+# The light trees (issue 12): the samplers at equal time (MDAS + tree sets
+# the time) on cornell_lights at 1/4 and full size and on street_lights at
+# full size, then a 64-frame sequence of cornell_lights per tree kind
+# (X.frames.csv: each frame's light build, cut pass and render times).
+TREES=uniform,tree,tree_cone,unbalanced,tree2
+step "samplers-cornell_lights" "$BIN" compare scenes/cornell_lights.toml --samplers "$TREES" \
+    --scale "$QUARTER_SCALE" --ref-spp "$REF_SPP" --repeats "$REPEATS" --out "$OUT/samplers-cornell_lights"
+step "samplers-cornell_lights-full" "$BIN" compare scenes/cornell_lights.toml --samplers "$TREES" \
+    --scale "$FULL_SCALE" --ref-spp "$REF_SPP_FULL" --repeats "$REPEATS" --out "$OUT/samplers-cornell_lights-full"
+step "samplers-street_lights-full" "$BIN" compare scenes/street_lights.toml --samplers "$TREES" \
+    --scale "$FULL_SCALE" --ref-spp "$REF_SPP_FULL" --repeats "$REPEATS" --out "$OUT/samplers-street_lights-full"
+FRAMES=0..64
+[ "${QUICK:-0}" = 1 ] && FRAMES=0..4
+for kind in tree tree_cone tree2; do
+    "$BIN" render scenes/cornell_lights.toml --integrator halton --spp 16 --scale "$FULL_SCALE" \
+        --sampler "$kind" --frames "$FRAMES" -o "$OUT/frames-cornell_lights-$kind/frame.exr" \
+        2>&1 | tee "$OUT/frames-cornell_lights-$kind.txt"
+done
