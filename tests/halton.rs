@@ -172,6 +172,34 @@ fn halton_2d_points_fill_every_elementary_interval_once() {
     }
 }
 
+/// Samples per invocation the tests run with: the loop-free kernel a GPU
+/// takes and the loop of 8 a CPU driver takes (both run on any adapter).
+const PER_INVOCATION: [u32; 2] = [1, 8];
+
+fn render_with(
+    case: u32,
+    dims: u32,
+    film: Film,
+    spp: u32,
+    seed: u32,
+    per_invocation: u32,
+) -> mdas::integrator::Render {
+    let gpu = gpu();
+    let integrand = TestIntegrand::new(gpu, case, dims, film);
+    Halton::new(spp, seed)
+        .with_samples_per_invocation(per_invocation)
+        .render(gpu, &integrand)
+        .unwrap()
+}
+
+/// Renders with each of [`PER_INVOCATION`].
+fn renders(case: u32, dims: u32, film: Film, spp: u32, seed: u32) -> Vec<mdas::integrator::Render> {
+    PER_INVOCATION
+        .iter()
+        .map(|&n| render_with(case, dims, film, spp, seed, n))
+        .collect()
+}
+
 fn render(case: u32, dims: u32, film: Film, spp: u32, seed: u32) -> mdas::integrator::Render {
     let gpu = gpu();
     let integrand = TestIntegrand::new(gpu, case, dims, film);
@@ -196,26 +224,27 @@ fn pixel_value_is_the_mean_over_the_footprint() {
         height: 7,
     };
     let spp = 256;
-    let r = render(0, 3, film, spp, 3);
-    assert_eq!(r.samples, 33 * 7 * 256);
-    assert_eq!(r.nonfinite, 0);
-    for j in 0..film.height {
-        for i in 0..film.width {
-            let p = r.image[(j * film.width + i) as usize];
-            let f32_slack = 1e-5 * (i + j + 1) as f32;
-            let tol_x = 2.0 / 256.0 + f32_slack;
-            let tol_y = 13.0 / 512.0 + 2.0 / 243.0 + f32_slack;
-            assert!(
-                (p[0] - (i as f32 + 0.5)).abs() <= tol_x,
-                "pixel ({i},{j}) x mean {}",
-                p[0]
-            );
-            assert!(
-                (p[1] - (j as f32 + 0.5)).abs() <= tol_y,
-                "pixel ({i},{j}) y mean {}",
-                p[1]
-            );
-            assert!((0.0..1.0).contains(&p[2]));
+    for r in renders(0, 3, film, spp, 3) {
+        assert_eq!(r.samples, 33 * 7 * 256);
+        assert_eq!(r.nonfinite, 0);
+        for j in 0..film.height {
+            for i in 0..film.width {
+                let p = r.image[(j * film.width + i) as usize];
+                let f32_slack = 1e-5 * (i + j + 1) as f32;
+                let tol_x = 2.0 / 256.0 + f32_slack;
+                let tol_y = 13.0 / 512.0 + 2.0 / 243.0 + f32_slack;
+                assert!(
+                    (p[0] - (i as f32 + 0.5)).abs() <= tol_x,
+                    "pixel ({i},{j}) x mean {}",
+                    p[0]
+                );
+                assert!(
+                    (p[1] - (j as f32 + 0.5)).abs() <= tol_y,
+                    "pixel ({i},{j}) y mean {}",
+                    p[1]
+                );
+                assert!((0.0..1.0).contains(&p[2]));
+            }
         }
     }
 }
@@ -230,20 +259,21 @@ fn nonfinite_samples_are_counted_and_excluded() {
         height: 16,
     };
     let spp = 125;
-    let r = render(1, 3, film, spp, 11);
-    let pixels = 16 * 16;
-    assert!(
-        (45 * pixels..=48 * pixels).contains(&r.nonfinite),
-        "non-finite samples {} outside [{}, {}]",
-        r.nonfinite,
-        45 * pixels,
-        48 * pixels
-    );
-    assert!(
-        r.image.iter().all(|p| p.iter().all(|&c| c == 1.0)),
-        "finite samples are all 1"
-    );
-    assert_eq!(r.nonfinite_pixels(), 0);
+    for r in renders(1, 3, film, spp, 11) {
+        let pixels = 16 * 16;
+        assert!(
+            (45 * pixels..=48 * pixels).contains(&r.nonfinite),
+            "non-finite samples {} outside [{}, {}]",
+            r.nonfinite,
+            45 * pixels,
+            48 * pixels
+        );
+        assert!(
+            r.image.iter().all(|p| p.iter().all(|&c| c == 1.0)),
+            "finite samples are all 1"
+        );
+        assert_eq!(r.nonfinite_pixels(), 0);
+    }
 }
 
 #[test]
@@ -255,14 +285,15 @@ fn extreme_dynamic_range_is_accumulated_without_loss() {
         width: 8,
         height: 8,
     };
-    let r = render(2, 3, film, 125, 5);
-    for p in &r.image {
-        assert!(
-            p[0] >= 24.0e6 / 125.0 && p[0] <= 26.0e6 / 125.0 + 1.0,
-            "pixel mean {}",
-            p[0]
-        );
-        assert_eq!(p[1], p[0]);
+    for r in renders(2, 3, film, 125, 5) {
+        for p in &r.image {
+            assert!(
+                p[0] >= 24.0e6 / 125.0 && p[0] <= 26.0e6 / 125.0 + 1.0,
+                "pixel mean {}",
+                p[0]
+            );
+            assert_eq!(p[1], p[0]);
+        }
     }
 }
 
@@ -282,18 +313,48 @@ fn same_seed_same_bits_and_other_seed_differs() {
 #[test]
 fn spp_not_divisible_by_the_chunking_is_exact() {
     // Odd spp exercise partial chunks: the sample count must still be exact.
+    let film = Film {
+        width: 3,
+        height: 2,
+    };
     for spp in [1u32, 7, 9, 1000] {
-        let r = render(
-            0,
-            3,
-            Film {
-                width: 3,
-                height: 2,
-            },
-            spp,
-            1,
-        );
-        assert_eq!(r.samples, 6 * spp as u64);
-        assert_eq!(r.nonfinite, 0);
+        for r in renders(0, 3, film, spp, 1) {
+            assert_eq!(r.samples, 6 * spp as u64);
+            assert_eq!(r.nonfinite, 0);
+        }
+    }
+}
+
+#[test]
+fn loop_free_kernel_takes_the_same_samples() {
+    // One sample per invocation (`evaluate_single`) and a loop of 8
+    // (`evaluate`) evaluate the same Halton points and count the same
+    // non-finite ones; only the order of the f32 additions differs. The
+    // summands are non-negative, so each pixel's sum is within spp·ε
+    // (relative) of the exact one either way: within 2·spp·ε of each other.
+    let film = Film {
+        width: 13,
+        height: 7,
+    };
+    let spp = 37;
+    for case in [0u32, 1, 6] {
+        let r = renders(case, 4, film, spp, 9);
+        let (a, b) = (&r[0], &r[1]);
+        assert_eq!(a.samples, b.samples);
+        assert_eq!(a.nonfinite, b.nonfinite, "case {case}");
+        if case == 1 {
+            assert!(a.nonfinite > 0, "case 1 has non-finite samples");
+        }
+        for (k, (p, q)) in a.image.iter().zip(&b.image).enumerate() {
+            for c in 0..3 {
+                let tol = 2.0 * spp as f32 * f32::EPSILON * p[c].abs().max(q[c].abs());
+                assert!(
+                    (p[c] - q[c]).abs() <= tol,
+                    "case {case} pixel {k} channel {c}: {} against {}",
+                    p[c],
+                    q[c]
+                );
+            }
+        }
     }
 }

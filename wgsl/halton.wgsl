@@ -5,6 +5,10 @@
 //   first_index + slot·samples_per_invocation + k, k < samples_per_invocation,
 //   below spp, and writes (Σ finite f, number of finite f) to
 //   partial[slot · pixels + pixel].
+// `evaluate_single`: the same with samples_per_invocation = 1 and no loop
+//   around the integrand (GPUs: their compilers' code for an integrand
+//   inside a loop ran 2-3.6x slower per sample on an H200, even at one
+//   trip; see src/integrator/halton.rs).
 // `accumulate`: invocation `pixel` adds the slots' partial sums, in slot
 //   order, into accum[pixel] with Kahan compensation (deterministic).
 
@@ -31,6 +35,18 @@ struct HaltonParams {
 
 const WORKGROUP_SIZE: u32 = 64u;
 
+// Sample `index` of `pixel` (whose lower corner is `px`): the film point
+// from dimensions 0-1, the integrand's dimensions 2.. after it.
+fn halton_point(index: u32, pixel: u32, px: vec2<f32>) -> IntegrandPoint {
+    var point: IntegrandPoint;
+    point.film = px + vec2<f32>(halton_sample(0u, index, pixel, params.seed),
+                                halton_sample(1u, index, pixel, params.seed));
+    for (var d = 2u; d < params.dims; d++) {
+        point.u[d - 2u] = halton_sample(d, index, pixel, params.seed);
+    }
+    return point;
+}
+
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn evaluate(@builtin(global_invocation_id) gid: vec3<u32>) {
     let pixels = params.width * params.height;
@@ -50,12 +66,7 @@ fn evaluate(@builtin(global_invocation_id) gid: vec3<u32>) {
         if (index >= params.spp) {
             break;
         }
-        var point: IntegrandPoint;
-        point.film = px + vec2<f32>(halton_sample(0u, index, pixel, params.seed),
-                                    halton_sample(1u, index, pixel, params.seed));
-        for (var d = 2u; d < params.dims; d++) {
-            point.u[d - 2u] = halton_sample(d, index, pixel, params.seed);
-        }
+        var point = halton_point(index, pixel, px);
         let f = integrand(&point);
         if (is_finite3(f)) {
             sum += f;
@@ -63,6 +74,28 @@ fn evaluate(@builtin(global_invocation_id) gid: vec3<u32>) {
         }
     }
     partial[slot * pixels + pixel] = vec4<f32>(sum, finite);
+}
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn evaluate_single(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let pixels = params.width * params.height;
+    let id = gid.x + gid.y * params.row_invocations;
+    if (id >= pixels * params.slots) {
+        return;
+    }
+    let pixel = id % pixels;
+    let slot = id / pixels;
+    let index = params.first_index + slot;
+    var out = vec4<f32>(0.0);
+    if (index < params.spp) {
+        let px = vec2<f32>(f32(pixel % params.width), f32(pixel / params.width));
+        var point = halton_point(index, pixel, px);
+        let f = integrand(&point);
+        if (is_finite3(f)) {
+            out = vec4<f32>(f, 1.0);
+        }
+    }
+    partial[slot * pixels + pixel] = out;
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)

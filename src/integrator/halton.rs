@@ -17,7 +17,16 @@
 //! `samples_per_invocation` samples per (pixel, slot) invocation and writes
 //! a partial sum per slot; an accumulate kernel adds the slots, in order,
 //! into a Kahan-compensated f32 sum per pixel. No atomics: the image is a
-//! deterministic function of (integrand, spp, seed) on a given adapter.
+//! deterministic function of (integrand, spp, seed, samples per invocation)
+//! on a given adapter.
+//!
+//! Samples per invocation ([`Halton::with_samples_per_invocation`]): a GPU
+//! takes one, in a kernel with no loop around the integrand
+//! (`evaluate_single`); a CPU driver takes up to [`SAMPLES_PER_INVOCATION`]
+//! in a loop. On an H200 (2026-12-04, BENCHMARKS.md) the loop of 8 ran
+//! Halton's samples 1.6× (uniform light picks) to 3.6× (light-tree walks)
+//! slower than MDAS's loop-free evaluate of the same integrand; on lavapipe
+//! an invocation of one sample costs about as much as one of eight.
 //!
 //! Phases (equal-time accounting, DESIGN.md): `evaluate` (tracing and
 //! shading) and `accumulate`.
@@ -70,10 +79,13 @@ pub type Progress = Box<dyn FnMut(u32, u32)>;
 pub struct Halton {
     pub spp: u32,
     pub seed: u32,
+    /// Samples per invocation: `None` chooses by adapter (module docs).
+    per_invocation: Option<u32>,
     progress: Option<Progress>,
     layout: Option<wgpu::BindGroupLayout>,
+    /// By (source, integrand layout, loop-free evaluate).
     pipelines: HashMap<
-        (String, Option<wgpu::BindGroupLayout>),
+        (String, Option<wgpu::BindGroupLayout>, bool),
         (wgpu::ComputePipeline, wgpu::ComputePipeline),
     >,
 }
@@ -83,9 +95,34 @@ impl Halton {
         Halton {
             spp,
             seed,
+            per_invocation: None,
             progress: None,
             layout: None,
             pipelines: HashMap::new(),
+        }
+    }
+
+    /// Evaluates at most `n` samples per invocation (1: the loop-free
+    /// kernel) instead of the adapter's default (module docs); an
+    /// integrand's [`Integrand::loop_iterations`] can lower it further.
+    /// The samples are the same; only the order of their f32 sums changes.
+    pub fn with_samples_per_invocation(mut self, n: u32) -> Self {
+        self.per_invocation = Some(n.max(1));
+        self
+    }
+
+    /// The samples per invocation this integrator takes on `gpu` for
+    /// `integrand`, before they are spread evenly over the slots.
+    pub fn samples_per_invocation(&self, gpu: &Gpu, integrand: &dyn Integrand) -> u32 {
+        let default = if gpu.info.device_type == wgpu::DeviceType::Cpu {
+            SAMPLES_PER_INVOCATION
+        } else {
+            1
+        };
+        let n = self.per_invocation.unwrap_or(default);
+        match integrand.loop_iterations() {
+            0 => n,
+            iterations => (LOOP_BUDGET / iterations).clamp(1, n),
         }
     }
 
@@ -111,16 +148,22 @@ impl Halton {
         &mut self,
         gpu: &Gpu,
         integrand: &dyn Integrand,
+        single: bool,
     ) -> Result<(wgpu::ComputePipeline, wgpu::ComputePipeline)> {
         let layout = self.layout(gpu);
         let source = source(integrand.wgsl());
-        let key = (source.source(), integrand.layout().cloned());
+        let key = (source.source(), integrand.layout().cloned(), single);
         if let Some(p) = self.pipelines.get(&key) {
             return Ok(p.clone());
         }
         let layouts = crate::integrand::kernel_layouts(&layout, integrand);
         let label = format!("mdas.halton.evaluate[{}]", integrand.name());
-        let evaluate = gpu.compute_pipeline(&label, &source, "evaluate", &layouts)?;
+        let entry = if single {
+            "evaluate_single"
+        } else {
+            "evaluate"
+        };
+        let evaluate = gpu.compute_pipeline(&label, &source, entry, &layouts)?;
         let accumulate =
             gpu.compute_pipeline("mdas.halton.accumulate", &source, "accumulate", &layouts)?;
         self.pipelines
@@ -190,14 +233,11 @@ impl Integrator for Halton {
         }
 
         // Work decomposition: `slots` invocations per pixel per dispatch.
-        // As few slots as SAMPLES_PER_INVOCATION allows, the samples spread
-        // evenly over them: 9 spp as 5 + 4, not 8 + 1 (on lavapipe a slot
-        // of one sample cost as much as a full one: 9 spp took 1.6× the
-        // time of 8).
-        let per_invocation = match integrand.loop_iterations() {
-            0 => SAMPLES_PER_INVOCATION,
-            n => (LOOP_BUDGET / n).clamp(1, SAMPLES_PER_INVOCATION),
-        };
+        // As few slots as the samples per invocation allow, the samples
+        // spread evenly over them: 9 spp as 5 + 4, not 8 + 1 (on lavapipe a
+        // slot of one sample cost as much as a full one: 9 spp took 1.6×
+        // the time of 8).
+        let per_invocation = self.samples_per_invocation(gpu, integrand);
         let max_slots = self.spp.div_ceil(per_invocation) as u64;
         let spi = self.spp.div_ceil(max_slots as u32);
         let slots = (TARGET_INVOCATIONS / pixels).clamp(1, max_slots) as u32;
@@ -213,7 +253,7 @@ impl Integrator for Halton {
         let acc_groups = pixels.div_ceil(WORKGROUP_SIZE as u64) as u32;
         let (acc_gx, acc_gy) = (acc_groups.min(gx), acc_groups.div_ceil(gx));
 
-        let (evaluate, accumulate) = self.pipelines(gpu, integrand)?;
+        let (evaluate, accumulate) = self.pipelines(gpu, integrand, spi == 1)?;
         let layout = self.layout(gpu);
 
         gpu.scoped("Halton render", || {
