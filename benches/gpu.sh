@@ -35,7 +35,8 @@
 # STEPS (the steps to run, in that order; default "1 2 3 4 5 6 7"),
 # BENCH_BINS (a folder of prebuilt bench executables named light_tree,
 # light_sampling and visibility, for a machine without cargo: `cargo bench
-# --no-run` prints where cargo put them; default: `cargo bench`).
+# --no-run` prints where cargo put them; default: `cargo bench`),
+# SKIP_BENCHES (names of those benches not to run).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 OUT=${1:-out/gpu-bench}
@@ -67,8 +68,15 @@ step() {
 }
 
 "$BIN" info | tee "$OUT/info.txt"
-# A criterion bench: prebuilt in BENCH_BINS, else through cargo.
+# A criterion bench: prebuilt in BENCH_BINS, else through cargo; skipped
+# when SKIP_BENCHES names it (a rerun of steps whose benches already ran).
 run_bench() {
+    case " ${SKIP_BENCHES:-} " in
+        *" $1 "*)
+            echo "(bench $1 skipped: SKIP_BENCHES)"
+            return
+            ;;
+    esac
     if [ -n "${BENCH_BINS:-}" ]; then
         "$BENCH_BINS/$1" --bench
     else
@@ -139,9 +147,10 @@ step6() {
     # with voxel shadows against the exact reference.
     VIS_CONFIGS="30x64 22x128 90x128"
     [ "${QUICK:-0}" = 1 ] && VIS_CONFIGS="12x32"
-    step "visibility" env CONFIGS="$VIS_CONFIGS" REPEATS="$REPEATS" SCALE="$QUARTER_SCALE" \
-        SCENES="scenes/tests/box_shadow.toml scenes/cornell_lights.toml scenes/vpl_atrium.toml scenes/dragon_lights.toml" \
-        run_bench visibility
+    # (The bench reads its settings from the environment.)
+    export CONFIGS="$VIS_CONFIGS" REPEATS SCALE="$QUARTER_SCALE" \
+        SCENES="scenes/tests/box_shadow.toml scenes/cornell_lights.toml scenes/vpl_atrium.toml scenes/dragon_lights.toml"
+    step "visibility" run_bench visibility
     "$BIN" render scenes/vpl_atrium.toml --integrator halton --scale "$QUARTER_SCALE" --spp 64 --seed 1 \
         --warmup -o "$OUT/vpl_atrium-bvh64.exr" 2>&1 | tee "$OUT/vpl_atrium-bvh64.txt"
     "$BIN" render scenes/vpl_atrium.toml --integrator halton --scale "$QUARTER_SCALE" --spp 64 --seed 1 \
