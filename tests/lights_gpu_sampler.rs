@@ -23,7 +23,7 @@ use mdas::gpu::{Gpu, Profiler};
 use mdas::lights::bvh;
 use mdas::lights::cut::{Importance, LightTree, MAX_CUT};
 use mdas::lights::gpu_build::GpuLightTree;
-use mdas::lights::gpu_sampler::{CutLayout, GpuSamplerData, TreeSource};
+use mdas::lights::gpu_sampler::{cut_capacity, CutLayout, GpuSamplerData, TreeSource};
 use mdas::lights::perfect;
 use mdas::lights::substitute::{
     self, SstSampler, Substitute, SubstituteParams, SubstituteTree, SUBSTITUTE_BIT,
@@ -189,6 +189,8 @@ fn setup_prims(mut rng: StdRng, prims: Vec<LightPrim>) -> Setup {
 }
 
 struct Harness {
+    /// The shaders' cut capacity (`GpuSamplerData::wgsl_for_cuts`).
+    capacity: u32,
     layout0: wgpu::BindGroupLayout,
     layout1: wgpu::BindGroupLayout,
     sample: wgpu::ComputePipeline,
@@ -197,6 +199,10 @@ struct Harness {
 
 impl Harness {
     fn new(gpu: &Gpu) -> Harness {
+        Self::with_capacity(gpu, MAX_CUT)
+    }
+
+    fn with_capacity(gpu: &Gpu, capacity: u32) -> Harness {
         let layout0 = gpu
             .device
             .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -214,8 +220,8 @@ impl Harness {
                 label: Some("test.lights.layout1"),
                 entries: &GpuSamplerData::layout_entries(),
             });
-        let source: Wgsl =
-            GpuSamplerData::wgsl().part(("tests/kernels/light_sampler_probe.wgsl", KERNEL));
+        let source: Wgsl = GpuSamplerData::wgsl_for_cuts(capacity)
+            .part(("tests/kernels/light_sampler_probe.wgsl", KERNEL));
         let sample = gpu
             .compute_pipeline(
                 "test.lights.sample",
@@ -233,6 +239,7 @@ impl Harness {
             )
             .unwrap();
         Harness {
+            capacity,
             layout0,
             layout1,
             sample,
@@ -259,7 +266,8 @@ impl Harness {
                 })
                 .collect();
             let reps = gpu.buffer_from("test.lights.reps", &reps, STORAGE)?;
-            let cut_words = (BLOCKS * (MAX_CUT + 1)) as usize;
+            let stride = self.capacity as usize + 1;
+            let cut_words = BLOCKS as usize * stride;
             let cuts = gpu.buffer_zeroed("test.lights.cuts", 4 * cut_words as u64, STORAGE)?;
             let bind0 = mdas::gpu::shader::bind_buffers(
                 gpu,
@@ -286,8 +294,8 @@ impl Harness {
             let answers = gpu.read_buffer::<Answer>(&answers, QUERIES)?;
             let words = gpu.read_buffer::<u32>(&cuts, cut_words)?;
             let cuts = words
-                .chunks(MAX_CUT as usize + 1)
-                .map(|c| c[..c[MAX_CUT as usize] as usize].to_vec())
+                .chunks(stride)
+                .map(|c| c[..c[stride - 1] as usize].to_vec())
                 .collect();
             Ok((answers, cuts))
         })
@@ -461,7 +469,40 @@ fn check_kind<T: LightTree + Clone + 'static>(
 fn gpu_samplers_match_the_cpu() {
     let gpu = common::gpu();
     let h = Harness::new(gpu);
-    for (seed, n) in [(1u64, 1usize), (2, 5), (3, 300)] {
+    check_every_kind(gpu, &h, &[(1, 1), (2, 5), (3, 300)]);
+}
+
+/// The shaders as a scene builds them, with cut arrays sized for its cuts
+/// (`cut_capacity`) rather than for 64 nodes, sample exactly as the CPU.
+#[test]
+fn gpu_samplers_with_tight_cut_arrays_match_the_cpu() {
+    assert_eq!(cut_capacity(CUT_SIZE), CUT_SIZE);
+    let gpu = common::gpu();
+    let h = Harness::with_capacity(gpu, cut_capacity(CUT_SIZE));
+    check_every_kind(gpu, &h, &[(4, 300)]);
+}
+
+#[test]
+fn cut_capacity_is_the_next_power_of_two_up_to_max_cut() {
+    let want = [
+        (0, 1),
+        (1, 1),
+        (3, 4),
+        (8, 8),
+        (9, 16),
+        (33, 64),
+        (64, 64),
+        (65, 64),
+    ];
+    for (size, capacity) in want {
+        assert_eq!(cut_capacity(size), capacity, "cut_size {size}");
+    }
+}
+
+/// Every picking kind on lights from each `(seed, count)`: samples, pmfs
+/// and cuts against the CPU.
+fn check_every_kind(gpu: &Gpu, h: &Harness, cases: &[(u64, usize)]) {
+    for &(seed, n) in cases {
         let s = setup(seed, n);
         let tree = perfect::build(&s.prims).unwrap();
         for kind in SamplerKind::PICKERS {
@@ -470,7 +511,7 @@ fn gpu_samplers_match_the_cpu() {
                 let t = substitute::build(&s.prims).unwrap();
                 let source = Some(TreeSource::Substitute(&t));
                 let data = GpuSamplerData::new(gpu, kind, &s.prims, source, cut_layout()).unwrap();
-                check_substitutes(gpu, &h, &name, &data, &t, &s, 0);
+                check_substitutes(gpu, h, &name, &data, &t, &s, 0);
             } else if kind.uses_bvh() {
                 let bvh = if kind == SamplerKind::Tree2 {
                     // Three groups of lights (empty ones for n < 3).
@@ -483,11 +524,11 @@ fn gpu_samplers_match_the_cpu() {
                 };
                 let source = Some(TreeSource::Bvh(&bvh));
                 let data = GpuSamplerData::new(gpu, kind, &s.prims, source, cut_layout()).unwrap();
-                check_kind(gpu, &h, &name, &data, &bvh, &s);
+                check_kind(gpu, h, &name, &data, &bvh, &s);
             } else if kind.uses_perfect_tree() {
                 let source = Some(TreeSource::Perfect(&tree));
                 let data = GpuSamplerData::new(gpu, kind, &s.prims, source, cut_layout()).unwrap();
-                check_kind(gpu, &h, &name, &data, &tree, &s);
+                check_kind(gpu, h, &name, &data, &tree, &s);
             } else {
                 let data = GpuSamplerData::new(gpu, kind, &s.prims, None, cut_layout()).unwrap();
                 let sampler: Box<dyn LightSampler> = match kind {

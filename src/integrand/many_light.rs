@@ -66,9 +66,12 @@ use crate::gpu::buffer::STORAGE;
 use crate::gpu::profiler::PhaseTimes;
 use crate::gpu::shader::{storage_entry, Wgsl};
 use crate::gpu::{Gpu, Profiler};
+use crate::lights::cut::MAX_CUT;
 use crate::lights::gpu_build::GpuLightTree;
 use crate::lights::gpu_lgh::GpuLgh;
-use crate::lights::gpu_sampler::{CutLayout, GpuSamplerData, TreeSource, FIRST_BINDING};
+use crate::lights::gpu_sampler::{
+    cut_capacity, CutLayout, GpuSamplerData, TreeSource, FIRST_BINDING,
+};
 use crate::lights::sampler::SamplerKind;
 use crate::lights::scene_lights::{self, light_prims};
 use crate::lights::two_level::BottomLevels;
@@ -127,8 +130,14 @@ struct Built {
 /// frame number are uniforms (`LightParams`). Device-free, see
 /// [`super::path::source`].
 pub fn source(triangles: bool, kind: SamplerKind) -> Wgsl {
+    source_for_cuts(triangles, kind, MAX_CUT)
+}
+
+/// [`source`] with the cut arrays sized for cuts of at most `capacity`
+/// nodes ([`GpuSamplerData::wgsl_for_cuts`]).
+pub fn source_for_cuts(triangles: bool, kind: SamplerKind, capacity: u32) -> Wgsl {
     scene_wgsl()
-        .include(&GpuSamplerData::wgsl())
+        .include(&GpuSamplerData::wgsl_for_cuts(capacity))
         .constant("ML_TRIANGLES", triangles as u32)
         .constant("ML_SUBSTITUTES", (kind == SamplerKind::Sst) as u32)
         .constant("ML_LGH", (kind == SamplerKind::Lgh) as u32)
@@ -312,6 +321,14 @@ impl ManyLight {
         self.sampler.set_substitute_params(&spec.sst);
         self.sampler.set_time(gpu, spec.time);
         if self.kind.uses_cut() && !self.prims.is_empty() {
+            // The shaders were built for frame 0's cut size (`wgsl`).
+            if cut_capacity(spec.cut_size) > cut_capacity(self.spec.cut_size) {
+                bail!(
+                    "cut_size {} of this frame exceeds the sequence's {}",
+                    spec.cut_size,
+                    self.spec.cut_size
+                );
+            }
             let cuts =
                 CutLayout::for_film(self.film.width, self.film.height, spec.block, spec.cut_size);
             self.select_cuts(gpu, cuts, &mut profiler)?;
@@ -553,7 +570,7 @@ impl Integrand for ManyLight {
     }
 
     fn wgsl(&self) -> Wgsl {
-        source(self.triangles, self.kind)
+        source_for_cuts(self.triangles, self.kind, cut_capacity(self.spec.cut_size))
     }
 
     fn layout(&self) -> Option<&wgpu::BindGroupLayout> {

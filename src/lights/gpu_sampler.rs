@@ -503,8 +503,23 @@ impl GpuSamplerData {
     /// `lights/cone.wgsl` with their constants, `NO_LIGHT` among them), the bindings and `light_sample`, `light_pmf`,
     /// `select_cut`, with the constants they use.
     pub fn wgsl() -> Wgsl {
+        Self::wgsl_for_cuts(MAX_CUT)
+    }
+
+    /// [`GpuSamplerData::wgsl`] with the shaders' cut arrays sized for cuts
+    /// of at most `capacity` nodes ([`cut_capacity`]): the arrays the cut
+    /// probabilities and the cut pre-pass index at run time live in
+    /// per-invocation memory, and on an H200 sizing them for the scene's
+    /// 8-node cuts instead of 64 made a tree sample 6 % cheaper
+    /// (BENCHMARKS.md, 2026-12-04). The samplers' results are the same for
+    /// any capacity ≥ the cut size.
+    pub fn wgsl_for_cuts(capacity: u32) -> Wgsl {
+        assert!(
+            (1..=MAX_CUT).contains(&capacity),
+            "cut capacity {capacity} outside 1..={MAX_CUT}"
+        );
         let mut w = gpu_build::prim_wgsl()
-            .constant("MAX_CUT", MAX_CUT)
+            .constant("MAX_CUT", capacity)
             .constant("LIGHT_MAX_DEPTH", bvh::MAX_DEPTH)
             .constant("LIGHT_INTERNAL_BIT", INTERNAL_BIT)
             .constant("LIGHT_NEAR_CLAMP_BITS", NEAR_CLAMP.to_bits())
@@ -519,6 +534,12 @@ impl GpuSamplerData {
             .part(wgsl_file!("lights/sample.wgsl"))
             .part(wgsl_file!("lights/lgh.wgsl"))
     }
+}
+
+/// The cut capacity of the shaders for cuts of `cut_size` nodes: the next
+/// power of two (so scenes share a few pipelines), at most [`MAX_CUT`].
+pub fn cut_capacity(cut_size: u32) -> u32 {
+    cut_size.clamp(1, MAX_CUT).next_power_of_two().min(MAX_CUT)
 }
 
 /// One query of [`BatchSampler`] (`SampleQuery` in
