@@ -57,6 +57,7 @@ fn spec<'a>(
         budget: Budget::MdasSpp,
         max_spp: 1 << 12,
         samplers,
+        seeds: 1,
     }
 }
 
@@ -186,6 +187,7 @@ fn compare_samplers_writes_a_consistent_report() {
         assert_eq!(run["spp"].as_f64(), m["spp"].as_f64());
         let vs = s["mse_vs_uniform"].as_f64().unwrap();
         assert!(close(vs, s["mse"].as_f64().unwrap() / uniform_mse, 1e-12));
+        assert!(s.get("seeds").is_none(), "one seed: no seed block");
     }
     assert_eq!(eq["halton"]["relmse"], samplers[2]["relmse"]);
     let ratio = eq["mdas_relmse"].as_f64().unwrap() / eq["halton_relmse"].as_f64().unwrap();
@@ -500,5 +502,85 @@ fn compare_with_a_sampler_override_reports_it() {
     .unwrap_err();
     assert!(format!("{err:#}").contains("many_light"));
     assert!(!bad.exists());
+    std::fs::remove_dir_all(&out).ok();
+}
+
+/// `--seeds 3`: each sampler's bracketing budgets over Halton's seeds 0, 2
+/// and 3 (1 is the reference's), checked against renders of the CLI with
+/// those seeds: the means at lo and hi, interpolated log–log in time at
+/// the target, are the report's; the intervals hold them; MSE/uniform is
+/// the ratio of the two samplers' means.
+#[test]
+fn compare_samplers_over_seeds_matches_renders_with_each_seed() {
+    use SamplerKind::*;
+    let out = temp_dir("seeds");
+    let spec = SamplersSpec {
+        seeds: 3,
+        ..spec(SCENE, &out, vec![Uniform, Tree], &params)
+    };
+    let report = compare_samplers(gpu(), &spec).unwrap();
+    let json: Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    let eq = &json["equal_time"];
+    let target = eq["target_ms"].as_f64().unwrap();
+    let reference = out.join("reference.exr");
+    let mse_of = |sampler: &str, spp: u64, seed: u32| -> f64 {
+        let o = mdas_bin(&[
+            "--json",
+            "render",
+            SCENE,
+            "--integrator",
+            "halton",
+            "--spp",
+            &spp.to_string(),
+            "--seed",
+            &seed.to_string(),
+            "--sampler",
+            sampler,
+            "--reference",
+            reference.to_str().unwrap(),
+            "-o",
+            out.join("seed-render.exr").to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let v: Value = serde_json::from_slice(&o.stdout).unwrap();
+        v["error"]["mse"].as_f64().unwrap()
+    };
+    let mut means = Vec::new();
+    for s in eq["samplers"].as_array().unwrap() {
+        let name = s["sampler"].as_str().unwrap();
+        let seeds = &s["seeds"];
+        assert_eq!(seeds["count"], 3, "{name}");
+        let (lo, hi) = (&s["search"]["lo"], &s["search"]["hi"]);
+        let mean_at = |run: &Value| {
+            let spp = run["spp"].as_u64().unwrap();
+            [0, 2, 3].iter().map(|&k| mse_of(name, spp, k)).sum::<f64>() / 3.0
+        };
+        let (m_lo, m_hi) = (mean_at(lo), mean_at(hi));
+        let want = mdas::compare::equal_time::interpolate_log_log(
+            target,
+            (lo["time_ms"].as_f64().unwrap(), m_lo),
+            (hi["time_ms"].as_f64().unwrap(), m_hi),
+        );
+        let mse = seeds["mse"].as_f64().unwrap();
+        assert!(close(mse, want, 1e-9), "{name}: mse {mse} against {want}");
+        for key in ["relmse", "mse"] {
+            let v = seeds[key].as_f64().unwrap();
+            let ci = &seeds[format!("{key}_ci95")];
+            let (a, b) = (ci[0].as_f64().unwrap(), ci[1].as_f64().unwrap());
+            assert!(a <= v && v <= b, "{name} {key}: {v} outside [{a}, {b}]");
+        }
+        means.push(mse);
+    }
+    let samplers = eq["samplers"].as_array().unwrap();
+    let vs = samplers[1]["seeds"]["mse_vs_uniform"].as_f64().unwrap();
+    assert!(close(vs, means[1] / means[0], 1e-12));
+    assert!(close(
+        samplers[0]["seeds"]["mse_vs_uniform"].as_f64().unwrap(),
+        1.0,
+        1e-12
+    ));
+    let table = mdas::compare::report::table(&report);
+    assert!(table.contains("over 3 seeds"), "{table}");
     std::fs::remove_dir_all(&out).ok();
 }

@@ -358,6 +358,30 @@ pub struct SamplerReport {
     pub mse_vs_uniform: Option<f64>,
     /// Halton's budget search with this sampler.
     pub search: SearchReport,
+    /// With `--seeds K` (K ≥ 2): the same budgets over K seeds.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub seeds: Option<SamplerSeeds>,
+}
+
+/// A sampler at equal time over seeds (`compare --samplers --seeds K`):
+/// Halton at the search's two bracketing budgets, each rendered with K
+/// seeds (Halton's from `--seed` on, skipping the reference's; the
+/// search's own run is the first), the per-seed means interpolated log–log
+/// in time at the target as `search` interpolates one seed. Intervals are
+/// 95 % percentile bootstraps over the seeds of every budget involved.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct SamplerSeeds {
+    pub count: u32,
+    pub relmse: f64,
+    pub relmse_ci95: [f64; 2],
+    pub mse: f64,
+    pub mse_ci95: [f64; 2],
+    /// `mse` / uniform's `mse` over the same seeds (when `uniform` is
+    /// listed), and its interval (both samplers' budgets resampled).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mse_vs_uniform: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mse_vs_uniform_ci95: Option<[f64; 2]>,
 }
 
 /// The table `mdas compare` prints.
@@ -490,6 +514,40 @@ pub fn table(report: &Report) -> String {
                 "{:<sw$} {:>11.4e} {:>11.4e} {:>11}  {}\n",
                 s.method, s.relmse, s.mse, vs, brackets
             );
+        }
+        if let Some(k) = samplers
+            .iter()
+            .find_map(|s| s.seeds.as_ref().map(|o| o.count))
+        {
+            out += &format!(
+                "{:<sw$} {:>25} {:>25} {:>25}\n",
+                format!("over {k} seeds"),
+                "RelMSE [95%]",
+                "MSE [95%]",
+                "MSE/uniform [95%]"
+            );
+            let ci = |v: f64, c: [f64; 2], e: bool| {
+                if e {
+                    format!("{v:.3e} [{:.2e}, {:.2e}]", c[0], c[1])
+                } else {
+                    format!("{v:.3} [{:.3}, {:.3}]", c[0], c[1])
+                }
+            };
+            for s in samplers {
+                if let Some(o) = &s.seeds {
+                    let vs = match (o.mse_vs_uniform, o.mse_vs_uniform_ci95) {
+                        (Some(v), Some(c)) => ci(v, c, false),
+                        _ => "–".to_string(),
+                    };
+                    out += &format!(
+                        "{:<sw$} {:>25} {:>25} {:>25}\n",
+                        s.method,
+                        ci(o.relmse, o.relmse_ci95, true),
+                        ci(o.mse, o.mse_ci95, true),
+                        vs
+                    );
+                }
+            }
         }
     }
     for m in &report.methods {

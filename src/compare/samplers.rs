@@ -15,6 +15,8 @@
 //! 4. Each listed sampler: Halton's budget search at the target
 //!    ([`super::timing::halton_search`], one Halton integrator per
 //!    search).
+//!    With `seeds` K ≥ 2, each search's two bracketing budgets are then
+//!    rendered with Halton's other K − 1 seeds ([`SamplerSeeds`]).
 //! 5. Files, each atomically, `report.json` last: `reference`, `mdas-tree`
 //!    and `halton-<sampler>` images (EXR + PNG) with their RelMSE heat maps
 //!    `relmse-mdas-tree`, `relmse-halton-<sampler>` (no density map).
@@ -27,11 +29,13 @@
 //! interpolated log–log at exactly the target time, its search brackets
 //! and its MSE relative to `uniform`'s (when listed).
 
-use super::equal_time::EqualTime;
+use super::equal_time::{interpolate_log_log, EqualTime};
 use super::experiment::{check_budget, check_mdas, spinner, write_report, Budget, Setup};
 use super::heatmap;
+use super::intervals;
 use super::outputs::{reference_attributes, Files};
 use super::report::*;
+use super::seeds::{bootstrap_ci95, mean};
 use super::timing::{halton_search, nearer, time_mdas, MdasTiming};
 use crate::accel::GpuScene;
 use crate::app;
@@ -57,6 +61,9 @@ pub struct SamplersSpec<'a> {
     pub max_spp: u32,
     /// The samplers to compare under Halton, in report order.
     pub samplers: Vec<SamplerKind>,
+    /// Seeds per sampler (1: the search's run alone; K ≥ 2: each
+    /// sampler's two bracketing budgets over K seeds, [`SamplerSeeds`]).
+    pub seeds: u32,
 }
 
 /// Checks a sampler list: not empty, no sampler twice.
@@ -97,6 +104,7 @@ fn run(gpu: &Gpu, spec: &SamplersSpec) -> Result<Report> {
     setup.check()?;
     check_budget(spec.budget)?;
     check_samplers(&spec.samplers)?;
+    let (_, halton_seeds) = intervals::seed_plan(spec.seeds, 0, setup.halton_seed, setup.ref_seed)?;
     let mut scene = SceneFile::load(&setup.scene)?;
     let own = match &scene.integrand {
         IntegrandSpec::ManyLight(m) => m.sampler,
@@ -190,6 +198,27 @@ fn run(gpu: &Gpu, spec: &SamplersSpec) -> Result<Report> {
         )?;
         searches.push((kind, eq));
     }
+    // 4b. Each sampler's brackets over the seeds.
+    let per_seed: Vec<Option<BracketSeeds>> = if spec.seeds > 1 {
+        status.inc_length(2 * (spec.seeds as u64 - 1) * searches.len() as u64);
+        searches
+            .iter()
+            .map(|(kind, eq)| {
+                status.set_message(format!("halton+{kind}: {} seeds", spec.seeds));
+                bracket_seeds(
+                    gpu,
+                    integrand_of(*kind),
+                    eq,
+                    &halton_seeds,
+                    &reference,
+                    &status,
+                )
+                .map(Some)
+            })
+            .collect::<Result<_>>()?
+    } else {
+        vec![None; searches.len()]
+    };
     status.finish_and_clear();
 
     // 5. Files, report last.
@@ -253,15 +282,22 @@ fn run(gpu: &Gpu, spec: &SamplersSpec) -> Result<Report> {
         .iter()
         .find(|(k, _)| *k == SamplerKind::Uniform)
         .map(|(_, r)| r.mse);
+    let uniform_seeds = spec
+        .samplers
+        .iter()
+        .position(|&k| k == SamplerKind::Uniform)
+        .and_then(|i| per_seed[i].as_ref());
     let samplers: Vec<SamplerReport> = reports
         .iter()
-        .map(|(k, r)| SamplerReport {
+        .zip(&per_seed)
+        .map(|((k, r), b)| SamplerReport {
             sampler: k.to_string(),
             method: format!("halton+{k}"),
             relmse: r.relmse,
             mse: r.mse,
             mse_vs_uniform: uniform_mse.map(|u| r.mse / u),
             search: r.clone(),
+            seeds: b.as_ref().map(|b| b.report(uniform_seeds)),
         })
         .collect();
     let base = baseline(&spec.samplers);
@@ -346,6 +382,82 @@ fn run(gpu: &Gpu, spec: &SamplersSpec) -> Result<Report> {
     write_report(staged.path(), &report)?;
     staged.commit("report.json")?;
     Ok(report)
+}
+
+/// One sampler's two bracketing budgets over seeds: per seed, RelMSE and
+/// MSE at each, and the times and target to interpolate at.
+#[derive(Clone)]
+struct BracketSeeds {
+    target_ms: f64,
+    times: [f64; 2],
+    relmse: [Vec<f64>; 2],
+    mse: [Vec<f64>; 2],
+}
+
+/// Halton at `eq`'s lo and hi budgets over `seeds` (the search's own runs,
+/// rendered with `seeds[0]`, are the first seed's).
+fn bracket_seeds(
+    gpu: &Gpu,
+    integrand: &dyn Integrand,
+    eq: &EqualTime,
+    seeds: &[u32],
+    reference: &[[f32; 3]],
+    status: &indicatif::ProgressBar,
+) -> Result<BracketSeeds> {
+    let mut halton = crate::integrator::Halton::new(1, seeds[0]);
+    let mut relmse: [Vec<f64>; 2] = Default::default();
+    let mut mse: [Vec<f64>; 2] = Default::default();
+    for (i, run) in [&eq.lo, &eq.hi].into_iter().enumerate() {
+        relmse[i].push(run.error.relmse);
+        mse[i].push(run.error.mse);
+        halton.spp = run.spp;
+        for &seed in &seeds[1..] {
+            halton.seed = seed;
+            let image = crate::integrator::Integrator::render(&mut halton, gpu, integrand)?.image;
+            let e = crate::metrics::compare(&image, reference)?;
+            relmse[i].push(e.relmse);
+            mse[i].push(e.mse);
+            status.inc(1);
+        }
+    }
+    Ok(BracketSeeds {
+        target_ms: eq.target_ms,
+        times: [eq.lo.measured.total_ms(), eq.hi.measured.total_ms()],
+        relmse,
+        mse,
+    })
+}
+
+impl BracketSeeds {
+    /// log–log in time at the target, as [`SearchReport::new`] does.
+    fn at_target(&self, lo: f64, hi: f64) -> f64 {
+        interpolate_log_log(self.target_ms, (self.times[0], lo), (self.times[1], hi))
+    }
+
+    fn report(&self, uniform: Option<&BracketSeeds>) -> SamplerSeeds {
+        let at = |v: &[Vec<f64>; 2]| self.at_target(mean(&v[0]), mean(&v[1]));
+        let ci = |v: &[Vec<f64>; 2]| {
+            bootstrap_ci95(&[&v[0], &v[1]], |r| {
+                self.at_target(mean(&r[0]), mean(&r[1]))
+            })
+        };
+        let vs = uniform.map(|u| {
+            let ratio = at(&self.mse) / u.at_target(mean(&u.mse[0]), mean(&u.mse[1]));
+            let ci = bootstrap_ci95(&[&self.mse[0], &self.mse[1], &u.mse[0], &u.mse[1]], |r| {
+                self.at_target(mean(&r[0]), mean(&r[1])) / u.at_target(mean(&r[2]), mean(&r[3]))
+            });
+            (ratio, ci)
+        });
+        SamplerSeeds {
+            count: self.relmse[0].len() as u32,
+            relmse: at(&self.relmse),
+            relmse_ci95: ci(&self.relmse),
+            mse: at(&self.mse),
+            mse_ci95: ci(&self.mse),
+            mse_vs_uniform: vs.map(|v| v.0),
+            mse_vs_uniform_ci95: vs.map(|v| v.1),
+        }
+    }
 }
 
 #[cfg(test)]
