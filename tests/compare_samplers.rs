@@ -575,11 +575,12 @@ fn compare_samplers_over_seeds_matches_renders_with_each_seed() {
     let samplers = eq["samplers"].as_array().unwrap();
     let vs = samplers[1]["seeds"]["mse_vs_uniform"].as_f64().unwrap();
     assert!(close(vs, means[1] / means[0], 1e-12));
-    assert!(close(
-        samplers[0]["seeds"]["mse_vs_uniform"].as_f64().unwrap(),
-        1.0,
-        1e-12
-    ));
+    let own = &samplers[0]["seeds"];
+    assert_eq!(own["mse_vs_uniform"].as_f64(), Some(1.0));
+    assert_eq!(own["mse_vs_uniform_ci95"], serde_json::json!([1.0, 1.0]));
+    let ci = &samplers[1]["seeds"]["mse_vs_uniform_ci95"];
+    let (a, b) = (ci[0].as_f64().unwrap(), ci[1].as_f64().unwrap());
+    assert!(a <= vs && vs <= b, "MSE/uniform {vs} outside [{a}, {b}]");
     let table = mdas::compare::report::table(&report);
     assert!(table.contains("over 3 seeds"), "{table}");
     std::fs::remove_dir_all(&out).ok();

@@ -377,7 +377,9 @@ pub struct SamplerSeeds {
     pub mse: f64,
     pub mse_ci95: [f64; 2],
     /// `mse` / uniform's `mse` over the same seeds (when `uniform` is
-    /// listed), and its interval (both samplers' budgets resampled).
+    /// listed), and its interval: both samplers' budgets resampled, each
+    /// on its own, which is conservative (the samplers share Halton's
+    /// seeds, so their errors are correlated); exactly 1 for `uniform`.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub mse_vs_uniform: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]

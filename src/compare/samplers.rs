@@ -442,6 +442,9 @@ impl BracketSeeds {
             })
         };
         let vs = uniform.map(|u| {
+            if std::ptr::eq(u, self) {
+                return (1.0, [1.0, 1.0]); // uniform against itself
+            }
             let ratio = at(&self.mse) / u.at_target(mean(&u.mse[0]), mean(&u.mse[1]));
             let ci = bootstrap_ci95(&[&self.mse[0], &self.mse[1], &u.mse[0], &u.mse[1]], |r| {
                 self.at_target(mean(&r[0]), mean(&r[1])) / u.at_target(mean(&r[2]), mean(&r[3]))
