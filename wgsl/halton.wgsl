@@ -6,9 +6,8 @@
 //   below spp, and writes (Σ finite f, number of finite f) to
 //   partial[slot · pixels + pixel].
 // `evaluate_single`: the same with samples_per_invocation = 1 and no loop
-//   around the integrand (GPUs: their compilers' code for an integrand
-//   inside a loop ran 2-3.6x slower per sample on an H200, even at one
-//   trip; see src/integrator/halton.rs).
+//   around the integrand (GPUs: with the loop, an H200 ran Halton's
+//   samples 1.2-3.4x slower; see src/integrator/halton.rs).
 // `accumulate`: invocation `pixel` adds the slots' partial sums, in slot
 //   order, into accum[pixel] with Kahan compensation (deterministic).
 

@@ -23,10 +23,12 @@
 //! Samples per invocation ([`Halton::with_samples_per_invocation`]): a GPU
 //! takes one, in a kernel with no loop around the integrand
 //! (`evaluate_single`); a CPU driver takes up to [`SAMPLES_PER_INVOCATION`]
-//! in a loop. On an H200 (2026-12-04, BENCHMARKS.md) the loop of 8 ran
-//! Halton's samples 1.6× (uniform light picks) to 3.6× (light-tree walks)
-//! slower than MDAS's loop-free evaluate of the same integrand; on lavapipe
-//! an invocation of one sample costs about as much as one of eight.
+//! in a loop. On an H200 (2026-12-04, BENCHMARKS.md) the loop of 8 made
+//! Halton's samples 1.2–2.2× slower on the paper's scenes and 2.4×
+//! (uniform light picks) to 3.4× (light-tree walks) slower on
+//! `cornell_lights` than one sample per invocation without the loop; on
+//! lavapipe an invocation of one sample costs about as much as one of
+//! eight.
 //!
 //! Phases (equal-time accounting, DESIGN.md): `evaluate` (tracing and
 //! shading) and `accumulate`.
