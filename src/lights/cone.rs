@@ -117,6 +117,20 @@ impl Angle {
     }
 }
 
+/// Whether `a ≤ b` for `a, b ∈ [0, π]`: the sign of `sin(b − a)` (its
+/// cosines would not do: near 0 they all round to 1, and two axes 2e-5
+/// rad apart looked like one, so a union came out narrower than its
+/// children), or where that is 0 (equal angles, or 0 and π) of
+/// `cos a − cos b`.
+fn angle_le(a: Angle, b: Angle) -> bool {
+    let d = b.s * a.c - b.c * a.s;
+    if d != 0.0 {
+        d > 0.0
+    } else {
+        a.c >= b.c
+    }
+}
+
 /// Whether `a + b ≥ π` for `a, b ∈ [0, π]` (`a ≥ π − b ⇔ cos a ≤ −cos b`).
 fn sum_reaches_pi(a: Angle, b: Angle) -> bool {
     a.c <= -b.c
@@ -268,10 +282,10 @@ impl LightCone {
         let (ta, tb) = (a.spread(), b.spread());
         let td = angle_between(wa, wb);
         // One cone inside the other.
-        if !sum_reaches_pi(td, tb) && td.add(tb).c >= ta.c {
+        if !sum_reaches_pi(td, tb) && angle_le(td.add(tb), ta) {
             return base.with_spread(wa, ta).widened();
         }
-        if !sum_reaches_pi(td, ta) && td.add(ta).c >= tb.c {
+        if !sum_reaches_pi(td, ta) && angle_le(td.add(ta), tb) {
             return base.with_spread(wb, tb).widened();
         }
         let normal = wa.cross(wb);
@@ -287,7 +301,7 @@ impl LightCone {
             return sphere;
         }
         let (sa, sb) = (ta.add(da), tb.add(db));
-        let spread = if sa.c <= sb.c { sa } else { sb };
+        let spread = if angle_le(sb, sa) { sa } else { sb };
         base.with_spread(w, spread).widened()
     }
 
@@ -390,6 +404,35 @@ mod tests {
         assert_eq!(LightCone::EMPTY.union(&a), a);
         assert_eq!(a.union(&LightCone::EMPTY), a);
         assert!(a.union(&LightCone::SPHERE).is_sphere());
+    }
+
+    /// Narrow cones whose axes differ by less than an ulp of a cosine near
+    /// 1 (3e-4 rad): the union still contains both. Comparing the angles by
+    /// their cosines, which all round to 1 here, once took `a` to contain
+    /// `b` and kept `a`'s 2^-16 spread for axes 2e-5 apart (found on the
+    /// two triangles of a quad on `cornell_lights`' spheres).
+    #[test]
+    fn unions_of_nearly_parallel_narrow_cones_contain_both() {
+        for k in [1.0e-6f32, 5.0e-6, 2.0e-5, 6.0e-5, 2.0e-4, 1.0e-3] {
+            for spread in [0.0, SLACK, 1.0e-4] {
+                let a = cone(Vec3::new(0.3, -0.2, 0.9), spread).widened();
+                let wa = Vec3::from(a.axis);
+                let u = wa.any_orthonormal_vector();
+                let b = cone(wa + u * k, spread).widened();
+                let c = a.union(&b);
+                assert!(
+                    c.contains(&a, 1e-7) && c.contains(&b, 1e-7),
+                    "axes {k} rad apart, spread {spread}: {c:?} of {a:?} and {b:?}"
+                );
+                assert!(angle_le(a.spread(), c.spread()) && angle_le(b.spread(), c.spread()));
+            }
+        }
+        // The comparison itself, at both ends of [0, π].
+        let at = |t: f32| Angle::new(t.cos(), t.sin());
+        assert!(angle_le(at(1.0e-5), at(2.0e-5)) && !angle_le(at(2.0e-5), at(1.0e-5)));
+        let pi = Angle { c: -1.0, s: 0.0 };
+        assert!(angle_le(Angle::ZERO, pi) && !angle_le(pi, Angle::ZERO));
+        assert!(angle_le(at(0.5), at(0.5)) && angle_le(at(3.1), at(3.14)));
     }
 
     /// `half` picks whichever half-angle formula is well conditioned:

@@ -44,6 +44,16 @@ fn cone_half(a: vec2<f32>) -> vec2<f32> {
     return cone_angle(a.y, 1.0 - a.x);
 }
 
+// a ≤ b for a, b ∈ [0, π] (cone.rs angle_le: the sign of sin(b − a), or
+// where that is 0 of cos a − cos b).
+fn cone_le(a: vec2<f32>, b: vec2<f32>) -> bool {
+    let d = b.y * a.x - b.x * a.y;
+    if (d != 0.0) {
+        return d > 0.0;
+    }
+    return a.x >= b.x;
+}
+
 // a + b ≥ π for a, b ∈ [0, π].
 fn cone_sum_reaches_pi(a: vec2<f32>, b: vec2<f32>) -> bool {
     return a.x <= -b.x;
@@ -129,10 +139,10 @@ fn cone_union(a: LightCone, b: LightCone) -> LightCone {
     let ta = vec2<f32>(a.cos_o, a.sin_o);
     let tb = vec2<f32>(b.cos_o, b.sin_o);
     let td = cone_angle_between(a.axis, b.axis);
-    if (!cone_sum_reaches_pi(td, tb) && cone_add(td, tb).x >= ta.x) {
+    if (!cone_sum_reaches_pi(td, tb) && cone_le(cone_add(td, tb), ta)) {
         return cone_widened(cone_with(base, a.axis, ta));
     }
-    if (!cone_sum_reaches_pi(td, ta) && cone_add(td, ta).x >= tb.x) {
+    if (!cone_sum_reaches_pi(td, ta) && cone_le(cone_add(td, ta), tb)) {
         return cone_widened(cone_with(base, b.axis, tb));
     }
     let normal = cross(a.axis, b.axis);
@@ -149,5 +159,5 @@ fn cone_union(a: LightCone, b: LightCone) -> LightCone {
     }
     let sa = cone_add(ta, da);
     let sb = cone_add(tb, db);
-    return cone_widened(cone_with(base, w, select(sb, sa, sa.x <= sb.x)));
+    return cone_widened(cone_with(base, w, select(sb, sa, cone_le(sb, sa))));
 }
