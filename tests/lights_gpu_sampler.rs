@@ -24,6 +24,7 @@ use mdas::lights::bvh;
 use mdas::lights::cut::{Importance, LightTree, MAX_CUT};
 use mdas::lights::gpu_build::GpuLightTree;
 use mdas::lights::gpu_sampler::{cut_capacity, CutLayout, GpuSamplerData, TreeSource};
+use mdas::lights::gpu_two_level::GpuTwoLevel;
 use mdas::lights::perfect;
 use mdas::lights::substitute::{
     self, SstSampler, Substitute, SubstituteParams, SubstituteTree, SUBSTITUTE_BIT,
@@ -579,6 +580,44 @@ fn gpu_built_tree_samples_like_the_cpu_tree() {
         let name = format!("{kind} on the GPU-built tree");
         check_kind(gpu, &h, &name, &data, &tree, &s);
     }
+}
+
+/// `tree2` gathered on the GPU (`GpuTwoLevel`, bound as it is) samples
+/// like the CPU sampler over `BottomLevels::tree`'s tree, whose nodes and
+/// links the GPU's equal bit for bit (`tests/light_tree_gpu.rs`); the CPU
+/// samples with the GPU's cones read back, as for the perfect tree above.
+#[test]
+fn gpu_gathered_two_level_tree_samples_like_the_cpu_tree() {
+    let gpu = common::gpu();
+    let h = Harness::new(gpu);
+    let s = setup(5, 1000);
+    // Four groups, one of them a lone light.
+    let groups = vec![0..400u32, 400..401, 401..750, 750..1000];
+    let object: Vec<Option<&[LightPrim]>> = groups
+        .iter()
+        .map(|g| Some(&s.prims[g.start as usize..g.end as usize]))
+        .collect();
+    let bottoms = two_level::BottomLevels::new(groups.clone(), &object);
+    let built = GpuTwoLevel::new(gpu, bottoms.gpu_plan().unwrap()).unwrap();
+    let kind = SamplerKind::Tree2;
+    let data = GpuSamplerData::new(
+        gpu,
+        kind,
+        &s.prims,
+        Some(TreeSource::TwoLevelGpu(&built)),
+        cut_layout(),
+    )
+    .unwrap();
+    built
+        .build(gpu, &data.prims, &mut Profiler::new(gpu))
+        .unwrap();
+    let mut tree = bottoms.tree(&s.prims).unwrap();
+    let nodes: Vec<TreeNode> = gpu.read_buffer(&built.nodes, tree.nodes.len()).unwrap();
+    assert!(nodes == tree.nodes, "the GPU's nodes equal the CPU's");
+    tree.cones = gpu
+        .read_buffer::<LightCone>(&built.cones, tree.nodes.len())
+        .unwrap();
+    check_kind(gpu, &h, "tree2 gathered on the GPU", &data, &tree, &s);
 }
 
 #[test]

@@ -50,6 +50,7 @@ use mdas::integrator::mdas::{
 use mdas::lights::gpu_build::{BuildParams, GpuLightTree};
 use mdas::lights::gpu_lgh::{GpuLgh, LghBuildParams};
 use mdas::lights::gpu_sampler::{BatchSampler, GpuSamplerData, SampleAnswer, SampleQuery};
+use mdas::lights::gpu_two_level::{GpuTwoLevel, Tree2Params};
 use mdas::lights::lgh::GridLight;
 use mdas::lights::sampler::SamplerKind;
 use mdas::lights::vpl::{VplGenerator, VplParams};
@@ -216,6 +217,8 @@ fn kernels() -> Vec<Kernel> {
         let name = format!("light_tree[{}]", file.0);
         all.push(kernel(name, &GpuLightTree::source(file), &tree));
     }
+    let tree2 = [GpuTwoLevel::layout_entries()];
+    all.push(kernel("tree2_build", &GpuTwoLevel::source(), &tree2));
     let vpl = [VplGenerator::layout_entries(), GpuScene::layout_entries()];
     all.push(kernel("vpl", &VplGenerator::source(), &vpl));
     let lgh = [GpuLgh::layout_entries()];
@@ -497,6 +500,9 @@ fn mirrors() -> BTreeMap<(&'static str, &'static str), Layout> {
         })),
         (("lights/tree_bindings.wgsl", "BuildParams"), host!(BuildParams {
             n, leaf_count, zero, src_level, levels_up, cones, _pad,
+        })),
+        (("lights/tree2_build.wgsl", "Tree2Params"), host!(Tree2Params {
+            count, first, zero, _pad,
         })),
         (("lights/lgh_light.wgsl", "GridLight"), host!(GridLight {
             e, w, p, iso, q, vertex, n, level,

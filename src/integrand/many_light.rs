@@ -72,6 +72,7 @@ use crate::lights::gpu_lgh::GpuLgh;
 use crate::lights::gpu_sampler::{
     cut_capacity, CutLayout, GpuSamplerData, TreeSource, FIRST_BINDING,
 };
+use crate::lights::gpu_two_level::GpuTwoLevel;
 use crate::lights::sampler::SamplerKind;
 use crate::lights::scene_lights::{self, light_prims};
 use crate::lights::two_level::BottomLevels;
@@ -102,6 +103,8 @@ pub struct ManyLight {
     /// The GPU-built tree (its buffers are bound in `bind_group`); rebuilt
     /// in place for every frame.
     tree: Option<GpuLightTree>,
+    /// `tree2` gathered on the GPU (groups of a fixed shape, no VPLs).
+    two_level: Option<GpuTwoLevel>,
     /// The VPL kernel, kept for the next frame.
     vpl: Option<VplGenerator>,
     /// The cut pre-pass's pipeline and group-0 layout, built at the first
@@ -118,6 +121,7 @@ pub struct ManyLight {
 struct Built {
     sampler: GpuSamplerData,
     tree: Option<GpuLightTree>,
+    two_level: Option<GpuTwoLevel>,
     loop_iterations: u32,
     cpu_build_ms: Option<f64>,
 }
@@ -211,8 +215,9 @@ impl ManyLight {
         let sort_ms = start.elapsed().as_secs_f64() * 1e3;
         let mut built =
             Self::build_sampler(gpu, spec, &prims, bottoms.as_ref(), film, &mut profiler)?;
-        if let Some(ms) = built.cpu_build_ms.as_mut().filter(|_| bottoms.is_some()) {
-            *ms += sort_ms;
+        if bottoms.is_some() {
+            // On the GPU path the sort is the first frame's only CPU build.
+            *built.cpu_build_ms.get_or_insert(0.0) += sort_ms;
         }
         let layout = gpu
             .device
@@ -233,6 +238,7 @@ impl ManyLight {
             bind_group,
             setup: PhaseTimes::default(),
             tree: built.tree,
+            two_level: built.two_level,
             vpl,
             cut_pass: None,
             loop_iterations: built.loop_iterations,
@@ -281,6 +287,12 @@ impl ManyLight {
                 gpu.queue
                     .write_buffer(&self.sampler.prims, 0, bytemuck::cast_slice(&prims));
                 tree.build(gpu, &self.sampler.prims, prims.len() as u32, &mut profiler)
+            })?,
+            None if self.two_level.is_some() => gpu.scoped("many_light set-up", || {
+                gpu.queue
+                    .write_buffer(&self.sampler.prims, 0, bytemuck::cast_slice(&prims));
+                let two_level = self.two_level.as_ref().expect("matched");
+                two_level.build(gpu, &self.sampler.prims, &mut profiler)
             })?,
             None if self.kind == SamplerKind::Uniform => {
                 if !prims.is_empty() {
@@ -366,6 +378,7 @@ impl ManyLight {
                 Ok(Built {
                     sampler,
                     tree: None,
+                    two_level: None,
                     loop_iterations: h.loop_iterations().min(u32::MAX as u64) as u32,
                     cpu_build_ms: None,
                 })
@@ -393,6 +406,30 @@ impl ManyLight {
                 Ok(Built {
                     sampler,
                     tree: Some(tree),
+                    two_level: None,
+                    loop_iterations: 0,
+                    cpu_build_ms: None,
+                })
+            } else if let Some(plan) = bottoms
+                .filter(|b| kind == SamplerKind::Tree2 && n > 0 && b.light_count() == prims.len())
+                .and_then(BottomLevels::gpu_plan)
+            {
+                // tree2 whose groups keep their shape and no VPLs: the
+                // bottom levels gathered on the GPU every frame, the top
+                // level on the host (GpuTwoLevel).
+                let two_level = GpuTwoLevel::new(gpu, plan)?;
+                let sampler = GpuSamplerData::new(
+                    gpu,
+                    kind,
+                    prims,
+                    Some(TreeSource::TwoLevelGpu(&two_level)),
+                    cuts,
+                )?;
+                two_level.build(gpu, &sampler.prims, profiler)?;
+                Ok(Built {
+                    sampler,
+                    tree: None,
+                    two_level: Some(two_level),
                     loop_iterations: 0,
                     cpu_build_ms: None,
                 })
@@ -414,6 +451,7 @@ impl ManyLight {
                 Ok(Built {
                     sampler,
                     tree: None,
+                    two_level: None,
                     loop_iterations: 0,
                     cpu_build_ms: Some(start.elapsed().as_secs_f64() * 1e3),
                 })

@@ -22,6 +22,7 @@ use super::alias::{AliasEntry, PowerSampler};
 use super::bvh::{self, LightBvh, INTERNAL_BIT};
 use super::cut::MAX_CUT;
 use super::gpu_lgh::GpuLgh;
+use super::gpu_two_level::GpuTwoLevel;
 use super::importance::NEAR_CLAMP;
 use super::lgh::{self, GridLight};
 use super::perfect::{self, PerfectTree};
@@ -163,6 +164,9 @@ pub enum TreeSource<'a> {
     Substitute(&'a SubstituteTree),
     /// The unbalanced BVH.
     Bvh(&'a LightBvh),
+    /// `tree2` built on the GPU ([`GpuTwoLevel`]): its buffers are bound
+    /// as they are.
+    TwoLevelGpu(&'a GpuTwoLevel),
     /// The lighting grid hierarchy (`lgh`), built on the GPU into its own
     /// buffers; its parameters fill the `lgh_*` fields.
     Lgh(&'a GpuLgh),
@@ -339,7 +343,7 @@ impl GpuSamplerData {
                                 substitutes = Some(b.clone());
                             }
                         }
-                        TreeSource::Bvh(_) => {
+                        TreeSource::Bvh(_) | TreeSource::TwoLevelGpu(_) => {
                             bail!("sampler '{kind}' needs a perfect tree, got a BVH")
                         }
                         TreeSource::Lgh(_) => {
@@ -365,32 +369,51 @@ impl GpuSamplerData {
                 | SamplerKind::UnbalancedNoCut
                 | SamplerKind::UnbalancedNoCone
                 | SamplerKind::Tree2 => {
-                    let built;
-                    let b = match tree {
-                        Some(TreeSource::Bvh(b)) => b,
-                        // tree2 without groups: one group (factory.rs).
-                        None if kind == SamplerKind::Tree2 => {
-                            built = two_level::build(prims, std::slice::from_ref(&(0..n))).unwrap();
-                            &built
+                    if let Some(TreeSource::TwoLevelGpu(t)) = tree {
+                        if kind != SamplerKind::Tree2 {
+                            bail!("sampler '{kind}' needs a light BVH, got a two-level tree");
                         }
-                        None => {
-                            built = bvh::build(prims, kind.bvh_cost()).unwrap();
-                            &built
+                        if t.light_count() != n {
+                            bail!(
+                                "two-level tree over {} lights for {n} lights",
+                                t.light_count()
+                            );
                         }
-                        Some(_) => bail!("sampler '{kind}' needs a light BVH, got a perfect tree"),
-                    };
-                    if b.leaf_of_light.len() as u32 != n {
-                        bail!(
-                            "light BVH over {} lights for {n} lights",
-                            b.leaf_of_light.len()
-                        );
+                        params.node_count = t.node_count();
+                        nodes = Some(t.nodes.clone());
+                        cones = Some(t.cones.clone());
+                        index = Some(t.index.clone());
+                    } else {
+                        let built;
+                        let b = match tree {
+                            Some(TreeSource::Bvh(b)) => b,
+                            // tree2 without groups: one group (factory.rs).
+                            None if kind == SamplerKind::Tree2 => {
+                                built =
+                                    two_level::build(prims, std::slice::from_ref(&(0..n))).unwrap();
+                                &built
+                            }
+                            None => {
+                                built = bvh::build(prims, kind.bvh_cost()).unwrap();
+                                &built
+                            }
+                            Some(_) => {
+                                bail!("sampler '{kind}' needs a light BVH, got another structure")
+                            }
+                        };
+                        if b.leaf_of_light.len() as u32 != n {
+                            bail!(
+                                "light BVH over {} lights for {n} lights",
+                                b.leaf_of_light.len()
+                            );
+                        }
+                        params.node_count = b.nodes.len() as u32;
+                        nodes = Some(gpu.buffer_from(&label("nodes"), &b.nodes, STORAGE)?);
+                        cones = upload_cones(&b.cones)?;
+                        let table: Vec<u32> =
+                            b.leaf_of_light.iter().chain(&b.parent).copied().collect();
+                        index = Some(gpu.buffer_from(&label("index"), &table, STORAGE)?);
                     }
-                    params.node_count = b.nodes.len() as u32;
-                    nodes = Some(gpu.buffer_from(&label("nodes"), &b.nodes, STORAGE)?);
-                    cones = upload_cones(&b.cones)?;
-                    let table: Vec<u32> =
-                        b.leaf_of_light.iter().chain(&b.parent).copied().collect();
-                    index = Some(gpu.buffer_from(&label("index"), &table, STORAGE)?);
                 }
             }
         }

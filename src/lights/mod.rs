@@ -49,6 +49,7 @@ pub mod factory;
 pub mod gpu_build;
 pub mod gpu_lgh;
 pub mod gpu_sampler;
+pub mod gpu_two_level;
 pub mod importance;
 pub mod lgh;
 pub mod morton;

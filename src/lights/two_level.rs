@@ -227,7 +227,7 @@ fn assemble(
         .unwrap_or(1);
     let top = bvh::build_over(&leaves, &cones, &centre, Cost::Saoh, top_sah_depth(bottom));
     let root = graft(&top, 0, &roots, &mut arena);
-    Some(flatten(&arena, root, n))
+    Some(flatten(&arena, root, &roots, n))
 }
 
 /// The part of `tree2` that a sequence of frames shares (the paper's
@@ -370,6 +370,320 @@ impl BottomLevels {
     }
 }
 
+/// A destination of [`GpuPlan`] with this bit set is group root `d & !ROOT_BIT`
+/// (the roots are read back for the top level), else a node slot.
+pub const ROOT_BIT: u32 = 0x8000_0000;
+
+/// One non-empty group of a [`GpuPlan`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PlanGroup {
+    /// The slot of its root's left child (the right one is next), or
+    /// `None` for a group of one light, whose root is its leaf.
+    pub root_left: Option<u32>,
+    /// The light of a one-light group (unused otherwise).
+    pub lone_light: u32,
+}
+
+/// The fixed part of a sequence's two-level tree, for a GPU to gather
+/// every frame ([`super::gpu_two_level`]): [`flatten`] puts every bottom
+/// level below its root at slots that depend only on the group sizes, and
+/// a group whose leaf order is fixed ([`BottomLevels`]) has a fixed shape,
+/// so for a frame's lights a GPU can write those nodes with no sort and no
+/// host in between — the leaves from the lights, then each height's joins
+/// from the one below — and the host builds only the top level, over the
+/// groups' roots (read back: a few dozen nodes), as [`BottomLevels::tree`]
+/// builds it. [`GpuPlan::tree_on_cpu`] runs the plan on the CPU and equals
+/// [`BottomLevels::tree`] bit for bit.
+#[derive(Clone, Debug)]
+pub struct GpuPlan {
+    /// Slots of the top level, `2G − 1` over the `G` non-empty groups.
+    pub top_slots: u32,
+    /// `2N − 1` nodes over `N` lights.
+    pub node_count: u32,
+    /// (destination, light id): every bottom level's leaves.
+    pub leaves: Vec<[u32; 2]>,
+    /// `joins[h − 1]`: (destination, left child's slot) of the bottom
+    /// levels' nodes of height `h` (leaves have height 0).
+    pub joins: Vec<Vec<[u32; 2]>>,
+    /// The non-empty groups, in order.
+    pub groups: Vec<PlanGroup>,
+    /// The leaf slot of every light; a one-light group's is set per frame.
+    pub leaf_of_light: Vec<u32>,
+    /// The parent of every slot; the top level's slots and the children of
+    /// the groups' roots are set per frame.
+    pub parent: Vec<u32>,
+    /// Levels of the deepest bottom level ([`top_sah_depth`]).
+    bottom_levels: u32,
+}
+
+/// The top level of one frame ([`GpuPlan::top`]): slots `0..top_slots`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TopLevel {
+    pub nodes: Vec<TreeNode>,
+    pub cones: Vec<LightCone>,
+    pub parent: Vec<u32>,
+    /// The slot of each group's root.
+    pub root_slot: Vec<u32>,
+}
+
+impl BottomLevels {
+    /// The plan of a GPU gather of these bottom levels, or `None` when a
+    /// group is sorted every frame (an orbiting light set) or there are no
+    /// lights. Lights beyond the groups (VPLs) are not in it: with them,
+    /// [`BottomLevels::tree`] is the way.
+    pub fn gpu_plan(&self) -> Option<GpuPlan> {
+        let n = self.light_count();
+        if n == 0 {
+            return None;
+        }
+        let groups: Vec<(&Range<u32>, &Shape)> = self
+            .groups
+            .iter()
+            .zip(&self.shape)
+            .filter(|(g, _)| !g.is_empty())
+            .map(|(g, s)| Some((g, &self.shapes[(*s)?])))
+            .collect::<Option<_>>()?;
+        let top_slots = 2 * groups.len() as u32 - 1;
+        let node_count = 2 * n as u32 - 1;
+        let mut plan = GpuPlan {
+            top_slots,
+            node_count,
+            leaves: Vec::with_capacity(n),
+            joins: Vec::new(),
+            groups: Vec::with_capacity(groups.len()),
+            leaf_of_light: vec![NO_LIGHT; n],
+            parent: vec![NO_LIGHT; node_count as usize],
+            bottom_levels: 1,
+        };
+        let mut base = top_slots;
+        for (k, (g, shape)) in groups.into_iter().enumerate() {
+            let order = &shape.order;
+            plan.bottom_levels = plan.bottom_levels.max(perfect_levels(g.len()));
+            // Breadth-first positions within the group, as `flatten` walks.
+            let root = order.len() - 1;
+            let mut bfs = vec![0u32; order.len()];
+            let mut queue = vec![root];
+            let mut q = 0;
+            while q < queue.len() {
+                if let Slot::Join(l, r) = order[queue[q]] {
+                    for c in [l, r] {
+                        bfs[c as usize] = queue.len() as u32;
+                        queue.push(c as usize);
+                    }
+                }
+                q += 1;
+            }
+            let dest = |s: usize| {
+                if s == root {
+                    ROOT_BIT | k as u32
+                } else {
+                    base + bfs[s] - 1
+                }
+            };
+            let mut height = vec![0usize; order.len()];
+            for (s, slot) in order.iter().enumerate() {
+                match *slot {
+                    Slot::Leaf(id) => {
+                        let light = g.start + id;
+                        plan.leaves.push([dest(s), light]);
+                        if s != root {
+                            plan.leaf_of_light[light as usize] = dest(s);
+                        }
+                    }
+                    Slot::Join(l, r) => {
+                        let (l, r) = (l as usize, r as usize);
+                        debug_assert_eq!(dest(r), dest(l) + 1, "siblings in pairs");
+                        height[s] = 1 + height[l].max(height[r]);
+                        if plan.joins.len() < height[s] {
+                            plan.joins.resize(height[s], Vec::new());
+                        }
+                        plan.joins[height[s] - 1].push([dest(s), dest(l)]);
+                        if s != root {
+                            plan.parent[dest(l) as usize] = dest(s);
+                            plan.parent[dest(r) as usize] = dest(s);
+                        }
+                    }
+                }
+            }
+            plan.groups.push(match order[root] {
+                Slot::Join(l, _) => PlanGroup {
+                    root_left: Some(dest(l as usize)),
+                    lone_light: NO_LIGHT,
+                },
+                Slot::Leaf(id) => PlanGroup {
+                    root_left: None,
+                    lone_light: g.start + id,
+                },
+            });
+            base += 2 * g.len() as u32 - 2;
+        }
+        debug_assert_eq!(base, node_count);
+        Some(plan)
+    }
+}
+
+impl GpuPlan {
+    /// The top level over the groups' roots `roots` (nodes as the gather
+    /// writes them: an internal root's id is `INTERNAL_BIT |` its left
+    /// child, a lone leaf's its light) and their cones: the SAOH BVH of
+    /// [`build`], laid out breadth first from slot 0.
+    ///
+    /// # Panics
+    ///
+    /// When `roots` or `cones` do not hold one entry per group.
+    pub fn top(&self, roots: &[TreeNode], cones: &[LightCone]) -> TopLevel {
+        let g = self.groups.len();
+        assert!(roots.len() == g && cones.len() == g, "one root per group");
+        let mut arena: Vec<Temp> = roots
+            .iter()
+            .zip(cones)
+            .map(|(&node, &cone)| Temp {
+                node,
+                cone,
+                children: None,
+            })
+            .collect();
+        let leaves: Vec<TreeNode> = roots
+            .iter()
+            .enumerate()
+            .map(|(i, r)| TreeNode { id: i as u32, ..*r })
+            .collect();
+        let centre: Vec<Vec3> = roots
+            .iter()
+            .map(|b| 0.5 * (Vec3::from(b.min) + Vec3::from(b.max)))
+            .collect();
+        let top = bvh::build_over(
+            &leaves,
+            cones,
+            &centre,
+            Cost::Saoh,
+            top_sah_depth(self.bottom_levels),
+        );
+        let ids: Vec<usize> = (0..g).collect();
+        let root = graft(&top, 0, &ids, &mut arena);
+        let t = self.top_slots as usize;
+        let mut out = TopLevel {
+            nodes: vec![TreeNode::EMPTY; t],
+            cones: vec![LightCone::EMPTY; t],
+            parent: vec![NO_LIGHT; t],
+            root_slot: vec![0; g],
+        };
+        let mut order = vec![root];
+        let mut q = 0;
+        while q < order.len() {
+            let temp = arena[order[q]];
+            out.cones[q] = temp.cone;
+            out.nodes[q] = temp.node;
+            if let Some((l, r)) = temp.children {
+                out.nodes[q].id = INTERNAL_BIT | order.len() as u32;
+                for c in [l, r] {
+                    out.parent[order.len()] = q as u32;
+                    order.push(c);
+                }
+            } else {
+                out.root_slot[order[q]] = q as u32;
+            }
+            q += 1;
+        }
+        assert_eq!(order.len(), t, "a full binary tree over {g} roots");
+        out
+    }
+
+    /// The entries of the table `leaf_of_light ++ parent` (`N + 2N − 1`
+    /// entries, as the samplers bind it) that frame `top` sets, as
+    /// (position, value): the top level's parents and, below each group's
+    /// root, the links to where the top level put it. The rest of the
+    /// table is the plan's `leaf_of_light` and `parent`.
+    pub fn links<'a>(&'a self, top: &'a TopLevel) -> impl Iterator<Item = (usize, u32)> + 'a {
+        let n = self.leaf_of_light.len();
+        let parents = top.parent.iter().enumerate().map(move |(s, &p)| (n + s, p));
+        let below = self
+            .groups
+            .iter()
+            .zip(&top.root_slot)
+            .flat_map(move |(group, &slot)| {
+                let (first, second) = match group.root_left {
+                    Some(l) => ((n + l as usize, slot), Some((n + l as usize + 1, slot))),
+                    None => ((group.lone_light as usize, slot), None),
+                };
+                std::iter::once(first).chain(second)
+            });
+        parents.chain(below)
+    }
+
+    /// The plan run on the CPU over one frame's lights: the leaves, each
+    /// height's joins, then [`GpuPlan::top`] and [`GpuPlan::patch`] — the
+    /// oracle of the GPU gather, and equal to [`BottomLevels::tree`] bit
+    /// for bit.
+    pub fn tree_on_cpu(&self, prims: &[LightPrim]) -> LightBvh {
+        let total = self.node_count as usize;
+        let g = self.groups.len();
+        let mut nodes = vec![TreeNode::EMPTY; total];
+        let mut cones = vec![LightCone::EMPTY; total];
+        let mut roots = vec![TreeNode::EMPTY; g];
+        let mut root_cones = vec![LightCone::EMPTY; g];
+        let mut store = |dest: u32,
+                         node: TreeNode,
+                         cone: LightCone,
+                         nodes: &mut [TreeNode],
+                         cones: &mut [LightCone]| {
+            if dest & ROOT_BIT != 0 {
+                roots[(dest & !ROOT_BIT) as usize] = node;
+                root_cones[(dest & !ROOT_BIT) as usize] = cone;
+            } else {
+                nodes[dest as usize] = node;
+                cones[dest as usize] = cone;
+            }
+        };
+        for &[dest, light] in &self.leaves {
+            let prim = &prims[light as usize];
+            store(
+                dest,
+                leaf_node(prim, light),
+                LightCone::of_prim(prim),
+                &mut nodes,
+                &mut cones,
+            );
+        }
+        for level in &self.joins {
+            for &[dest, l] in level {
+                let (l, r) = (l as usize, l as usize + 1);
+                let node = TreeNode {
+                    id: INTERNAL_BIT | l as u32,
+                    ..gather(&nodes[l], &nodes[r])
+                };
+                let cone = cones[l].union(&cones[r]);
+                store(dest, node, cone, &mut nodes, &mut cones);
+            }
+        }
+        let top = self.top(&roots, &root_cones);
+        nodes[..top.nodes.len()].copy_from_slice(&top.nodes);
+        cones[..top.cones.len()].copy_from_slice(&top.cones);
+        let mut table: Vec<u32> = self
+            .leaf_of_light
+            .iter()
+            .chain(&self.parent)
+            .copied()
+            .collect();
+        for (at, value) in self.links(&top) {
+            table[at] = value;
+        }
+        let parent = table.split_off(self.leaf_of_light.len());
+        let leaf_of_light = table;
+        let mut depth_of = vec![1u32; total];
+        for s in 1..total {
+            depth_of[s] = depth_of[parent[s] as usize] + 1;
+        }
+        LightBvh {
+            nodes,
+            parent,
+            leaf_of_light,
+            depth: depth_of.into_iter().max().unwrap_or(1),
+            cones,
+        }
+    }
+}
+
 /// The bytes of `lights`.
 fn bytes(lights: &[LightPrim]) -> &[u8] {
     bytemuck::cast_slice(lights)
@@ -420,35 +734,42 @@ fn join(left: Option<usize>, right: Option<usize>, arena: &mut Vec<Temp>) -> Opt
     }
 }
 
-/// The BVH layout of the tree at `root`: node 0 the root, children in
-/// pairs after their parent (breadth first). Two passes: the breadth-first
-/// walk over the children alone (8 bytes a node, so the walk's scattered
-/// reads stay in cache) gives every arena node its slot, then the arena is
-/// read in its own order and each node written to its slot.
-fn flatten(arena: &[Temp], root: usize, n: usize) -> LightBvh {
+/// The layout of the tree at `root` whose bottom levels are rooted at
+/// `roots` (arena nodes, in group order): the top level first, breadth
+/// first from node 0 (the root) down to the group roots, then each group's
+/// bottom level without its root, in group order, breadth first within
+/// the group, children in pairs after their parent throughout. A group's
+/// nodes below its root sit at slots that depend only on the group sizes,
+/// not on the top level (the GPU gathers them there every frame,
+/// [`GpuPlan`]). Two passes: the breadth-first walk over the children
+/// alone (8 bytes a node, so the walk's scattered reads stay in cache)
+/// gives every arena node its slot, then the arena is read in its own
+/// order and each node written to its slot.
+fn flatten(arena: &[Temp], root: usize, roots: &[usize], n: usize) -> LightBvh {
     const LEAF: (u32, u32) = (u32::MAX, u32::MAX);
     let total = 2 * n - 1;
     let kids: Vec<(u32, u32)> = arena
         .iter()
         .map(|t| t.children.map_or(LEAF, |(l, r)| (l as u32, r as u32)))
         .collect();
+    let mut is_root = vec![false; arena.len()];
+    for &r in roots {
+        is_root[r] = true;
+    }
     // Pass 1: slots, parents and depths. `order[k]` is the arena node of
     // slot k; the queue is `order` itself (slots are handed out in the
-    // order nodes are reached).
+    // order nodes are reached). The top level's walk stops at the group
+    // roots; each group's walk then starts from its root's children.
     let mut order = Vec::with_capacity(total);
     let mut slot_of = vec![u32::MAX; arena.len()];
     let mut parent = vec![NO_LIGHT; total];
     let mut depth_of = vec![1u32; total];
     let mut left_of = vec![0u32; total];
-    order.push(root as u32);
-    slot_of[root] = 0;
-    let mut next = 0;
-    while next < order.len() {
-        let slot = next;
-        next += 1;
+    // Gives the children of the node at `slot` the next two slots.
+    let mut expand = |slot: usize, order: &mut Vec<u32>, slot_of: &mut [u32]| {
         let (l, r) = kids[order[slot] as usize];
         if (l, r) == LEAF {
-            continue;
+            return;
         }
         let left = order.len();
         left_of[slot] = left as u32;
@@ -457,6 +778,22 @@ fn flatten(arena: &[Temp], root: usize, n: usize) -> LightBvh {
             parent[at] = slot as u32;
             depth_of[at] = depth_of[slot] + 1;
             order.push(child);
+        }
+    };
+    order.push(root as u32);
+    slot_of[root] = 0;
+    let mut next = 0;
+    while next < order.len() {
+        if !is_root[order[next] as usize] {
+            expand(next, &mut order, &mut slot_of);
+        }
+        next += 1;
+    }
+    for &r in roots {
+        expand(slot_of[r] as usize, &mut order, &mut slot_of);
+        while next < order.len() {
+            expand(next, &mut order, &mut slot_of);
+            next += 1;
         }
     }
     assert_eq!(order.len(), total, "a full binary tree over {n} leaves");
@@ -559,35 +896,203 @@ mod tests {
         }
     }
 
-    /// [`flatten`] lays out trees exactly as the one-pass breadth-first
-    /// walk does: bottom levels of 1 to 300 random lights, chained under
-    /// joins into trees of very uneven depth.
-    #[test]
-    fn flatten_equals_the_one_pass_walk() {
+    /// The tree below `node` of `bvh` in pre-order, as (node with its
+    /// child link dropped, cone, leaf light or `NO_LIGHT`): equal for two
+    /// layouts of one tree.
+    fn preorder(bvh: &LightBvh, node: usize, out: &mut Vec<(TreeNode, LightCone, u32)>) {
+        let n = bvh.nodes[node];
+        if n.id & INTERNAL_BIT == 0 {
+            out.push((n, bvh.cones[node], n.id));
+            return;
+        }
+        out.push((TreeNode { id: 0, ..n }, bvh.cones[node], NO_LIGHT));
+        let l = (n.id & !INTERNAL_BIT) as usize;
+        for c in [l, l + 1] {
+            assert_eq!(bvh.parent[c] as usize, node, "parent of {c}");
+            preorder(bvh, c, out);
+        }
+    }
+
+    /// The slots of the tree below `node`, `node` excluded.
+    fn slots_below(bvh: &LightBvh, node: usize, out: &mut Vec<usize>) {
+        let id = bvh.nodes[node].id;
+        if id & INTERNAL_BIT != 0 {
+            let l = (id & !INTERNAL_BIT) as usize;
+            for c in [l, l + 1] {
+                out.push(c);
+                slots_below(bvh, c, out);
+            }
+        }
+    }
+
+    /// Bottom levels of 1 to 300 random lights (some of one light),
+    /// chained under joins into trees of very uneven depth.
+    fn chained_groups(groups: usize, seed: u64) -> (Vec<LightPrim>, Vec<Temp>, usize, Vec<usize>) {
         use rand::rngs::StdRng;
         use rand::{RngExt, SeedableRng};
-        let mut rng = StdRng::seed_from_u64(47);
-        for groups in [1usize, 2, 5, 9] {
-            let mut prims = Vec::new();
-            let mut arena = Vec::new();
-            let mut root = None;
-            for _ in 0..groups {
-                let base = prims.len() as u32;
-                let count = rng.random_range(1..300);
-                for _ in 0..count {
-                    let p = Vec3::new(rng.random(), rng.random(), rng.random()) * 10.0;
-                    prims.push(LightPrim::triangle(p, p + Vec3::X, p + Vec3::Y, Vec3::ONE));
-                }
-                let lights = &prims[base as usize..];
-                let r = place(&sorted_order(lights), &prims, base, &mut arena);
-                root = join(root, Some(r), &mut arena);
+        let mut rng = StdRng::seed_from_u64(seed);
+        let mut prims = Vec::new();
+        let mut arena = Vec::new();
+        let mut root = None;
+        let mut roots = Vec::new();
+        for k in 0..groups {
+            let base = prims.len() as u32;
+            let count = if k % 4 == 3 {
+                1
+            } else {
+                rng.random_range(1..300)
+            };
+            for _ in 0..count {
+                let p = Vec3::new(rng.random(), rng.random(), rng.random()) * 10.0;
+                prims.push(LightPrim::triangle(p, p + Vec3::X, p + Vec3::Y, Vec3::ONE));
             }
-            let (root, n) = (root.unwrap(), prims.len());
+            let lights = &prims[base as usize..];
+            let r = place(&sorted_order(lights), &prims, base, &mut arena);
+            roots.push(r);
+            root = join(root, Some(r), &mut arena);
+        }
+        (prims, arena, root.unwrap(), roots)
+    }
+
+    /// [`flatten`] lays out the same tree as the one-pass breadth-first
+    /// walk (same nodes, cones and leaves in pre-order, parents and
+    /// `leaf_of_light` consistent), with the top level in the first
+    /// `2G − 1` slots and each group's nodes below its root in one block
+    /// per group, in group order, of `2·n_g − 2` slots.
+    #[test]
+    fn flatten_lays_out_the_tree_with_one_block_per_group() {
+        for (groups, seed) in [(1usize, 47), (2, 48), (5, 49), (9, 50)] {
+            let (prims, arena, root, roots) = chained_groups(groups, seed);
+            let n = prims.len();
+            let ours = flatten(&arena, root, &roots, n);
+            let reference = flatten_reference(&arena, root, n);
+            let (mut a, mut b) = (Vec::new(), Vec::new());
+            preorder(&ours, 0, &mut a);
+            preorder(&reference, 0, &mut b);
+            assert_eq!(a, b, "{groups} groups");
+            assert_eq!(ours.depth, reference.depth);
+            assert_eq!(ours.parent[0], NO_LIGHT);
+            for (light, &slot) in ours.leaf_of_light.iter().enumerate() {
+                assert_eq!(ours.nodes[slot as usize].id, light as u32);
+            }
+            // Find each group's root slot: the top level is the first
+            // 2G − 1 slots in breadth-first order.
+            let top = 2 * groups - 1;
+            let mut base = top;
+            let mut start = 0usize;
+            for &r in &roots {
+                let size = arena_leaves(&arena, r);
+                let light = arena_first_leaf(&arena, r) as usize;
+                // The group's root: the ancestor of its first light's leaf
+                // that is a top slot.
+                let mut slot = ours.leaf_of_light[light] as usize;
+                while slot >= top {
+                    slot = ours.parent[slot] as usize;
+                }
+                let mut below = Vec::new();
+                slots_below(&ours, slot, &mut below);
+                below.sort_unstable();
+                let expected: Vec<usize> = (base..base + 2 * size - 2).collect();
+                assert_eq!(below, expected, "group at {start}, {groups} groups");
+                base += 2 * size - 2;
+                start += size;
+            }
+            assert_eq!(base, 2 * n - 1);
+        }
+    }
+
+    fn arena_leaves(arena: &[Temp], t: usize) -> usize {
+        match arena[t].children {
+            None => 1,
+            Some((l, r)) => arena_leaves(arena, l) + arena_leaves(arena, r),
+        }
+    }
+
+    fn arena_first_leaf(arena: &[Temp], t: usize) -> u32 {
+        match arena[t].children {
+            None => arena[t].node.id,
+            Some((l, _)) => arena_first_leaf(arena, l),
+        }
+    }
+
+    /// The GPU plan run on the CPU builds [`BottomLevels::tree`]'s tree
+    /// bit for bit: groups of one to 300 lights (empty groups between
+    /// them), at their object-space positions (the copied bottom levels)
+    /// and after a rigid move of every other group (gathered again).
+    #[test]
+    fn gpu_plan_on_the_cpu_equals_the_bottom_levels_tree() {
+        use rand::rngs::StdRng;
+        use rand::{RngExt, SeedableRng};
+        let mut rng = StdRng::seed_from_u64(61);
+        for groups in [1usize, 2, 3, 7, 12] {
+            let mut object = Vec::new();
+            let mut ranges = Vec::new();
+            for k in 0..groups {
+                let count = match k % 5 {
+                    1 => 1,
+                    3 => 0,
+                    _ => rng.random_range(2..300),
+                };
+                let start = object.len() as u32;
+                let centre = Vec3::new(rng.random(), rng.random(), rng.random()) * 20.0;
+                for _ in 0..count {
+                    let p = centre + Vec3::new(rng.random(), rng.random(), rng.random());
+                    let e = Vec3::splat(rng.random_range(0.1..4.0));
+                    let q = p + Vec3::new(rng.random(), rng.random(), 0.3);
+                    prims_push(
+                        &mut object,
+                        p,
+                        q,
+                        p + Vec3::new(0.2, rng.random(), rng.random()),
+                        e,
+                    );
+                }
+                ranges.push(start..object.len() as u32);
+            }
+            let lists: Vec<Option<&[LightPrim]>> = ranges
+                .iter()
+                .map(|g| Some(&object[g.start as usize..g.end as usize]))
+                .collect();
+            let bottoms = BottomLevels::new(ranges.clone(), &lists);
+            let plan = bottoms.gpu_plan().expect("every group keeps its shape");
             assert_eq!(
-                flatten(&arena, root, n),
-                flatten_reference(&arena, root, n),
-                "{groups} groups"
+                plan.tree_on_cpu(&object),
+                bottoms.tree(&object).unwrap(),
+                "{groups} groups at rest"
+            );
+            // Every other group turned and moved rigidly.
+            let rot = glam::Quat::from_axis_angle(Vec3::new(1.0, 2.0, 0.5).normalize(), 0.7);
+            let mut frame = object.clone();
+            for (k, g) in ranges.iter().enumerate() {
+                if k % 2 == 0 {
+                    for l in &mut frame[g.start as usize..g.end as usize] {
+                        for v in [&mut l.p0, &mut l.p1, &mut l.p2] {
+                            *v = (rot * Vec3::from(*v) + Vec3::new(3.0, -1.0, 2.0)).into();
+                        }
+                    }
+                }
+            }
+            assert_eq!(
+                plan.tree_on_cpu(&frame),
+                bottoms.tree(&frame).unwrap(),
+                "{groups} groups moved"
             );
         }
+    }
+
+    fn prims_push(out: &mut Vec<LightPrim>, a: Vec3, b: Vec3, c: Vec3, e: Vec3) {
+        out.push(LightPrim::triangle(a, b, c, e));
+    }
+
+    /// No plan where a group is sorted every frame.
+    #[test]
+    fn gpu_plan_needs_every_group_fixed() {
+        let lights: Vec<LightPrim> = (0..4)
+            .map(|i| LightPrim::point(Vec3::splat(i as f32), Vec3::ONE))
+            .collect();
+        let fixed = BottomLevels::new(vec![0..2, 2..4], &[Some(&lights[..2]), Some(&lights[2..])]);
+        assert!(fixed.gpu_plan().is_some());
+        let orbiting = BottomLevels::new(vec![0..2, 2..4], &[Some(&lights[..2]), None]);
+        assert!(orbiting.gpu_plan().is_none());
     }
 }
