@@ -337,7 +337,7 @@ fn renders_are_deterministic() {
 /// (the scene's sampler, `tree`) with no non-finite sample and a non-black
 /// image; the light tree is built on the GPU (1M lights for `lights_1m`,
 /// 100,000 VPLs generated on the GPU for `vpl_atrium`), or for
-/// `street_lights` (`tree2`) on the CPU over 56 light groups.
+/// `street_lights` (`tree2`) over 56 light groups gathered on the GPU.
 #[test]
 fn many_light_scenes_render_under_halton_and_mdas() {
     for (file, scale) in [
@@ -485,6 +485,63 @@ fn set_frame_equals_a_fresh_integrand_at_that_frame() {
                     .any(|(n, _)| n == "many_light.cuts"),
                 "{kind}: no cut pass timed for the frame: {:?}",
                 seq.setup_times()
+            );
+        }
+    }
+}
+
+/// `tree2` gathers its bottom levels on the GPU when every light group
+/// keeps its shape and there are no VPLs (`GpuTwoLevel`): the scene of the
+/// test above with its light set standing still and no VPLs (the flying
+/// lamp still moves rigidly, so every frame gathers it anew). A sequence
+/// then equals fresh integrands frame for frame, bit for bit, as above,
+/// and its set-up times show the GPU phases; the scene as it is (an
+/// orbiting set, VPLs) builds on the CPU and shows none.
+#[test]
+fn tree2_sequences_gather_on_the_gpu_where_groups_keep_their_shape() {
+    let text = std::fs::read_to_string("scenes/tests/moving_lights.toml").unwrap();
+    let still = text
+        .replace("orbit_radius = 1", "orbit_radius = 0")
+        .replace("vpls = 400", "vpls = 0");
+    assert_ne!(still, text);
+    let gathered = |ml: &ManyLight| {
+        ml.setup_times()
+            .0
+            .iter()
+            .any(|(n, _)| n == mdas::lights::gpu_two_level::PHASES[0])
+    };
+    for (text, on_gpu) in [(still, true), (text, false)] {
+        let scene = mdas::scene_file::parse(&text, Path::new("moving_lights.toml")).unwrap();
+        let IntegrandSpec::ManyLight(spec) = &scene.integrand else {
+            panic!("not a many_light scene")
+        };
+        let spec = mdas::integrand::ManyLightSpec {
+            sampler: SamplerKind::Tree2,
+            ..spec.clone()
+        };
+        let film = scene.scene.film;
+        let gpu_scene = Arc::new(mdas::accel::GpuScene::new(gpu(), &scene.scene, film).unwrap());
+        let render = |ml: &ManyLight| image_bits(&Halton::new(2, 3).render(gpu(), ml).unwrap());
+        let mut seq = ManyLight::new(gpu(), &scene.scene, gpu_scene.clone(), film, &spec).unwrap();
+        assert_eq!(gathered(&seq), on_gpu, "{:?}", seq.setup_times());
+        let first = render(&seq);
+        for f in [2u32, 5] {
+            seq.set_frame(gpu(), &scene.scene, f).unwrap();
+            assert_eq!(gathered(&seq), on_gpu, "frame {f}: {:?}", seq.setup_times());
+            let got = render(&seq);
+            assert_ne!(first, got, "frame {f} renders like frame 0");
+            let fresh = ManyLight::new(
+                gpu(),
+                &scene.scene,
+                gpu_scene.clone(),
+                film,
+                &spec.at_frame(f),
+            )
+            .unwrap();
+            assert_eq!(
+                got,
+                render(&fresh),
+                "on the GPU: {on_gpu}: set_frame({f}) differs from a fresh frame {f}"
             );
         }
     }

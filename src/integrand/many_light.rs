@@ -29,10 +29,12 @@
 //! appended), are uploaded; the tree kinds build their perfect light tree
 //! **on the GPU** ([`GpuLightTree`], with cones for `tree_cone`), the
 //! `unbalanced` kinds build their BVH on the CPU, `tree2` its two-level
-//! tree on the CPU (one bottom level per light group of
+//! tree (one bottom level per light group of
 //! [`crate::lights::scene_lights::light_groups`], the VPLs as one more;
 //! the groups' leaf orders sorted once per sequence in object space,
-//! [`crate::lights::scene_lights::bottom_levels`]), `power` its alias
+//! [`crate::lights::scene_lights::bottom_levels`]) with its bottom levels
+//! gathered **on the GPU** ([`GpuTwoLevel`]) when every group keeps its
+//! shape and there are no VPLs, else on the CPU, `power` its alias
 //! table.
 //! Kinds with cuts (`tree`, `tree_cone`, `unbalanced`,
 //! `unbalanced_nocone`, `tree2`) then run
@@ -255,10 +257,11 @@ impl ManyLight {
     /// recomputed at its time (VPLs traced again), the light structure is
     /// built again and the cut pre-pass runs again, as the paper does once
     /// per frame. The shaders, the bind group layout and, for the kinds
-    /// built on the GPU (`tree*`, `sst*`) and `uniform`, every buffer are
-    /// reused, so an integrator's pipelines stay valid; the CPU-built kinds
-    /// (`power`, `unbalanced*`, `tree2`) and `lgh`, whose structures change
-    /// size with the lights, upload new ones. The VPLs keep their seed
+    /// built on the GPU (`tree*`, `sst*`, `tree2` gathered on the GPU)
+    /// and `uniform`, every buffer are reused, so an integrator's
+    /// pipelines stay valid; the CPU-built kinds (`power`, `unbalanced*`,
+    /// `tree2` with VPLs or orbiting light sets) and `lgh`, whose
+    /// structures change size with the lights, upload new ones. The VPLs keep their seed
     /// (`vpl_seed`): they move with the lights, not with the frame number. The result is the image of
     /// `ManyLight::new` with `spec.at_frame(f)`, bit for bit.
     /// [`ManyLight::setup_times`] then holds this frame's set-up.

@@ -19,7 +19,7 @@
 //! the CPU's [`super::two_level::BottomLevels::tree`] bit for bit (the rules of
 //! [`super::gpu_build`]: `leaf_node` and a gather are exact); the cones
 //! take square roots and are compared within a tolerance
-//! (`tests/light_tree2_gpu.rs`), and the top level is built from the
+//! (`tests/light_tree_gpu.rs`), and the top level is built from the
 //! GPU's roots, so its cones inherit that tolerance. Groups sorted every
 //! frame (orbiting light sets) and VPLs have no fixed shape: those
 //! sequences build `tree2` on the CPU (they have no plan).

@@ -20,7 +20,9 @@
 //!
 //! The combined tree is not perfect (bottom levels differ in depth), so it
 //! is stored in the unbalanced BVH's layout ([`super::bvh`]: explicit left
-//! child, right = left + 1, `parent` and `leaf_of_light` for pmf queries)
+//! child, right = left + 1, `parent` and `leaf_of_light` for pmf queries;
+//! the top level in the first slots, then one block per group, so that a
+//! GPU can gather the bottom levels in place every frame: [`GpuPlan`])
 //! and sampled by the same code on the CPU and in WGSL, with cones (merged
 //! in the same pairwise order as the intensities) and cuts. Bogus leaves of
 //! the bottom levels are dropped: a node with one non-empty child is that
@@ -612,7 +614,7 @@ impl GpuPlan {
     }
 
     /// The plan run on the CPU over one frame's lights: the leaves, each
-    /// height's joins, then [`GpuPlan::top`] and [`GpuPlan::patch`] — the
+    /// height's joins, then [`GpuPlan::top`] and [`GpuPlan::links`] — the
     /// oracle of the GPU gather, and equal to [`BottomLevels::tree`] bit
     /// for bit.
     pub fn tree_on_cpu(&self, prims: &[LightPrim]) -> LightBvh {
