@@ -19,9 +19,10 @@
 #      tree2 at equal time on cornell_lights (full size, 4x and 1/4; the
 #      target is MSE uniform / tree_cone >= 2.4) and on street_lights
 #      (sparse mesh lights, full size), per-frame build and sample times
-#      over a frame sequence of cornell_lights, and the GPU tree build of
-#      1k-1M lights with and without cones (`cargo bench --bench
-#      light_tree`).
+#      over a frame sequence of cornell_lights, tree2's per-frame build
+#      (its bottom levels gathered on the GPU against the CPU builds:
+#      `cargo bench --bench tree2`), and the GPU tree build of 1k-1M
+#      lights with and without cones (`cargo bench --bench light_tree`).
 # With a baseline binary (another build of mdas that has `bench`), steps 1
 # and 2 also run it, right after the same step of this build.
 #
@@ -34,7 +35,7 @@
 # QUICK=1 (lavapipe smoke run: 1/16 scale, 1 repeat, references of 256 spp),
 # STEPS (the steps to run, in that order; default "1 2 3 4 5 6 7"),
 # BENCH_BINS (a folder of prebuilt bench executables named light_tree,
-# light_sampling and visibility, for a machine without cargo: `cargo bench
+# light_sampling, visibility and tree2, for a machine without cargo: `cargo bench
 # --no-run` prints where cargo put them; default: `cargo bench`),
 # SKIP_BENCHES (names of those benches not to run).
 set -euo pipefail
@@ -164,8 +165,9 @@ step7() {
     # the time) on cornell_lights at full size, 4x and 1/4 and on
     # street_lights at full size, then a 64-frame sequence of cornell_lights per tree kind
     # (X.frames.csv: each frame's light build, cut pass and render times),
-    # then every size of the perfect tree's GPU build without and with cones
-    # and the lighting grid's build (issue 14).
+    # then tree2's per-frame build (GPU gather against the CPU), then every
+    # size of the perfect tree's GPU build without and with cones and the
+    # lighting grid's build (issue 14).
     TREES=uniform,tree,tree_cone,unbalanced,tree2
     # Each sampler's bracketing budgets over 4 seeds: means with 95 %
     # intervals (two in a QUICK run).
@@ -188,6 +190,7 @@ step7() {
             --sampler "$kind" --frames "$FRAMES" -o "$OUT/frames-cornell_lights-$kind/frame.exr" \
             2>&1 | tee "$OUT/frames-cornell_lights-$kind.txt"
     done
+    run_bench tree2 2>&1 | tee "$OUT/tree2-build.txt"
     if [ "${QUICK:-0}" != 1 ]; then
         run_bench light_tree 2>&1 | tee "$OUT/light-tree-build.txt"
     fi
