@@ -218,11 +218,32 @@ fn check_tree(gpu: &Gpu, tree: &mut GpuLightTree, prims: &[LightPrim], what: &st
 /// spread only (its axis hardly matters).
 const CONE_TOLERANCE: f32 = 1e-4;
 
+/// One GPU cone `g` against the oracle's `w` (cone `i` of `what`): the
+/// spreads and, unless the spread is within 1e-3 of π, the axes within
+/// [`CONE_TOLERANCE`], `cos_e` and sidedness equal. Returns the spread's
+/// difference and the axes' angle (`None` for a near-sphere).
+fn check_cone(g: &LightCone, w: &LightCone, i: usize, what: &str) -> (f32, Option<f32>) {
+    let spread = |c: &LightCone| c.sin_o.atan2(c.cos_o);
+    let (ga, wa) = (Vec3::from(g.axis), Vec3::from(w.axis));
+    let axis = ga.cross(wa).length().atan2(ga.dot(wa));
+    let d = (spread(g) - spread(w)).abs();
+    let wide = spread(w) > std::f32::consts::PI - 1e-3;
+    assert!(
+        d <= CONE_TOLERANCE && (wide || axis <= CONE_TOLERANCE),
+        "{what}: cone {i}: spread differs by {d}, axis by {axis}:\n  gpu {g:?}\n  cpu {w:?}"
+    );
+    assert_eq!(
+        (g.cos_e, g.two_sided),
+        (w.cos_e, w.two_sided),
+        "{what}: cone {i}"
+    );
+    (d, (!wide).then_some(axis))
+}
+
 /// The GPU's cones against the oracle's, and conservative on their own:
 /// every node's cone contains its children's.
 fn check_cones(got: &[LightCone], want: &[LightCone], what: &str) {
     assert_eq!(got.len(), want.len(), "{what}: cone count");
-    let spread = |c: &LightCone| c.sin_o.atan2(c.cos_o);
     let (mut max_spread, mut max_axis) = (0f32, 0f32);
     for (i, (g, w)) in got.iter().zip(want).enumerate() {
         assert_eq!(
@@ -233,23 +254,9 @@ fn check_cones(got: &[LightCone], want: &[LightCone], what: &str) {
         if w.is_empty() {
             continue;
         }
-        let (ga, wa) = (Vec3::from(g.axis), Vec3::from(w.axis));
-        let axis = ga.cross(wa).length().atan2(ga.dot(wa));
-        let d = (spread(g) - spread(w)).abs();
-        let wide = spread(w) > std::f32::consts::PI - 1e-3;
+        let (d, axis) = check_cone(g, w, i, what);
         max_spread = max_spread.max(d);
-        if !wide {
-            max_axis = max_axis.max(axis);
-        }
-        assert!(
-            d <= CONE_TOLERANCE && (wide || axis <= CONE_TOLERANCE),
-            "{what}: cone {i}: spread differs by {d}, axis by {axis}:\n  gpu {g:?}\n  cpu {w:?}"
-        );
-        assert_eq!(
-            (g.cos_e, g.two_sided),
-            (w.cos_e, w.two_sided),
-            "{what}: cone {i}"
-        );
+        max_axis = max_axis.max(axis.unwrap_or(0.0));
         if i < got.len() / 2 {
             for child in [2 * i + 1, 2 * i + 2] {
                 assert!(
@@ -667,23 +674,11 @@ fn check_two_level(got: &(Vec<TreeNode>, Vec<LightCone>, Vec<u32>), want: &Light
         .copied()
         .collect();
     assert!(*index == table, "{what}: leaf_of_light or parents differ");
-    let spread = |c: &LightCone| c.sin_o.atan2(c.cos_o);
     let mut worst = 0f32;
+    assert_eq!(cones.len(), want.cones.len(), "{what}: cone count");
     for (i, (g, w)) in cones.iter().zip(&want.cones).enumerate() {
-        let (ga, wa) = (Vec3::from(g.axis), Vec3::from(w.axis));
-        let axis = ga.cross(wa).length().atan2(ga.dot(wa));
-        let d = (spread(g) - spread(w)).abs();
-        let wide = spread(w) > std::f32::consts::PI - 1e-3;
-        worst = worst.max(d).max(if wide { 0.0 } else { axis });
-        assert!(
-            d <= CONE_TOLERANCE && (wide || axis <= CONE_TOLERANCE),
-            "{what}: cone {i}: spread differs by {d}, axis by {axis}:\n  gpu {g:?}\n  cpu {w:?}"
-        );
-        assert_eq!(
-            (g.cos_e, g.two_sided),
-            (w.cos_e, w.two_sided),
-            "{what}: cone {i}"
-        );
+        let (d, axis) = check_cone(g, w, i, what);
+        worst = worst.max(d).max(axis.unwrap_or(0.0));
         let id = nodes[i].id;
         if id & INTERNAL_BIT != 0 {
             let l = (id & !INTERNAL_BIT) as usize;
