@@ -751,3 +751,62 @@ fn two_level_tree_gathered_on_the_gpu_matches_the_cpu() {
     let got = gpu_two_level(gpu, &t, &buffer);
     check_two_level(&got, &bottoms.tree(&prims).unwrap(), "20 random groups");
 }
+
+/// `tree2`'s GPU gather on hard cases, each against the CPU build as
+/// above: one light in all; one group (the top level is its root alone);
+/// empty groups between others; a group of coincident lights (equal
+/// codes); zero-intensity lights and zero-area triangles, and a group of
+/// nothing but them; every light in one plane.
+#[test]
+fn two_level_gather_hard_cases() {
+    let gpu = common::gpu();
+    let mut rng = StdRng::seed_from_u64(68);
+    let check = |prims: &[LightPrim], groups: Vec<std::ops::Range<u32>>, what: &str| {
+        let object: Vec<Option<&[LightPrim]>> = groups
+            .iter()
+            .map(|g| Some(&prims[g.start as usize..g.end as usize]))
+            .collect();
+        let bottoms = BottomLevels::new(groups.clone(), &object);
+        let t = GpuTwoLevel::new(gpu, bottoms.gpu_plan().expect("a plan")).unwrap();
+        let buffer = gpu.buffer_from("test.tree2.hard", prims, STORAGE).unwrap();
+        let got = gpu_two_level(gpu, &t, &buffer);
+        check_two_level(&got, &bottoms.tree(prims).unwrap(), what);
+    };
+    let one = random_lights(&mut rng, 1, 2.0);
+    check(&one, vec![0..1], "one light");
+    let many = random_lights(&mut rng, 777, 3.0);
+    check(&many, vec![0..777], "one group");
+    check(
+        &many,
+        vec![0..0, 0..300, 300..300, 300..301, 301..777, 777..777],
+        "empty groups between others",
+    );
+    let mut same = random_lights(&mut rng, 600, 3.0);
+    for l in &mut same[100..400] {
+        *l = LightPrim::point(Vec3::new(0.5, 1.0, -0.25), Vec3::splat(0.3));
+    }
+    check(&same, vec![0..100, 100..400, 400..600], "coincident lights");
+    let mut dark = random_lights(&mut rng, 900, 3.0);
+    for (i, l) in dark.iter_mut().enumerate() {
+        if i % 4 == 0 || i >= 600 {
+            l.emission = [0.0; 3];
+        } else if i % 4 == 1 && l.kind == mdas::lights::KIND_TRIANGLE {
+            l.p2 = l.p1;
+        }
+    }
+    check(
+        &dark,
+        vec![0..300, 300..600, 600..900],
+        "zero-intensity lights and a black group",
+    );
+    let plane: Vec<LightPrim> = random_lights(&mut rng, 800, 5.0)
+        .into_iter()
+        .map(|mut l| {
+            l.p0[1] = 2.5;
+            l.p1[1] = 2.5;
+            l.p2[1] = 2.5;
+            l
+        })
+        .collect();
+    check(&plane, vec![0..250, 250..800], "lights in one plane");
+}
