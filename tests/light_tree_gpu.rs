@@ -773,9 +773,9 @@ fn two_level_gather_hard_cases() {
         check_two_level(&got, &bottoms.tree(prims).unwrap(), what);
     };
     let one = random_lights(&mut rng, 1, 2.0);
-    check(&one, vec![0..1], "one light");
+    check(&one, std::iter::once(0..1).collect(), "one light");
     let many = random_lights(&mut rng, 777, 3.0);
-    check(&many, vec![0..777], "one group");
+    check(&many, std::iter::once(0..777).collect(), "one group");
     check(
         &many,
         vec![0..0, 0..300, 300..300, 300..301, 301..777, 777..777],
