@@ -146,6 +146,19 @@ fn random_lights(rng: &mut StdRng, n: usize, s: f32) -> Vec<LightPrim> {
         .collect()
 }
 
+/// `prims` moved into the plane y = `y` (a zero-extent axis).
+fn in_plane_y(prims: Vec<LightPrim>, y: f32) -> Vec<LightPrim> {
+    prims
+        .into_iter()
+        .map(|mut l| {
+            l.p0[1] = y;
+            l.p1[1] = y;
+            l.p2[1] = y;
+            l
+        })
+        .collect()
+}
+
 struct Built {
     nodes: Vec<TreeNode>,
     cones: Option<Vec<LightCone>>,
@@ -326,15 +339,7 @@ fn tree_degenerate_light_sets() {
     check_tree(gpu, &mut tree, &clusters, "clusters of coincident lights");
 
     // All lights in the plane y = 2.5: a zero-extent axis.
-    let plane: Vec<LightPrim> = random_lights(&mut rng, 3000, 8.0)
-        .into_iter()
-        .map(|mut l| {
-            l.p0[1] = 2.5;
-            l.p1[1] = 2.5;
-            l.p2[1] = 2.5;
-            l
-        })
-        .collect();
+    let plane = in_plane_y(random_lights(&mut rng, 3000, 8.0), 2.5);
     check_tree(gpu, &mut tree, &plane, "lights in one plane");
 
     // Zero intensities: black lights, degenerate (zero-area) triangles,
@@ -739,17 +744,23 @@ fn two_level_tree_gathered_on_the_gpu_matches_the_cpu() {
         prims.extend(random_lights(&mut rng, count, 4.0 + k as f32));
         groups.push(start..prims.len() as u32);
     }
+    check_groups(gpu, &prims, groups, "20 random groups");
+}
+
+/// The light groups `groups` over `prims` (their object space as they
+/// are), gathered on the GPU, against the CPU's build of them.
+fn check_groups(gpu: &Gpu, prims: &[LightPrim], groups: Vec<std::ops::Range<u32>>, what: &str) {
     let object: Vec<Option<&[LightPrim]>> = groups
         .iter()
         .map(|g| Some(&prims[g.start as usize..g.end as usize]))
         .collect();
     let bottoms = BottomLevels::new(groups.clone(), &object);
-    let t = GpuTwoLevel::new(gpu, bottoms.gpu_plan().unwrap()).unwrap();
+    let t = GpuTwoLevel::new(gpu, bottoms.gpu_plan().expect("a plan")).unwrap();
     let buffer = gpu
-        .buffer_from("test.tree2.random", &prims, STORAGE)
+        .buffer_from("test.tree2.groups", prims, STORAGE)
         .unwrap();
     let got = gpu_two_level(gpu, &t, &buffer);
-    check_two_level(&got, &bottoms.tree(&prims).unwrap(), "20 random groups");
+    check_two_level(&got, &bottoms.tree(prims).unwrap(), what);
 }
 
 /// `tree2`'s GPU gather on hard cases, each against the CPU build as
@@ -761,17 +772,7 @@ fn two_level_tree_gathered_on_the_gpu_matches_the_cpu() {
 fn two_level_gather_hard_cases() {
     let gpu = common::gpu();
     let mut rng = StdRng::seed_from_u64(68);
-    let check = |prims: &[LightPrim], groups: Vec<std::ops::Range<u32>>, what: &str| {
-        let object: Vec<Option<&[LightPrim]>> = groups
-            .iter()
-            .map(|g| Some(&prims[g.start as usize..g.end as usize]))
-            .collect();
-        let bottoms = BottomLevels::new(groups.clone(), &object);
-        let t = GpuTwoLevel::new(gpu, bottoms.gpu_plan().expect("a plan")).unwrap();
-        let buffer = gpu.buffer_from("test.tree2.hard", prims, STORAGE).unwrap();
-        let got = gpu_two_level(gpu, &t, &buffer);
-        check_two_level(&got, &bottoms.tree(prims).unwrap(), what);
-    };
+    let check = |prims: &[LightPrim], groups, what: &str| check_groups(gpu, prims, groups, what);
     let one = random_lights(&mut rng, 1, 2.0);
     check(&one, std::iter::once(0..1).collect(), "one light");
     let many = random_lights(&mut rng, 777, 3.0);
@@ -799,14 +800,6 @@ fn two_level_gather_hard_cases() {
         vec![0..300, 300..600, 600..900],
         "zero-intensity lights and a black group",
     );
-    let plane: Vec<LightPrim> = random_lights(&mut rng, 800, 5.0)
-        .into_iter()
-        .map(|mut l| {
-            l.p0[1] = 2.5;
-            l.p1[1] = 2.5;
-            l.p2[1] = 2.5;
-            l
-        })
-        .collect();
+    let plane = in_plane_y(random_lights(&mut rng, 800, 5.0), 2.5);
     check(&plane, vec![0..250, 250..800], "lights in one plane");
 }
