@@ -24,6 +24,7 @@ pub mod metrics;
 pub mod provenance;
 pub mod scene;
 pub mod scene_file;
+pub mod scene_gen;
 
 /// The wgpu this crate is built on (version 30), so that a library user
 /// writing an [`integrand::Integrand`] needs no separate, matching

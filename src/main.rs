@@ -52,6 +52,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Sweep(args) => cli::sweep::run(args, ui),
         Command::Tune(args) => cli::tune::run(args, ui),
         Command::Bench(args) => cli::bench::run(args, ui),
+        Command::Scene(args) => cli::scene::run(args, ui),
         Command::Info => {
             let gpu = mdas::gpu::Gpu::shared()?;
             ui.result(format!(

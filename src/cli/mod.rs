@@ -7,6 +7,7 @@ pub(crate) mod compare;
 pub(crate) mod frames;
 pub(crate) mod reference;
 pub(crate) mod render;
+pub(crate) mod scene;
 pub(crate) mod sweep;
 pub(crate) mod tune;
 
@@ -292,6 +293,8 @@ pub(crate) enum Command {
     Bench(bench::BenchArgs),
     /// Print the GPU adapter, backend, features in use and key limits.
     Info,
+    /// Scene-file tools: `scene random` generates a random scene for an integrand, the same per seed.
+    Scene(scene::SceneArgs),
 }
 
 /// The film scale and the reference of an experiment (`compare`, `sweep`,
