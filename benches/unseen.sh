@@ -1,0 +1,56 @@
+#!/usr/bin/env bash
+# The battery of scenes nobody tuned (issue 48): MDAS with its defaults
+# (no [mdas] table: `MdasParams::for_film`) against Halton on scenes that
+# `mdas scene random` generates, at equal samples and — from the same
+# renders and `tune`'s time fit — at equal time.
+#
+# For each integrand and each of its fixed seeds: generate the scene
+# (128×96), then one `mdas tune SCENE --equal-samples --grid alpha=0.25`
+# per budget in SPPS (a one-row grid: the default α, so the scene's own
+# defaults; GRID sets other rows), 3 seeds per method, a cached Halton reference
+# of REF_SPP samples per pixel. `benches/unseen_summary.py` then prints
+# per integrand and budget: the win rate (MDAS's mean RelMSE ≤ Halton's
+# at the same spp), the geometric mean of the RelMSE ratio with a 95 %
+# bootstrap interval over scenes, the worst scene, MDAS's mean |relative
+# bias| (G channel) and the equal-time ratio (MDAS's RelMSE over Halton's
+# interpolated log-log at the spp Halton reaches in MDAS's time; beyond
+# 4× the budget, extrapolated along the last segment, and counted).
+# Timings need a quiet machine: run nothing else beside it.
+#
+#   benches/unseen.sh                         all of it (hours on 2 cores)
+#   N=4 SPPS="8" INTEGRANDS="motion_blur path" benches/unseen.sh
+#
+# Outputs in OUT (default out/unseen): scenes/, one tune directory per
+# scene and budget, battery.json and battery.md (the summary).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+cargo build --release --quiet
+mdas=target/release/mdas
+out=${OUT:-out/unseen}
+n=${N:-8}
+spps=${SPPS:-8 32}
+ref_spp=${REF_SPP:-2048}
+seeds=${SEEDS:-3}
+integrands=${INTEGRANDS:-area_light depth_of_field motion_blur path}
+# The grid of `tune` (default: one row, α at its default, so the scene's
+# own defaults); GRID="alpha=0.25,1 pixel_prior=0,1" compares variants.
+grid=${GRID:-alpha=0.25}
+# Further `tune` flags for every row (e.g. FLAGS="--max-samples-per-leaf 6").
+flags=${FLAGS:-}
+# Scene seeds, fixed so that a run is reproducible: the first N of these.
+scene_seeds=(101 202 303 404 505 606 707 808 909 1010 1111 1212 1313 1414 1515 1616)
+mkdir -p "$out/scenes"
+for t in $integrands; do
+    for k in "${scene_seeds[@]:0:$n}"; do
+        scene="$out/scenes/$t-$k.toml"
+        $mdas -q scene random --integrand "$t" --seed "$k" -o "$scene"
+        for spp in $spps; do
+            dir="$out/$t-$k-$spp"
+            echo "== $t seed $k, $spp spp $(date -u +%H:%M:%S)"
+            $mdas -q tune "$scene" --spp "$spp" --equal-samples --seeds "$seeds" \
+                --ref-spp "$ref_spp" $(printf -- '--grid %s ' $grid) $flags --out "$dir" \
+                > "$dir.log" 2>&1 || echo "   failed: see $dir.log"
+        done
+    done
+done
+python3 benches/unseen_summary.py "$out" | tee "$out/battery.md"

@@ -1,0 +1,99 @@
+#!/usr/bin/env python3
+"""Summary of benches/unseen.sh: reads OUT/<integrand>-<seed>-<spp>/tune.json
+and prints, per integrand and budget, MDAS (its defaults) against Halton:
+win rate, geometric mean of the RelMSE ratio with a 95 % bootstrap interval
+over scenes, the worst scene, MDAS's mean |relative bias| (G channel) and
+the equal-time ratio. Also writes OUT/battery.json. Standard library only.
+
+Equal time: tune fits Halton's time as a + b·spp and reports the spp
+Halton reaches in MDAS's time; Halton's RelMSE there is interpolated
+log-log between its budgets (½, 1, 2, 4 × MDAS's spp) and, past 4× or
+below ½×, extrapolated along the nearest segment (counted in the table).
+"""
+import json, math, os, random, re, sys
+
+out = sys.argv[1] if len(sys.argv) > 1 else "out/unseen"
+rows = []
+for name in sorted(os.listdir(out)):
+    m = re.fullmatch(r"([a-z_]+)-(\d+)-(\d+(?:\.\d+)?)", name)
+    path = os.path.join(out, name, "tune.json")
+    if not m or not os.path.exists(path):
+        continue
+    d = json.load(open(path))
+    halton = sorted(d["halton"], key=lambda h: h["spp"])
+    same = [h for h in halton if h["spp"] == d["spp"]]
+    if not same:
+        continue
+    h_same = same[0]["relmse"]
+    for r in d["rows"]:
+        t_spp = r["equal_time_halton_spp"]
+        extrapolated = False
+        eq_time = None
+        if t_spp and t_spp > 0:
+            xs = [math.log(h["spp"]) for h in halton]
+            ys = [math.log(h["relmse"]) for h in halton]
+            x = math.log(t_spp)
+            i = 0
+            while i < len(xs) - 2 and x > xs[i + 1]:
+                i += 1
+            extrapolated = x < xs[0] or x > xs[-1]
+            y = ys[i] + (ys[i + 1] - ys[i]) * (x - xs[i]) / (xs[i + 1] - xs[i])
+            eq_time = r["relmse"] / math.exp(y)
+        rows.append({
+            "integrand": m.group(1), "seed": int(m.group(2)), "spp": float(m.group(3)),
+            "mdas": r["relmse"], "mdas_ci95": r["relmse_ci95"], "halton": h_same,
+            "ratio": r["relmse"] / h_same, "bias_g": r["relative_bias"][1],
+            "bias_g_ci95": r["relative_bias_ci95"][1],
+            "mdas_ms": r["time_ms"], "halton_ms": same[0]["time_ms"],
+            "equal_time_ratio": eq_time, "equal_time_extrapolated": extrapolated,
+            "label": r["label"], "params": r["params"],
+        })
+
+def geomean(xs):
+    return math.exp(sum(math.log(x) for x in xs) / len(xs))
+
+def boot(xs, reps=4000):
+    rng = random.Random(48)
+    ms = sorted(geomean([rng.choice(xs) for _ in xs]) for _ in range(reps))
+    return ms[int(0.025 * reps)], ms[int(0.975 * reps) - 1]
+
+print(f"Battery of scenes nobody tuned ({out}); MDAS/Halton RelMSE, MDAS with its defaults\n")
+print("| integrand | spp | scenes | wins (≤ 1) | geo. mean [95 %] | worst (seed) | mean abs. bias (G) | MDAS time / Halton's | equal time geo. mean [95 %] (extrapolated) |")
+print("|---|---|---|---|---|---|---|---|---|")
+groups = {}
+for r in rows:
+    groups.setdefault((r["label"], r["spp"], r["integrand"]), []).append(r)
+labels = sorted({k[0] for k in groups})
+summary = []
+for label, spp in sorted({k[:2] for k in groups}):
+    all_ratios, all_bias, all_time = [], [], []
+    if len(labels) > 1:
+        print(f"| *{label}* | | | | | | | | |")
+    for (lab, s, t), rs in sorted(groups.items()):
+        if s != spp or lab != label:
+            continue
+        ratios = [r["ratio"] for r in rs]
+        wins = sum(x <= 1.0 for x in ratios)
+        gm, (lo, hi) = geomean(ratios), boot(ratios)
+        worst = max(rs, key=lambda r: r["ratio"])
+        bias = sum(abs(r["bias_g"]) for r in rs) / len(rs)
+        cost = geomean([r["mdas_ms"] / r["halton_ms"] for r in rs])
+        et = [r["equal_time_ratio"] for r in rs if r["equal_time_ratio"]]
+        ext = sum(r["equal_time_extrapolated"] for r in rs if r["equal_time_ratio"])
+        et_s = f"{geomean(et):.2f} [{boot(et)[0]:.2f}, {boot(et)[1]:.2f}] ({ext})" if et else "–"
+        print(f"| {t} | {spp:g} | {len(rs)} | {wins}/{len(rs)} ({100*wins/len(rs):.0f} %) | {gm:.2f} [{lo:.2f}, {hi:.2f}] | {worst['ratio']:.2f} ({worst['seed']}) | {100*bias:.2f} % | {cost:.2f} | {et_s} |")
+        summary.append({"label": label, "spp": spp, "integrand": t, "scenes": len(rs), "wins": wins,
+                        "geomean": gm, "geomean_ci95": [lo, hi], "worst": worst["ratio"],
+                        "worst_seed": worst["seed"], "mean_abs_bias_g": bias,
+                        "time_ratio_geomean": cost,
+                        "equal_time_geomean": geomean(et) if et else None,
+                        "equal_time_extrapolated": ext})
+        all_ratios += ratios
+        all_bias += [abs(r["bias_g"]) for r in rs]
+        all_time += et
+    if all_ratios:
+        lo, hi = boot(all_ratios)
+        et_s = f"{geomean(all_time):.2f} [{boot(all_time)[0]:.2f}, {boot(all_time)[1]:.2f}]" if all_time else "–"
+        wins = sum(x <= 1.0 for x in all_ratios)
+        print(f"| **all** | {spp:g} | {len(all_ratios)} | {wins}/{len(all_ratios)} | **{geomean(all_ratios):.2f} [{lo:.2f}, {hi:.2f}]** | {max(all_ratios):.2f} | {100*sum(all_bias)/len(all_bias):.2f} % | | {et_s} |")
+json.dump({"rows": rows, "summary": summary}, open(os.path.join(out, "battery.json"), "w"), indent=1)
