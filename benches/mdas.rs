@@ -130,6 +130,7 @@ fn bench(c: &mut Criterion) {
             pixel_prior: mdas::integrator::mdas::config::PIXEL_PRIOR,
             spp: 8.0,
             seed: 1,
+            auto_grid: false,
         };
         let mut mdas = Mdas::new(params).unwrap();
         let (warm, renders, parts) = timed_renders(c, &format!("mdas_4d_{label}"), || {

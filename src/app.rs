@@ -37,8 +37,13 @@ pub fn scaled_film(film: Film, scale: f32) -> Result<Film> {
 /// The scene's MDAS parameters for a `--scale F` render. The initial grid
 /// has 2^e cells per film axis (e = `extra_image_bits`) whatever the film
 /// size, so at a reduced scale e is lowered by round(log2(1/F)) (at least
-/// 0) to keep the same number of initial cells per pixel.
+/// 0) to keep the same number of initial cells per pixel. An automatic
+/// grid (`auto_grid`) is left as it is: each render chooses it for its own
+/// film.
 pub fn mdas_params_at_scale(params: MdasParams, scale: f32) -> MdasParams {
+    if params.auto_grid {
+        return params;
+    }
     let reduce = (1.0 / scale as f64).log2().round().max(0.0) as u32;
     MdasParams {
         extra_image_bits: params.extra_image_bits.saturating_sub(reduce),

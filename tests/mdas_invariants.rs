@@ -538,7 +538,8 @@ fn reconstruction_matches_the_cpu_oracle() {
             .fold(0.0f64, |m, v| m.max(v.abs() as f64));
         let runs = [(Reconstruction::Box, 1.0)]
             .into_iter()
-            .chain([0.0, 1.0, 2.5].map(|k| (Reconstruction::Pixel, k)));
+            .chain([0.0, 1.0, 2.5].map(|k| (Reconstruction::Pixel, k)))
+            .chain([0.0, 1.0].map(|k| (Reconstruction::Sampled, k)));
         let mut box_oracle = Vec::new();
         for (rule, kappa) in runs {
             let q = MdasParams {
@@ -583,4 +584,36 @@ fn reconstruction_matches_the_cpu_oracle() {
         }
     }
     assert!(pixel_differs, "no case has a leaf wider than a pixel");
+}
+
+/// The evaluate pass's loop (`Config::eval_per_invocation`: 8 on a CPU
+/// adapter, 1 on a GPU) changes which invocation evaluates a sample, not
+/// the sample or its value: 1, 3 and 8 samples per invocation give the
+/// same image, bit for bit, and the same sample count.
+#[test]
+fn evaluate_loop_changes_nothing() {
+    use mdas::integrator::{Integrator, Mdas};
+    let gpu = common::gpu();
+    for (name, case, dims, film, p) in cases() {
+        let integrand = common::TestIntegrand::new(gpu, case, dims, film);
+        let renders: Vec<_> = [1, 3, 8]
+            .map(|n| {
+                Mdas::new(p)
+                    .unwrap()
+                    .with_eval_per_invocation(n)
+                    .render(gpu, &integrand)
+                    .unwrap()
+            })
+            .into();
+        for r in &renders[1..] {
+            assert_eq!(r.samples, renders[0].samples, "{name}");
+            let bits = |r: &mdas::integrator::Render| {
+                r.image
+                    .iter()
+                    .flat_map(|p| p.map(f32::to_bits))
+                    .collect::<Vec<_>>()
+            };
+            assert_eq!(bits(r), bits(&renders[0]), "{name}");
+        }
+    }
 }

@@ -156,9 +156,9 @@ fn capacity_is_checked_against_the_adapter_before_any_work() {
     );
 }
 
-/// The film-derived defaults (a scene without `[mdas]` keys) render any
-/// film and dimension count at 1 spp: the initial grid never exceeds one
-/// sample per pixel, and a render takes the whole budget.
+/// The defaults of a scene without an `[mdas]` table fit any film and
+/// dimension count at 1 spp: the grid chosen for the render never holds
+/// more than the budget, and a render takes the whole budget.
 #[test]
 fn film_defaults_fit_one_spp_on_any_film() {
     let gpu = gpu();
@@ -171,11 +171,13 @@ fn film_defaults_fit_one_spp_on_any_film() {
             spp: 1.0,
             ..MdasParams::for_film(film)
         };
-        let initial = u64::from(p.initial_samples_per_cell) << (2 * p.extra_image_bits);
+        assert!(p.auto_grid);
+        let r = p.resolved(film);
+        let initial = u64::from(r.initial_samples_per_cell) << (2 * r.extra_image_bits);
         assert!(
             initial <= u64::from(w * h),
             "{w}×{h}: e = {}, {initial} initial samples",
-            p.extra_image_bits
+            r.extra_image_bits
         );
         for dims in [3, 4, 7] {
             if (w * h > 20_000) && dims != 4 {
@@ -184,6 +186,78 @@ fn film_defaults_fit_one_spp_on_any_film() {
             let integrand = TestIntegrand::new(gpu, 0, dims, film);
             let render = Mdas::new(p).unwrap().render(gpu, &integrand).unwrap();
             assert_eq!(render.samples, u64::from(w * h), "{w}×{h}, {dims}D");
+        }
+    }
+}
+
+/// The automatic grid (issue 48) over films and budgets: it never holds
+/// more than [`AUTO_INITIAL_SHARE`] of the budget (all of it only for a
+/// budget below two samples), its cells are no wider than a pixel
+/// whenever the budget gives each pixel-wide cell a sample within that
+/// share, they hold [`AUTO_MIN_SAMPLES_PER_CELL`] or more when the grid is
+/// finer than a pixel, and l stays within its range; `resolved` raises m
+/// to l + 1 and leaves a fixed grid alone.
+#[test]
+fn automatic_grid_fits_the_budget_and_the_pixels() {
+    use mdas::integrator::mdas::config::{
+        auto_grid, AUTO_INITIAL_SHARE, AUTO_MAX_SAMPLES_PER_CELL, AUTO_MIN_SAMPLES_PER_CELL,
+    };
+    for (w, h) in [
+        (1, 1),
+        (3, 2),
+        (16, 12),
+        (128, 96),
+        (96, 128),
+        (1000, 97),
+        (1920, 1080),
+        (4096, 4096),
+    ] {
+        let pixels = f64::from(w) * f64::from(h);
+        let pixel_fine = f64::from(w.max(h)).log2().ceil() as u32;
+        for spp in [
+            0.01f32, 0.5, 1.0, 2.0, 3.0, 4.5, 8.0, 16.0, 32.0, 64.0, 1024.0,
+        ] {
+            let budget = (f64::from(spp) * pixels).round().max(1.0);
+            let film = Film {
+                width: w,
+                height: h,
+            };
+            let (e, l) = auto_grid(film, spp);
+            let initial = f64::from(l) * 4f64.powi(e as i32);
+            let case = format!("{w}×{h} at {spp} spp: e = {e}, l = {l}");
+            assert!((1..=AUTO_MAX_SAMPLES_PER_CELL).contains(&l), "{case}");
+            assert!(e <= 13, "{case}");
+            assert!(initial <= budget, "{case}");
+            if budget >= 2.0 {
+                assert!(initial <= AUTO_INITIAL_SHARE * budget, "{case}");
+            }
+            let fits_pixel_fine = AUTO_INITIAL_SHARE * budget >= 4f64.powi(pixel_fine as i32);
+            if budget >= 2.0 {
+                assert_eq!(e >= pixel_fine, fits_pixel_fine, "{case}");
+            }
+            if e > pixel_fine {
+                assert!(l >= AUTO_MIN_SAMPLES_PER_CELL, "{case}");
+            }
+            let p = MdasParams {
+                spp,
+                max_samples_per_leaf: 4,
+                ..MdasParams::for_film(film)
+            };
+            let r = p.resolved(film);
+            assert_eq!(
+                (
+                    r.bits_per_dim,
+                    r.extra_image_bits,
+                    r.initial_samples_per_cell
+                ),
+                (0, e, l)
+            );
+            assert_eq!(r.max_samples_per_leaf, (l + 1).max(4), "{case}");
+            let fixed = MdasParams {
+                auto_grid: false,
+                ..p
+            };
+            assert_eq!(fixed.resolved(film), fixed);
         }
     }
 }

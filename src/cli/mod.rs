@@ -261,6 +261,10 @@ impl MdasArgs {
             pixel_prior: self.pixel_prior.unwrap_or(p.pixel_prior),
             spp: spp.unwrap_or(p.spp),
             seed: seed.unwrap_or(p.seed),
+            auto_grid: p.auto_grid
+                && self.bits_per_dim.is_none()
+                && self.extra_image_bits.is_none()
+                && self.initial_samples_per_cell.is_none(),
         }
     }
 }

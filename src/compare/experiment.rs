@@ -397,8 +397,12 @@ pub(crate) fn load_reference(
 }
 
 /// The smallest whole spp MDAS accepts with `params` (its budget must hold
-/// the initial samples, 2^(d·b+2e)·l).
+/// the initial samples, 2^(d·b+2e)·l; 1 with an automatic grid, which
+/// fits any budget).
 pub fn mdas_min_spp(params: MdasParams, integrand: &dyn Integrand) -> Result<u32> {
+    if params.auto_grid {
+        return Ok(1);
+    }
     let film = integrand.film();
     let pixels = film.width as u64 * film.height as u64;
     let bits = integrand.dims() * params.bits_per_dim + 2 * params.extra_image_bits;

@@ -138,8 +138,9 @@ pub(crate) fn write_outputs(o: &CompareOutputs) -> Result<Written> {
         )
     };
     if lo == hi {
-        density_caption +=
-            &format!("\nevery pixel has {lo} spp: no adaptation visible in film space");
+        density_caption += &format!(
+            "\nuniform: every pixel holds {lo:.2} samples,\nno adaptation visible in film space"
+        );
     }
     let caption = |name: &str, spp: f64, s: &super::seeds::SeedStats, flip: f64| {
         format!(

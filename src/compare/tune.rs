@@ -45,7 +45,7 @@ use std::collections::BTreeMap;
 
 /// The `[mdas]` keys a grid may vary (`split` and `reconstruction` take
 /// the rule names, stored as 0 = extent, 1 = contrast, 2 = trimmed and
-/// 0 = box, 1 = pixel).
+/// 0 = box, 1 = pixel, 2 = sampled).
 pub const GRID_KEYS: [&str; 11] = [
     "split",
     "reconstruction",
@@ -102,7 +102,7 @@ pub fn parse_grid_entry(s: &str) -> Result<(String, Vec<f64>)> {
             if key == "reconstruction" {
                 return v
                     .parse::<Reconstruction>()
-                    .map(|r| (r == Reconstruction::Pixel) as u32 as f64)
+                    .map(|r| Reconstruction::ALL.iter().position(|&x| x == r).unwrap() as f64)
                     .map_err(|e| anyhow::anyhow!("grid entry '{s}': {e}"));
             }
             v.parse::<f64>()
@@ -133,11 +133,9 @@ fn with_value(p: MdasParams, key: &str, v: f64) -> Result<MdasParams> {
                 .with_context(|| format!("split = {v}: 0 (extent), 1 (contrast) or 2 (trimmed)"))?
         }
         "reconstruction" => {
-            p.reconstruction = match int()? {
-                0 => Reconstruction::Box,
-                1 => Reconstruction::Pixel,
-                _ => bail!("reconstruction = {v}: 0 (box) or 1 (pixel)"),
-            }
+            p.reconstruction = *Reconstruction::ALL.get(int()? as usize).with_context(|| {
+                format!("reconstruction = {v}: 0 (box), 1 (pixel) or 2 (sampled)")
+            })?
         }
         "pixel_prior" => p.pixel_prior = v as f32,
         "alpha" => p.alpha = v as f32,
@@ -145,9 +143,19 @@ fn with_value(p: MdasParams, key: &str, v: f64) -> Result<MdasParams> {
         "scale_factor" => p.scale_factor = v as f32,
         "candidates" => p.candidates = int()?,
         "max_samples_per_leaf" => p.max_samples_per_leaf = int()?,
-        "initial_samples_per_cell" => p.initial_samples_per_cell = int()?,
-        "bits_per_dim" => p.bits_per_dim = int()?,
-        "extra_image_bits" => p.extra_image_bits = int()?,
+        "initial_samples_per_cell" | "bits_per_dim" | "extra_image_bits" => {
+            // The grid is then the configuration's: every key of it takes
+            // the (resolved) value the render would have chosen.
+            p = MdasParams {
+                auto_grid: false,
+                ..p
+            };
+            match key {
+                "initial_samples_per_cell" => p.initial_samples_per_cell = int()?,
+                "bits_per_dim" => p.bits_per_dim = int()?,
+                _ => p.extra_image_bits = int()?,
+            }
+        }
         _ => bail!("unknown grid key '{key}'"),
     }
     Ok(p)
@@ -187,8 +195,10 @@ fn configurations(base: MdasParams, grid: &[(String, Vec<f64>)]) -> Result<Vec<C
                 ("split", v) => SplitRule::ALL
                     .get(v as usize)
                     .map_or_else(|| format!("split={v}"), |r| format!("split={r}")),
-                ("reconstruction", 0.0) => "reconstruction=box".to_string(),
-                ("reconstruction", 1.0) => "reconstruction=pixel".to_string(),
+                ("reconstruction", v) => Reconstruction::ALL.get(v as usize).map_or_else(
+                    || format!("reconstruction={v}"),
+                    |r| format!("reconstruction={r}"),
+                ),
                 _ => format!("{key}={v}"),
             });
         }
@@ -281,7 +291,9 @@ pub fn tune(gpu: &Gpu, spec: &TuneSpec) -> Result<TuneReport> {
     let staged = StagedDir::new(&setup.out)?;
     let prepared = app::prepare(gpu, &setup.scene, setup.scale)?;
     let integrand = prepared.integrand.as_ref();
-    let base = (setup.mdas_params)(prepared.scene.mdas);
+    // An automatic grid resolved at this film and budget, so that a grid
+    // key of it (`extra_image_bits`, …) starts from the render's own choice.
+    let base = (setup.mdas_params)(prepared.scene.mdas).resolved(integrand.film());
     // The grid is checked before the reference is rendered.
     let (runnable, skipped) = runnable(base, &spec.grid, integrand)?;
     let (reference, path, cached) = setup.reference(gpu)?;
@@ -551,13 +563,23 @@ fn rank(rows: &mut [TuneRow], equal_samples: bool) {
     });
 }
 
-/// `p` as an `[mdas]` table.
+/// `p` as an `[mdas]` table. An automatic grid (`auto_grid`) is written
+/// as a comment, so that the table keeps choosing it per render.
 pub fn mdas_table(p: &MdasParams) -> String {
+    let grid = format!(
+        "bits_per_dim = {}\nextra_image_bits = {}\ninitial_samples_per_cell = {}\n",
+        p.bits_per_dim, p.extra_image_bits, p.initial_samples_per_cell
+    );
+    let grid = if p.auto_grid {
+        format!(
+            "# initial grid chosen per render from the film and budget; here:\n{}",
+            grid.lines().map(|l| format!("# {l}\n")).collect::<String>()
+        )
+    } else {
+        grid
+    };
     format!(
-        "[mdas]\nbits_per_dim = {}\nextra_image_bits = {}\ninitial_samples_per_cell = {}\nscale_factor = {}\nalpha = {}\nepsilon = {}\nsplit = \"{}\"\nreconstruction = \"{}\"\npixel_prior = {}\ncandidates = {}\nmax_samples_per_leaf = {}\nspp = {}\n",
-        p.bits_per_dim,
-        p.extra_image_bits,
-        p.initial_samples_per_cell,
+        "[mdas]\n{grid}scale_factor = {}\nalpha = {}\nepsilon = {}\nsplit = \"{}\"\nreconstruction = \"{}\"\npixel_prior = {}\ncandidates = {}\nmax_samples_per_leaf = {}\nspp = {}\n",
         p.scale_factor,
         p.alpha,
         p.epsilon,

@@ -41,6 +41,14 @@ impl Wgsl {
         self
     }
 
+    /// Declares `const NAME: f32 = value;` ahead of all parts (printed
+    /// with the shortest digits that read back as the same f32).
+    pub fn constant_f32(mut self, name: &str, value: f32) -> Self {
+        self.constants
+            .push(format!("const {name}: f32 = {value:?};"));
+        self
+    }
+
     /// Appends one file, as given by [`wgsl_file!`], or any (name, text)
     /// pair: borrowed `&'static str` or owned `String` (shader text read at
     /// run time needs no leaking).

@@ -75,6 +75,28 @@ pub struct HaltonParams {
     pub _pad: [u32; 3],
 }
 
+/// Samples an invocation evaluates in a loop by default on `gpu`:
+/// [`SAMPLES_PER_INVOCATION`] on a CPU adapter (lavapipe), whose cost per
+/// invocation is about that of eight samples, and 1 on a GPU, which wants
+/// no loop around the integrand (module docs). MDAS's evaluate pass takes
+/// the same ([`crate::integrator::mdas::config::Config::eval_per_invocation`]).
+pub fn default_samples_per_invocation(gpu: &Gpu) -> u32 {
+    if gpu.info.device_type == wgpu::DeviceType::Cpu {
+        SAMPLES_PER_INVOCATION
+    } else {
+        1
+    }
+}
+
+/// `n` lowered so that n samples of `integrand` stay within
+/// [`LOOP_BUDGET`] loop iterations (its [`Integrand::loop_iterations`]).
+pub fn within_loop_budget(n: u32, integrand: &dyn Integrand) -> u32 {
+    match integrand.loop_iterations() {
+        0 => n.max(1),
+        iterations => (LOOP_BUDGET / iterations).clamp(1, n.max(1)),
+    }
+}
+
 /// Progress callback: (samples per pixel done, spp).
 pub type Progress = Box<dyn FnMut(u32, u32)>;
 
@@ -116,16 +138,10 @@ impl Halton {
     /// The samples per invocation this integrator takes on `gpu` for
     /// `integrand`, before they are spread evenly over the slots.
     pub fn samples_per_invocation(&self, gpu: &Gpu, integrand: &dyn Integrand) -> u32 {
-        let default = if gpu.info.device_type == wgpu::DeviceType::Cpu {
-            SAMPLES_PER_INVOCATION
-        } else {
-            1
-        };
-        let n = self.per_invocation.unwrap_or(default);
-        match integrand.loop_iterations() {
-            0 => n,
-            iterations => (LOOP_BUDGET / iterations).clamp(1, n),
-        }
+        let n = self
+            .per_invocation
+            .unwrap_or_else(|| default_samples_per_invocation(gpu));
+        within_loop_budget(n, integrand)
     }
 
     /// Reports progress every few dispatches (waiting for the GPU to do so).

@@ -1,5 +1,8 @@
 //! `[mdas]`: [`MdasParams`]. A key left out takes its value from
-//! [`MdasParams::for_film`] of the scene's film (so does a missing table).
+//! [`MdasParams::for_film`] of the scene's film (so does a missing table);
+//! a table that gives none of `bits_per_dim`, `extra_image_bits` and
+//! `initial_samples_per_cell` leaves the initial grid to each render
+//! (`auto_grid`, [`crate::integrator::mdas::config::auto_grid`]).
 //! Only types are checked here (integers ≥ 0,
 //! finite numbers); the ranges are the integrator's own
 //! ([`crate::integrator::mdas::config::validate`]), and its error is
@@ -17,9 +20,15 @@ use std::ops::Range;
 impl Ctx<'_> {
     pub(super) fn mdas(&self, table: &S<RawMdas>, film: Film) -> Result<MdasParams> {
         let m = table.get_ref();
-        let d = MdasParams::for_film(film);
         let number =
             |v: &Option<S<Num>>, default: f32| v.as_ref().map_or(default, |v| v.get_ref().0);
+        // The defaults, with the automatic grid chosen at the table's spp.
+        let d = MdasParams::for_film(film);
+        let d = MdasParams {
+            spp: number(&m.spp, d.spp),
+            ..d
+        }
+        .resolved(film);
         let params = MdasParams {
             bits_per_dim: self.u32(&m.bits_per_dim, "bits_per_dim", 0, d.bits_per_dim)?,
             extra_image_bits: self.u32(
@@ -61,7 +70,14 @@ impl Ctx<'_> {
             pixel_prior: number(&m.pixel_prior, d.pixel_prior),
             spp: number(&m.spp, d.spp),
             seed: self.u32(&m.seed, "seed", 0, d.seed)?,
+            auto_grid: m.bits_per_dim.is_none()
+                && m.extra_image_bits.is_none()
+                && m.initial_samples_per_cell.is_none(),
         };
+        // A table that sets the budget or the leaf size but not the grid:
+        // the grid shown is the one chosen for them (renders choose again
+        // at their own film and budget).
+        let params = params.resolved(film);
         config::validate(&params).map_err(|e| {
             let span = self.mdas_key_span(m, e.key).unwrap_or_else(|| table.span());
             self.error(span, e.to_string())

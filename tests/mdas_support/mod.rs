@@ -22,6 +22,7 @@ pub fn params(bits: u32, extra: u32, l: u32, spp: f32, seed: u32) -> MdasParams 
         pixel_prior: mdas::integrator::mdas::config::PIXEL_PRIOR,
         spp,
         seed,
+        auto_grid: false,
     }
 }
 

@@ -5,11 +5,14 @@
 // centre of its quantum; its Morton cell was left in values[3s] by the
 // kernel that placed it.
 //
-// Invocation i evaluates sample first + i: neighbouring invocations take
-// neighbouring samples (one leaf's, or neighbouring leaves': coherent
-// rays), and every sample is in flight at once (on a GPU the integrand's
-// ray tracing is latency-bound: 4 samples per invocation halved the
-// H200's throughput, BENCHMARKS.md). No barrier and no atomic: the results
+// Invocation i of T = ⌈count / EVAL_PER_INVOCATION⌉ evaluates samples
+// first + i, first + i + T, …: neighbouring invocations take neighbouring
+// samples (one leaf's, or neighbouring leaves': coherent rays). On a GPU
+// EVAL_PER_INVOCATION is 1 and every sample is in flight at once (the
+// integrand's ray tracing is latency-bound: 4 samples per invocation
+// halved the H200's throughput, BENCHMARKS.md); on a CPU adapter it is
+// Halton's 8, since an invocation there costs about what eight samples
+// cost (DESIGN.md). No barrier and no atomic: the results
 // are stored as they are, and stats.wgsl counts non-finite ones and finds
 // max |f| once, before the reconstruction.
 
@@ -31,7 +34,15 @@ fn evaluate_sample(s: u32) {
 fn evaluate(@builtin(global_invocation_id) gid: vec3<u32>,
             @builtin(num_workgroups) groups: vec3<u32>) {
     let i = thread_index(gid, groups, WG);
-    if (i < state[S_EVAL_COUNT]) {
-        evaluate_sample(state[S_EVAL_FIRST] + i);
+    let count = state[S_EVAL_COUNT];
+    let invocations = (count + EVAL_PER_INVOCATION - 1u) / EVAL_PER_INVOCATION;
+    if (i >= invocations) {
+        return;
+    }
+    for (var j = 0u; j < EVAL_PER_INVOCATION; j++) {
+        let n = i + j * invocations;
+        if (n < count) {
+            evaluate_sample(state[S_EVAL_FIRST] + n);
+        }
     }
 }

@@ -35,7 +35,8 @@ fn write_args(at: u32, groups: u32) {
 
 // Workgroups of the evaluate dispatch for `count` samples (one each).
 fn evaluate_groups(count: u32) -> u32 {
-    return (count + WG - 1u) / WG;
+    let invocations = (count + EVAL_PER_INVOCATION - 1u) / EVAL_PER_INVOCATION;
+    return (invocations + WG - 1u) / WG;
 }
 
 @compute @workgroup_size(1)

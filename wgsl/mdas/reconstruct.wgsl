@@ -9,8 +9,15 @@
 // w·(Σ_{s in p} f_s + κ·f̄)/(n_p + κ) instead of w·f̄: the leaf's n_p finite
 // samples whose film position (as evaluate.wgsl placed them) lies in p,
 // pulled toward the leaf mean by κ = params.pixel_prior pseudo-samples
-// (f̄ alone where n_p = 0). The coordinates are read here, so the
-// accumulators then have their own buffer.
+// (f̄ alone where n_p = 0). With RECONSTRUCT_SAMPLED as well
+// (`reconstruction = "sampled"`), a leaf that has no sample in p adds f̄
+// there with the weight UNSAMPLED_WEIGHT·w (2⁻¹⁶·w) instead of w: a pixel
+// is estimated from the leaves that placed samples in it, so a leaf
+// straddling an edge does not carry its mean (a lamp's, say) onto a pixel
+// where it has no sample; only a pixel that no leaf sampled is the
+// overlap-weighted mean of the leaf means, as with the box. The
+// coordinates are read here, so the accumulators then have their own
+// buffer.
 //
 // Sums are 64-bit two's-complement fixed point, added with a 32-bit
 // atomicAdd on the low word and the carry folded into the high word:
@@ -112,7 +119,7 @@ fn reconstruct(@builtin(global_invocation_id) gid: vec3<u32>,
         if (ox <= 0.0 || oy <= 0.0) {
             continue;
         }
-        let w = ox * oy * nonfilm;
+        var w = ox * oy * nonfilm;
         var value = m.mean;
         if (RECONSTRUCT_PIXEL != 0u) {
             var count = 0u;
@@ -128,6 +135,8 @@ fn reconstruct(@builtin(global_invocation_id) gid: vec3<u32>,
                         value += value_of[n] * inv;
                     }
                 }
+            } else if (RECONSTRUCT_SAMPLED != 0u) {
+                w *= UNSAMPLED_WEIGHT;
             }
         }
         let word = 8u * (j * params.width + i);

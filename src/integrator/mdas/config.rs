@@ -50,6 +50,13 @@ pub struct MdasParams {
     pub pixel_prior: f32,
     pub spp: f32,
     pub seed: u32,
+    /// Whether the initial grid (b, e, l) is chosen when the render starts,
+    /// from its film and budget ([`MdasParams::resolved`]), rather than
+    /// taken from `bits_per_dim`, `extra_image_bits` and
+    /// `initial_samples_per_cell`: true for a scene whose `[mdas]` table
+    /// gives none of the three ([`MdasParams::for_film`]), false once any
+    /// of them is set (in the table, by a flag or a `tune` grid).
+    pub auto_grid: bool,
 }
 
 impl Default for MdasParams {
@@ -68,6 +75,7 @@ impl Default for MdasParams {
             pixel_prior: PIXEL_PRIOR,
             spp: 8.0,
             seed: 0,
+            auto_grid: false,
         }
     }
 }
@@ -163,15 +171,32 @@ pub enum Reconstruction {
     /// in the paper or its code; κ → ∞ is `Box`.
     #[default]
     Pixel,
+    /// `Pixel`, except that a leaf's part of a pixel where the leaf has no
+    /// sample enters that pixel with [`UNSAMPLED_WEIGHT`] × its overlap
+    /// instead of its full overlap: each pixel is estimated from the
+    /// samples that landed in it, and falls back to the overlap-weighted
+    /// leaf means only where no leaf placed a sample. A leaf straddling
+    /// an edge then moves no value onto a pixel it did not sample — the
+    /// failure of `Pixel` on small bright emitters (a lamp's leaf mean
+    /// spread onto the black pixels beside it). Biased toward the sampled
+    /// parts of a pixel where a pixel is only partly sampled. The default
+    /// of [`MdasParams::for_film`] (with κ = 0). Not in the paper or its
+    /// code.
+    Sampled,
 }
 
 impl Reconstruction {
-    pub const ALL: [Reconstruction; 2] = [Reconstruction::Box, Reconstruction::Pixel];
+    pub const ALL: [Reconstruction; 3] = [
+        Reconstruction::Box,
+        Reconstruction::Pixel,
+        Reconstruction::Sampled,
+    ];
 
     pub fn name(self) -> &'static str {
         match self {
             Reconstruction::Box => "box",
             Reconstruction::Pixel => "pixel",
+            Reconstruction::Sampled => "sampled",
         }
     }
 }
@@ -182,7 +207,9 @@ impl std::str::FromStr for Reconstruction {
         Reconstruction::ALL
             .into_iter()
             .find(|r| r.name() == s)
-            .ok_or_else(|| format!("unknown reconstruction '{s}', expected 'box' or 'pixel'"))
+            .ok_or_else(|| {
+                format!("unknown reconstruction '{s}', expected 'box', 'pixel' or 'sampled'")
+            })
     }
 }
 
@@ -193,27 +220,100 @@ impl std::fmt::Display for Reconstruction {
 }
 
 impl MdasParams {
-    /// Defaults that fit any film at a budget of 1 spp or more: no initial
-    /// bits in the non-image dimensions (b = 0, so the grid does not grow
-    /// with the dimension count), e = ⌊log2(min(w, h) / 2)⌋ (initial cells
-    /// about two pixels wide on the shorter axis; at most 13), and
-    /// l = c = m = 4 (the paper's usual values; l fewer on films of under
-    /// four pixels), so the initial grid holds l·2^(2e) ≤ w·h samples. The
-    /// rest as [`Default`].
+    /// The defaults of a scene file's `[mdas]` table: the initial grid
+    /// chosen per render from the film and the budget (`auto_grid`, see
+    /// [`auto_grid`]; the b, e and l stored here are its choice at the
+    /// default 8 spp), α = [`AUTO_ALPHA`], the `Sampled` reconstruction
+    /// with κ = 0 (each pixel from its own samples), and the rest as
+    /// [`Default`]. On scenes nobody tuned these replaced a grid of cells
+    /// two pixels wide holding 1 spp or less, with α = 1/4 and the `Pixel`
+    /// reconstruction (κ = 1), which lost to Halton 1.4–60× at equal
+    /// samples (BENCHMARKS.md, issue 48).
     pub fn for_film(film: Film) -> MdasParams {
-        let shorter = film.width.min(film.height).max(1) as f64;
-        let e = (shorter / 2.0).log2().floor().clamp(0.0, 13.0) as u32;
-        let pixels = u64::from(film.width) * u64::from(film.height);
-        let l = (pixels >> (2 * e)).clamp(1, 4) as u32;
+        MdasParams {
+            auto_grid: true,
+            alpha: AUTO_ALPHA,
+            reconstruction: Reconstruction::Sampled,
+            pixel_prior: 0.0,
+            ..MdasParams::default()
+        }
+        .resolved(film)
+    }
+
+    /// These parameters with the initial grid chosen for `film` at their
+    /// budget when `auto_grid` is set ([`auto_grid`]); unchanged otherwise.
+    pub fn resolved(self, film: Film) -> MdasParams {
+        if !self.auto_grid {
+            return self;
+        }
+        let (e, l) = auto_grid(film, self.spp);
         MdasParams {
             bits_per_dim: 0,
             extra_image_bits: e,
             initial_samples_per_cell: l,
-            candidates: 4,
-            max_samples_per_leaf: 4,
-            ..MdasParams::default()
+            max_samples_per_leaf: self.max_samples_per_leaf.max(l + 1),
+            ..self
         }
     }
+}
+
+/// The share of the budget an automatic initial grid aims to spend on its
+/// stratified initial samples ([`auto_grid`]); the rest is value-driven.
+/// On three scenes nobody tuned (motion blur, a small lamp in view, an
+/// indirectly lit room; 128×96, 8 and 32 spp) every step from 2/3 to 1
+/// lowered the RelMSE, by up to 1.6× (BENCHMARKS.md, issue 48): the
+/// stratified grid carries most of MDAS's gain there, and 1/6 is kept for
+/// the value-driven samples, which pay on the scenes with features to find.
+pub const AUTO_INITIAL_SHARE: f64 = 5.0 / 6.0;
+/// α of a scene without an `[mdas]` table ([`MdasParams::for_film`]).
+/// With most of the budget in the stratified grid, the value-driven rest
+/// pays only when it goes to the leaves of highest error: on 16 generated
+/// scenes at 8 spp α = 1 had 0.96× Halton's RelMSE against 1.04× for
+/// α = 1/2 and 1.17× for 1/4 (geometric means; BENCHMARKS.md, issue 48).
+/// It costs time: each iteration selects fewer leaves, so more iterations
+/// run (2.4–4.6× Halton's time per render on lavapipe there, against
+/// 1.6–1.7× at α = 1/4).
+pub const AUTO_ALPHA: f32 = 1.0;
+/// Fewest samples per cell an automatic grid accepts before it takes a
+/// coarser one, down to cells a pixel wide ([`auto_grid`]).
+pub const AUTO_MIN_SAMPLES_PER_CELL: u32 = 4;
+/// Most samples per cell of an automatic grid.
+pub const AUTO_MAX_SAMPLES_PER_CELL: u32 = 8;
+
+/// The initial grid `(e, l)` (with b = 0) of a render of `film` at `spp`
+/// when `auto_grid` is set ([`MdasParams::resolved`], which also raises
+/// m to l + 1, so that an initial cell takes a value-driven sample before
+/// it splits): the finest film grid — down from one level finer than a pixel
+/// (cells at most half a pixel wide on the longer axis) — whose cells each
+/// take [`AUTO_MIN_SAMPLES_PER_CELL`] initial samples within
+/// [`AUTO_INITIAL_SHARE`] of the budget N, with l = ⌊share · N / 4^e⌋
+/// samples per cell (at most [`AUTO_MAX_SAMPLES_PER_CELL`]). Where no such
+/// grid is finer than a pixel, the pixel-fine grid with l ≥ 1 if the budget
+/// allows, else the finest coarser grid with l ≥ 1. A pixel-fine grid keeps
+/// a cell's samples from being reconstructed into pixels they never
+/// touched (small bright features), and the large initial share keeps
+/// value-driven selection — where MDAS's bias and its losses on untuned
+/// scenes came from — to the rest of the budget.
+pub fn auto_grid(film: Film, spp: f32) -> (u32, u32) {
+    let pixels = f64::from(film.width) * f64::from(film.height);
+    let budget = (f64::from(spp) * pixels).round().max(1.0);
+    let longer = f64::from(film.width.max(film.height).max(1));
+    let pixel_fine = (longer.log2().ceil() as u32).min(12);
+    let per_cell = |e: u32| (AUTO_INITIAL_SHARE * budget / 4f64.powi(e as i32)).floor();
+    let pick = |e: u32, l: f64| (e, (l as u32).min(AUTO_MAX_SAMPLES_PER_CELL));
+    for e in (pixel_fine..=pixel_fine + 1).rev() {
+        let l = per_cell(e);
+        if l >= f64::from(AUTO_MIN_SAMPLES_PER_CELL) {
+            return pick(e, l);
+        }
+    }
+    for e in (0..=pixel_fine).rev() {
+        let l = per_cell(e);
+        if l >= 1.0 {
+            return pick(e, l);
+        }
+    }
+    (0, 1)
 }
 
 /// Sample indices live in 27 bits of a leaf header (the rest: a 4-bit
@@ -248,6 +348,15 @@ pub const MAX_EPSILON: f32 = 1e6;
 /// lowest RelMSE, or within its interval of it, among 0, ½, 1 and 2 on
 /// six scenes: BENCHMARKS.md).
 pub const PIXEL_PRIOR: f32 = 1.0;
+/// Under [`Reconstruction::Sampled`], the factor on the weight of a leaf's
+/// part of a pixel where the leaf has no sample (2⁻¹⁶): the pixel is
+/// estimated from the leaves that sampled it, and falls back to the
+/// overlap-weighted leaf means only where no leaf did. With the plain
+/// weight a leaf straddling a lamp's edge put its mean on the dark pixel
+/// beside it: MDAS/Halton RelMSE 60–140× on a small lamp in view
+/// (BENCHMARKS.md, issue 48). Small enough to vanish beside a sampled
+/// part, large enough for the fixed-point sums to keep 44 bits of weight.
+pub const UNSAMPLED_WEIGHT: f32 = 1.0 / 65536.0;
 /// Largest κ accepted (beyond it `Pixel` equals `Box` to f32 precision).
 pub const MAX_PIXEL_PRIOR: f32 = 1e6;
 
@@ -365,6 +474,13 @@ pub struct Config {
     /// How the per-sample and per-leaf arrays are split across bindings
     /// ([`Config::paged`]; one binding each as made by [`Config::new`]).
     pub pages: Pages,
+    /// Samples one invocation of the evaluate pass takes, in a loop (1 as
+    /// made by [`Config::new`]; [`super::Mdas::config_for`] sets the
+    /// adapter's, as Halton's: 8 on a CPU adapter, 1 on a GPU). Invocation
+    /// i of T evaluates new samples i, i + T, i + 2T, …, so neighbouring
+    /// invocations still take neighbouring samples. The samples and their
+    /// values are the same either way.
+    pub eval_per_invocation: u32,
 }
 
 /// The arrays that grow with the budget, in the order of their extra
@@ -455,6 +571,7 @@ impl Pages {
 impl Config {
     pub fn new(params: MdasParams, dims: u32, film: Film, max_iterations: u32) -> Result<Config> {
         validate(&params)?;
+        let params = params.resolved(film);
         if !(3..=MAX_DIMS).contains(&dims) {
             bail!("MDAS supports integrands of 3..={MAX_DIMS} dimensions (film included); this one has {dims}");
         }
@@ -510,6 +627,7 @@ impl Config {
                 shift: 31,
                 count: [1; 4],
             },
+            eval_per_invocation: 1,
         })
     }
 
@@ -721,8 +839,14 @@ impl Config {
             )
             .constant(
                 "RECONSTRUCT_PIXEL",
-                (self.params.reconstruction == Reconstruction::Pixel) as u32,
+                (self.params.reconstruction != Reconstruction::Box) as u32,
             )
+            .constant(
+                "RECONSTRUCT_SAMPLED",
+                (self.params.reconstruction == Reconstruction::Sampled) as u32,
+            )
+            .constant_f32("UNSAMPLED_WEIGHT", UNSAMPLED_WEIGHT)
+            .constant("EVAL_PER_INVOCATION", self.eval_per_invocation)
             .constant("COORD_WORDS", self.coord_words)
             .constant("SAMPLE_STRIDE", self.sample_stride)
             .constant("LEAF_STRIDE", self.leaf_stride)

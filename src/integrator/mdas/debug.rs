@@ -201,7 +201,9 @@ impl Snapshot {
     /// and each pixel its film box overlaps, the overlap area × the
     /// non-film volume times the leaf's value for that pixel — its mean
     /// f̄ (`Box`), or (Σ_{s in p} f_s + κ·f̄)/(n_p + κ) over its finite
-    /// samples in the pixel (`Pixel`, f̄ where there are none) — divided
+    /// samples in the pixel (`Pixel` and `Sampled`; where there are none,
+    /// f̄, with the weight scaled by [`super::config::UNSAMPLED_WEIGHT`]
+    /// under `Sampled`) — divided
     /// by the pixel's weight sum; NaN where no leaf has a finite sample.
     pub fn reconstruct(&self) -> Vec<[f64; 3]> {
         let (w, h) = (self.film.width as usize, self.film.height as usize);
@@ -233,15 +235,19 @@ impl Snapshot {
                     if ox <= 0.0 || oy <= 0.0 {
                         continue;
                     }
-                    let weight = ox * oy * nonfilm;
+                    let mut weight = ox * oy * nonfilm;
                     let mut value = mean;
-                    if self.params.reconstruction == Reconstruction::Pixel {
+                    if self.params.reconstruction != Reconstruction::Box {
                         let own: Vec<&[f32; 3]> = finite
                             .iter()
                             .filter(|(p, _)| *p == j * w + i)
                             .map(|(_, v)| v)
                             .collect();
-                        if !own.is_empty() {
+                        if own.is_empty() {
+                            if self.params.reconstruction == Reconstruction::Sampled {
+                                weight *= super::config::UNSAMPLED_WEIGHT as f64;
+                            }
+                        } else {
                             let n = own.len() as f64;
                             value = std::array::from_fn(|c| {
                                 (own.iter().map(|v| v[c] as f64).sum::<f64>() + kappa * mean[c])

@@ -9,7 +9,10 @@
 //! with `reconstruction = "pixel"` ([`Reconstruction::Pixel`], not in the
 //! paper), each pixel's part of a leaf estimated from the leaf's samples in
 //! that pixel, pulled toward the leaf mean, so that a leaf wider than a
-//! pixel does not spread one value across a film-space edge inside it.
+//! pixel does not spread one value across a film-space edge inside it;
+//! with `"sampled"` ([`Reconstruction::Sampled`], the default of a scene
+//! without a table, also not in the paper) a leaf's part of a pixel where
+//! it has no sample counts only where no leaf sampled that pixel.
 //!
 //! | phase (`Render::times`) | kernel | paper |
 //! |---|---|---|
@@ -46,6 +49,9 @@
 //! | `bits_per_dim` b | Morton bits per axis of the initial grid | d·b + 2e ≤ 27 |
 //! | `extra_image_bits` e | extra, high-order bits per film axis | b + e ≤ 13 |
 //! | `initial_samples_per_cell` l | samples per grid cell | 1..=m |
+//! | `auto_grid` | b, e, l chosen per render from its film and budget ([`config::auto_grid`]; a scene without them) | — |
+//! | `reconstruction` | `box` (eq. 7), `pixel` or `sampled` ([`Reconstruction`]) | — |
+//! | `pixel_prior` κ | the leaf mean's weight in a pixel's estimate | 0..=10⁶ |
 //! | `scale_factor` sf | film axes measure sf·W, sf·H for splitting and distances | > 0 |
 //! | `alpha` α | selection (E/E_max)^α ≥ ξ; 0 selects every leaf | 0..=64 |
 //! | `candidates` | best-candidate tries | 1..=64 |
@@ -195,6 +201,8 @@ pub struct Mdas {
     /// Cap on a page of the paged arrays (default: the adapter's largest
     /// storage binding).
     max_page_bytes: Option<u64>,
+    /// Override of [`Config::eval_per_invocation`].
+    eval_per_invocation: Option<u32>,
     args_layout: Option<wgpu::BindGroupLayout>,
     pipelines: HashMap<(String, Option<wgpu::BindGroupLayout>), Pipelines>,
     /// Statistics of the last render.
@@ -266,6 +274,7 @@ impl Mdas {
             max_iterations: MAX_ITERATIONS_DEFAULT,
             layouts: HashMap::new(),
             max_page_bytes: None,
+            eval_per_invocation: None,
             args_layout: None,
             pipelines: HashMap::new(),
             last: None,
@@ -351,8 +360,23 @@ impl Mdas {
     /// The configuration a render of `integrand` on `gpu` uses: paged
     /// for the adapter's limits and checked against them.
     pub fn config_for(&self, gpu: &Gpu, integrand: &dyn Integrand) -> Result<Config> {
-        self.config(integrand)?
-            .for_limits(&gpu.limits, self.max_page_bytes)
+        let mut cfg = self
+            .config(integrand)?
+            .for_limits(&gpu.limits, self.max_page_bytes)?;
+        cfg.eval_per_invocation = super::halton::within_loop_budget(
+            self.eval_per_invocation
+                .unwrap_or_else(|| super::halton::default_samples_per_invocation(gpu)),
+            integrand,
+        );
+        Ok(cfg)
+    }
+
+    /// Evaluates at most `n` samples per invocation in the evaluate pass
+    /// instead of the adapter's default ([`Config::eval_per_invocation`]);
+    /// the image is the same.
+    pub fn with_eval_per_invocation(mut self, n: u32) -> Self {
+        self.eval_per_invocation = Some(n.max(1));
+        self
     }
 
     fn layout(&mut self, gpu: &Gpu, cfg: &Config) -> wgpu::BindGroupLayout {
