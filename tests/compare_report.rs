@@ -336,8 +336,8 @@ fn compare_area_light_plane_writes_a_consistent_report() {
 #[test]
 fn compare_cornell_writes_every_file() {
     let out = temp_dir("cornell");
-    // 16 spp: the scene's two samples per initial cell fill 8 spp, so MDAS
-    // adapts (and reports its error and adaptive phases) only above it.
+    // 16 spp: MDAS adapts (and reports its error and adaptive phases);
+    // its automatic grid leaves 1/6 of any budget to adaptive samples.
     let params = params_at(0.125, Some(16.0));
     compare(
         gpu(),

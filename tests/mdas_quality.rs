@@ -550,3 +550,66 @@ fn render_reports_phases_and_memory() {
     let per_sample = r.gpu_bytes as f64 / r.samples as f64;
     assert!(per_sample < 40.1, "{per_sample} B per sample");
 }
+
+/// Exact pixel means of test case 7: 400 × the overlap of pixel (i, j)
+/// with the lamp [5.3, 7.6) × [4.2, 5.5).
+fn lamp_image(film: Film) -> Vec<[f32; 3]> {
+    let overlap = |lo: f64, hi: f64, p: u32| (hi.min(p as f64 + 1.0) - lo.max(p as f64)).max(0.0);
+    (0..film.height)
+        .flat_map(|j| {
+            (0..film.width)
+                .map(move |i| [(400.0 * overlap(5.3, 7.6, i) * overlap(4.2, 5.5, j)) as f32; 3])
+        })
+        .collect()
+}
+
+/// A small lamp of radiance 400 on black (test case 7, exact pixel means),
+/// with the defaults of a scene that has no `[mdas]` table, at 8 spp: the
+/// `street_lights` failure of issue 48, where leaves and the per-pixel
+/// reconstruction carried a lamp's mean onto the black pixels beside it
+/// (RelMSE 26–32 against Halton's 0.5 there). Over 4 seeds MDAS's mean
+/// RelMSE must stay within 2× Halton's at the same spp (the issue's "no
+/// scene worse than 2×"; measured: see the eprintln). The `pixel`
+/// reconstruction with κ = 1 on the same grid, the old default's way of
+/// filling pixels, is checked to leak: it must read over 4× Halton's, so
+/// the bound is one this mechanism can fail (measured far above it).
+#[test]
+fn small_bright_lamp_does_not_leak_onto_black_pixels() {
+    use mdas::integrator::mdas::Reconstruction;
+    let gpu = gpu();
+    let film = Film {
+        width: 16,
+        height: 12,
+    };
+    let exact = lamp_image(film);
+    let integrand = TestIntegrand::new(gpu, 7, 3, film);
+    let mean =
+        |f: &dyn Fn(u32) -> Vec<[f32; 3]>| (0..4).map(|s| relmse(&f(s), &exact)).sum::<f64>() / 4.0;
+    let defaults = MdasParams {
+        spp: 8.0,
+        ..MdasParams::for_film(film)
+    };
+    let mdas = mean(&|seed| {
+        let p = MdasParams { seed, ..defaults };
+        Mdas::new(p).unwrap().render(gpu, &integrand).unwrap().image
+    });
+    let leaky = mean(&|seed| {
+        let p = MdasParams {
+            seed,
+            reconstruction: Reconstruction::Pixel,
+            pixel_prior: 1.0,
+            ..defaults
+        };
+        Mdas::new(p).unwrap().render(gpu, &integrand).unwrap().image
+    });
+    let halton = mean(&|seed| Halton::new(8, seed).render(gpu, &integrand).unwrap().image);
+    eprintln!("RelMSE: MDAS {mdas:.3e}, pixel κ = 1 {leaky:.3e}, Halton {halton:.3e}");
+    assert!(
+        mdas <= 2.0 * halton,
+        "MDAS {mdas:.3e} against Halton {halton:.3e}"
+    );
+    assert!(
+        leaky > 4.0 * halton,
+        "pixel κ = 1 {leaky:.3e} against Halton {halton:.3e}"
+    );
+}

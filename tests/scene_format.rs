@@ -105,16 +105,20 @@ fn cornell_box_loads_with_closed_outward_blocks_and_the_ceiling_light() {
     let s = scene_file::load(&scene_path("cornell.toml")).unwrap();
     assert_eq!((s.scene.film.width, s.scene.film.height), (256, 256));
     assert_eq!(s.integrand, IntegrandSpec::AreaLight);
+    // The defaults of an untuned scene, with the grid chosen for 256×256
+    // at 8 spp: cells of a pixel, 6 samples each (5/6 of the budget).
     let m = s.mdas;
+    assert!(m.auto_grid);
     assert_eq!(
         (
-            m.scale_factor,
             m.bits_per_dim,
             m.extra_image_bits,
+            m.initial_samples_per_cell,
+            m.max_samples_per_leaf,
             m.alpha,
             m.spp
         ),
-        (1.0, 1, 7, 0.25, 8.0)
+        (0, 8, 6, 7, 1.0, 8.0)
     );
     // 5 walls + 2 blocks + the light.
     assert_eq!(s.scene.meshes.len(), 8);

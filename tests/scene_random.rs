@@ -480,6 +480,20 @@ fn mdas(args: &[&str]) -> Output {
         .expect("run mdas")
 }
 
+/// `mdas scene random --integrand path --seed 3 -o OUT`.
+fn path_seed_3_to(out: &str) -> Output {
+    mdas(&[
+        "scene",
+        "random",
+        "--integrand",
+        "path",
+        "--seed",
+        "3",
+        "-o",
+        out,
+    ])
+}
+
 fn temp_dir(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("mdas-scene-random-{name}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
@@ -501,24 +515,14 @@ fn cli_writes_the_same_file_twice_and_refuses_special_files() {
     let dir = temp_dir("cli");
     let out = dir.join("tmp.toml");
     let o = out.to_str().unwrap();
-    let args = [
-        "scene",
-        "random",
-        "--integrand",
-        "path",
-        "--seed",
-        "3",
-        "-o",
-        o,
-    ];
-    let first = mdas(&args);
+    let first = path_seed_3_to(o);
     assert!(
         first.status.success(),
         "{}",
         String::from_utf8_lossy(&first.stderr)
     );
     let a = std::fs::read_to_string(&out).unwrap();
-    let second = mdas(&args);
+    let second = path_seed_3_to(o);
     assert!(second.status.success());
     assert_eq!(a, std::fs::read_to_string(&out).unwrap());
     let expected = random_scene(GenIntegrand::Path, 3, &GenOptions::default());
@@ -534,16 +538,7 @@ fn cli_writes_the_same_file_twice_and_refuses_special_files() {
     let sub = dir.join("sub");
     std::fs::create_dir(&sub).unwrap();
     std::fs::write(sub.join("keep"), b"x").unwrap();
-    let o = mdas(&[
-        "scene",
-        "random",
-        "--integrand",
-        "path",
-        "--seed",
-        "3",
-        "-o",
-        sub.to_str().unwrap(),
-    ]);
+    let o = path_seed_3_to(sub.to_str().unwrap());
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && err.contains("directory"), "{err}");
     assert!(!err.contains("panicked"), "{err}");
@@ -553,16 +548,7 @@ fn cli_writes_the_same_file_twice_and_refuses_special_files() {
     let fifo = dir.join("fifo.toml");
     let made = Command::new("mkfifo").arg(&fifo).status();
     if made.is_ok_and(|s| s.success()) {
-        let o = mdas(&[
-            "scene",
-            "random",
-            "--integrand",
-            "path",
-            "--seed",
-            "3",
-            "-o",
-            fifo.to_str().unwrap(),
-        ]);
+        let o = path_seed_3_to(fifo.to_str().unwrap());
         let err = String::from_utf8_lossy(&o.stderr);
         assert!(
             !o.status.success() && err.contains("not a regular file"),

@@ -135,7 +135,7 @@ fn integrands() -> Vec<Integrand> {
         let name = format!("many_light[lgh, triangles={triangles}]");
         all.push(one(&name, dims, wgsl, many_light::layout_entries()));
     }
-    for case in 0..=6 {
+    for case in 0..=7 {
         let wgsl = common::test_integrand_source(case);
         let group1 = common::test_integrand_layout_entries();
         all.push(one(&format!("test[case={case}]"), 3, wgsl, group1));

@@ -29,6 +29,14 @@ impl Ctx<'_> {
             ..d
         }
         .resolved(film);
+        // Before an automatic grid raises it to l + 1: a table that fixes
+        // the grid keeps the plain default, and a missing l stays within it.
+        let max_samples_per_leaf = self.u32(
+            &m.max_samples_per_leaf,
+            "max_samples_per_leaf",
+            0,
+            MdasParams::default().max_samples_per_leaf,
+        )?;
         let params = MdasParams {
             bits_per_dim: self.u32(&m.bits_per_dim, "bits_per_dim", 0, d.bits_per_dim)?,
             extra_image_bits: self.u32(
@@ -41,17 +49,12 @@ impl Ctx<'_> {
                 &m.initial_samples_per_cell,
                 "initial_samples_per_cell",
                 0,
-                d.initial_samples_per_cell,
+                d.initial_samples_per_cell.min(max_samples_per_leaf.max(1)),
             )?,
             scale_factor: number(&m.scale_factor, d.scale_factor),
             alpha: number(&m.alpha, d.alpha),
             candidates: self.u32(&m.candidates, "candidates", 0, d.candidates)?,
-            max_samples_per_leaf: self.u32(
-                &m.max_samples_per_leaf,
-                "max_samples_per_leaf",
-                0,
-                d.max_samples_per_leaf,
-            )?,
+            max_samples_per_leaf,
             epsilon: number(&m.epsilon, d.epsilon),
             split: match &m.split {
                 None => d.split,
@@ -74,15 +77,25 @@ impl Ctx<'_> {
                 && m.extra_image_bits.is_none()
                 && m.initial_samples_per_cell.is_none(),
         };
-        // A table that sets the budget or the leaf size but not the grid:
-        // the grid shown is the one chosen for them (renders choose again
-        // at their own film and budget).
-        let params = params.resolved(film);
-        config::validate(&params).map_err(|e| {
+        // The values as written are checked; an automatic grid (none of its
+        // keys written) is checked with one sample per cell, since its l
+        // is chosen per render and raises m to l + 1 if need be.
+        let written = if params.auto_grid {
+            MdasParams {
+                initial_samples_per_cell: 1,
+                ..params
+            }
+        } else {
+            params
+        };
+        config::validate(&written).map_err(|e| {
             let span = self.mdas_key_span(m, e.key).unwrap_or_else(|| table.span());
             self.error(span, e.to_string())
         })?;
-        Ok(params)
+        // A table that sets the budget or the leaf size but not the grid:
+        // the grid shown is the one chosen for them (renders choose again
+        // at their own film and budget).
+        Ok(params.resolved(film))
     }
 
     /// Where `key` is written in the table, if it is.

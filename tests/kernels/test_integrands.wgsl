@@ -14,6 +14,9 @@
 //      to (11, 7) over u[0] (motion blur), else 0. Pixel means have no
 //      closed form; on a film of at least 14×10 the disk never leaves it,
 //      so the film total is π·2.5² at every time, and so overall.
+//   7: f = 400 inside the rectangle [5.3, 7.6) × [4.2, 5.5) of the film,
+//      else 0: a small, very bright lamp on black (issue 48). Pixel mean
+//      = 400 × the pixel's overlap with the rectangle.
 
 @group(1) @binding(0) var<storage, read> unused: array<u32>;
 
@@ -41,6 +44,11 @@ fn integrand(p: ptr<function, IntegrandPoint>) -> vec3<f32> {
     if (TEST_CASE == 6u) {
         let d = (*p).film - (vec2<f32>(5.0, 5.0) + vec2<f32>(6.0, 2.0) * u0);
         return vec3<f32>(select(0.0, 1.0, dot(d, d) < 6.25));
+    }
+    if (TEST_CASE == 7u) {
+        let f = (*p).film;
+        let inside = f.x >= 5.3 && f.x < 7.6 && f.y >= 4.2 && f.y < 5.5;
+        return vec3<f32>(select(0.0, 400.0, inside));
     }
     if (TEST_CASE == 5u) {
         return vec3<f32>(select(1e-6, 1e6, (*p).film.x < 4.0));
