@@ -15,7 +15,8 @@ impl Mdas {
         let pipes = self.pipelines(gpu, &cfg, integrand)?;
         let layout = self.layout(gpu, &cfg);
         let args_layout = self.args_layout(gpu);
-        let p = self.params;
+        // The parameters as this render resolved them (an automatic grid chosen).
+        let p = cfg.params;
 
         let mut progress = self.progress.take();
         let result = gpu.scoped("MDAS render", || {
