@@ -19,6 +19,8 @@
 #
 #   benches/unseen.sh                         all of it (hours on 2 cores)
 #   N=4 SPPS="8" INTEGRANDS="motion_blur path" benches/unseen.sh
+#   RESUME=1 benches/unseen.sh                keeps the scenes and budgets
+#                                             already measured in OUT
 #
 # Outputs in OUT (default out/unseen): scenes/, one tune directory per
 # scene and budget, battery.json and battery.md (the summary).
@@ -46,6 +48,9 @@ for t in $integrands; do
         $mdas -q scene random --integrand "$t" --seed "$k" -o "$scene"
         for spp in $spps; do
             dir="$out/$t-$k-$spp"
+            if [ -n "${RESUME:-}" ] && [ -f "$dir/tune.json" ]; then
+                continue # RESUME=1: a scene and budget already measured
+            fi
             echo "== $t seed $k, $spp spp $(date -u +%H:%M:%S)"
             $mdas -q tune "$scene" --spp "$spp" --equal-samples --seeds "$seeds" \
                 --ref-spp "$ref_spp" $(printf -- '--grid %s ' $grid) $flags --out "$dir" \

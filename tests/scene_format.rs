@@ -118,7 +118,7 @@ fn cornell_box_loads_with_closed_outward_blocks_and_the_ceiling_light() {
             m.alpha,
             m.spp
         ),
-        (0, 8, 6, 7, 1.0, 8.0)
+        (0, 8, 6, 7, 0.25, 8.0)
     );
     // 5 walls + 2 blocks + the light.
     assert_eq!(s.scene.meshes.len(), 8);

@@ -226,7 +226,7 @@ impl MdasParams {
     /// default 8 spp), α = [`AUTO_ALPHA`], the `Sampled` reconstruction
     /// with κ = 0 (each pixel from its own samples), and the rest as
     /// [`Default`]. On scenes nobody tuned these replaced a grid of cells
-    /// two pixels wide holding 1 spp or less, with α = 1/4 and the `Pixel`
+    /// two pixels wide holding 1 spp or less, with the `Pixel`
     /// reconstruction (κ = 1), which lost to Halton 1.4–60× at equal
     /// samples (BENCHMARKS.md, issue 48).
     pub fn for_film(film: Film) -> MdasParams {
@@ -265,15 +265,16 @@ impl MdasParams {
 /// stratified grid carries most of MDAS's gain there, and 1/6 is kept for
 /// the value-driven samples, which pay on the scenes with features to find.
 pub const AUTO_INITIAL_SHARE: f64 = 5.0 / 6.0;
-/// α of a scene without an `[mdas]` table ([`MdasParams::for_film`]).
-/// With most of the budget in the stratified grid, the value-driven rest
-/// pays only when it goes to the leaves of highest error: on 16 generated
-/// scenes at 8 spp α = 1 had 0.96× Halton's RelMSE against 1.04× for
-/// α = 1/2 and 1.17× for 1/4 (geometric means; BENCHMARKS.md, issue 48).
-/// It costs time: each iteration selects fewer leaves, so more iterations
-/// run (2.4–4.6× Halton's time per render on lavapipe there, against
-/// 1.6–1.7× at α = 1/4).
-pub const AUTO_ALPHA: f32 = 1.0;
+/// α of a scene without an `[mdas]` table ([`MdasParams::for_film`]): the
+/// paper's usual 1/4. α = 1 spends the value-driven part of the budget
+/// better (on 16 generated scenes at 8 spp, 0.90× Halton's RelMSE against
+/// 1.11× for 1/4, geometric means; BENCHMARKS.md, issue 48), but each of
+/// its iterations selects few leaves, so many more run: 2.65× Halton's
+/// time per render against 1.29× on a generated motion-blur scene on
+/// lavapipe, and far more on small films, where each iteration's fixed
+/// dispatch cost is not amortised. Until a selection that takes a fixed
+/// share of the budget per iteration exists, the default keeps the cheap α.
+pub const AUTO_ALPHA: f32 = 0.25;
 /// Fewest samples per cell an automatic grid accepts before it takes a
 /// coarser one, down to cells a pixel wide ([`auto_grid`]).
 pub const AUTO_MIN_SAMPLES_PER_CELL: u32 = 4;
