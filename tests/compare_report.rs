@@ -337,7 +337,7 @@ fn compare_area_light_plane_writes_a_consistent_report() {
 fn compare_cornell_writes_every_file() {
     let out = temp_dir("cornell");
     // 16 spp: MDAS adapts (and reports its error and adaptive phases);
-    // its automatic grid leaves 1/6 of any budget to adaptive samples.
+    // its automatic grid leaves at least 1/6 of any budget to adaptive samples.
     let params = params_at(0.125, Some(16.0));
     compare(
         gpu(),
