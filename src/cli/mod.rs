@@ -199,12 +199,16 @@ pub(crate) struct MdasArgs {
     #[arg(long, value_name = "RULE")]
     pub(crate) split: Option<mdas::integrator::mdas::SplitRule>,
     /// MDAS: reconstruction, box (the paper's eq. 7: a leaf's mean over
-    /// its whole film footprint) or pixel (each pixel from the leaf's
-    /// samples inside it, blended with the leaf mean by --pixel-prior).
+    /// its whole film footprint), pixel (each pixel from the leaf's
+    /// samples inside it, blended with the leaf mean by --pixel-prior) or
+    /// sampled (pixel, but a leaf's part of a pixel without any of its
+    /// samples counts only where no leaf sampled the pixel; the default of
+    /// a scene without an [mdas] table, with --pixel-prior 0).
     #[arg(long, value_name = "RULE")]
     pub(crate) reconstruction: Option<mdas::integrator::mdas::Reconstruction>,
-    /// MDAS: κ of --reconstruction pixel, the leaf mean's weight in
-    /// samples (default 1; larger is closer to box).
+    /// MDAS: κ of --reconstruction pixel and sampled, the leaf mean's
+    /// weight in samples (default: the scene's, 0 without an [mdas] table;
+    /// larger is closer to box).
     #[arg(long, value_name = "KAPPA")]
     pub(crate) pixel_prior: Option<f32>,
 }
