@@ -56,12 +56,10 @@ struct CountParams {
 fn count_rays(gpu: &Gpu, integrand: &dyn Integrand) -> anyhow::Result<(u64, u32)> {
     let film = integrand.film();
     let pixels = film.width * film.height;
-    let layout = gpu
-        .device
-        .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("bench.count_rays.layout"),
-            entries: &[uniform_entry(0), storage_entry(1, false)],
-        });
+    let layout = gpu.bind_group_layout(
+        "bench.count_rays.layout",
+        &[uniform_entry(0), storage_entry(1, false)],
+    );
     let source = mdas::integrator::halton::with_halton_points(
         integrand.wgsl(),
         (

@@ -28,12 +28,7 @@ struct Linear {
 
 impl Linear {
     fn new(gpu: &Gpu, film: Film) -> Self {
-        let layout = gpu
-            .device
-            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("bench.integrand.layout"),
-                entries: &[storage_entry(0, true)],
-            });
+        let layout = gpu.bind_group_layout("bench.integrand.layout", &[storage_entry(0, true)]);
         let buffer = gpu
             .buffer_from::<u32>("bench.integrand.unused", &[], wgpu::BufferUsages::STORAGE)
             .unwrap();

@@ -855,12 +855,10 @@ fn run_scene_kernel<Q: bytemuck::Pod>(
     gpu.scoped(entry, || {
         use mdas::gpu::buffer::STORAGE;
         use mdas::gpu::shader::{bind_buffers, storage_entry};
-        let layout = gpu
-            .device
-            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("test.scene_kernel"),
-                entries: &[storage_entry(0, true), storage_entry(1, false)],
-            });
+        let layout = gpu.bind_group_layout(
+            "test.scene_kernel",
+            &[storage_entry(0, true), storage_entry(1, false)],
+        );
         let pipeline = gpu.compute_pipeline(entry, source, entry, &[&layout, &gpu_scene.layout])?;
         let q = gpu.buffer_from("test.queries", queries, STORAGE)?;
         let o = gpu.buffer_zeroed("test.out", 4 * words as u64, STORAGE)?;

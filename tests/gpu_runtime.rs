@@ -11,12 +11,7 @@ use mdas::gpu::shader::{bind_buffers, storage_entry, Wgsl};
 #[test]
 fn invalid_wgsl_is_an_error_naming_the_pipeline() {
     let gpu = gpu();
-    let layout = gpu
-        .device
-        .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("test.bad.layout"),
-            entries: &[],
-        });
+    let layout = gpu.bind_group_layout("test.bad.layout", &[]);
     // Owned text, as a library user reading a shader at run time has it.
     let text =
         String::from("@compute @workgroup_size(1) fn main() { let x: f32 = undefined_name; }");
@@ -37,12 +32,7 @@ fn invalid_wgsl_is_an_error_naming_the_pipeline() {
 #[test]
 fn a_validation_error_during_dispatch_is_returned() {
     let gpu = gpu();
-    let layout = gpu
-        .device
-        .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("test.unbound.layout"),
-            entries: &[storage_entry(0, false)],
-        });
+    let layout = gpu.bind_group_layout("test.unbound.layout", &[storage_entry(0, false)]);
     let source = Wgsl::new().part((
         "unbound.wgsl",
         "@group(0) @binding(0) var<storage, read_write> data: array<u32>;\n\
@@ -78,12 +68,7 @@ fn a_validation_error_during_dispatch_is_returned() {
 fn a_layout_that_contradicts_the_shader_is_an_error() {
     let gpu = gpu();
     // The kernel expects a read-write buffer at binding 0, the layout says read-only.
-    let layout = gpu
-        .device
-        .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("test.mismatch.layout"),
-            entries: &[storage_entry(0, true)],
-        });
+    let layout = gpu.bind_group_layout("test.mismatch.layout", &[storage_entry(0, true)]);
     let source = Wgsl::new().part((
         "mismatch.wgsl",
         "@group(0) @binding(0) var<storage, read_write> data: array<u32>;\n\
@@ -99,12 +84,7 @@ fn a_layout_that_contradicts_the_shader_is_an_error() {
 #[test]
 fn kernels_run_and_read_back() {
     let gpu = gpu();
-    let layout = gpu
-        .device
-        .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("test.square.layout"),
-            entries: &[storage_entry(0, false)],
-        });
+    let layout = gpu.bind_group_layout("test.square.layout", &[storage_entry(0, false)]);
     let source = Wgsl::new().constant("N", 1000).part((
         "square.wgsl",
         "@group(0) @binding(0) var<storage, read_write> data: array<u32>;\n\
@@ -162,5 +142,65 @@ fn large_grids_use_2d_dispatches_within_the_limit() {
             x <= max && y <= max && x as u64 * y as u64 >= n as u64,
             "{n} → ({x}, {y})"
         );
+    }
+}
+
+/// A kernel is built once per (source, entry, layouts): a second request
+/// returns the same pipeline, also through a second layout with the same
+/// entries. A constant no code line names (one in a `//` comment does not
+/// count) is left out of the source and does not split the cache; one the
+/// code reads does, and its value is what runs.
+#[test]
+fn kernels_are_built_once_and_unused_constants_do_not_split_them() {
+    let gpu = gpu();
+    let entries = [storage_entry(0, false)];
+    let layout = gpu.bind_group_layout("test.cache.layout", &entries);
+    let again = gpu.bind_group_layout("test.cache.layout.again", &entries);
+    assert_eq!(layout, again, "equal entries gave two layouts");
+    let source = |n: u32, unused: u32| {
+        Wgsl::new()
+            .constant("N", n)
+            .constant("UNUSED", unused)
+            .part((
+                "cache.wgsl",
+                "@group(0) @binding(0) var<storage, read_write> data: array<u32>;\n\
+             // UNUSED is named in this comment only.\n\
+             @compute @workgroup_size(64) fn main(@builtin(global_invocation_id) id: vec3<u32>) {\n\
+                 if (id.x < 64u) { data[id.x] = N; }\n\
+             }",
+            ))
+    };
+    assert!(!source(7, 1).source().contains("const UNUSED"));
+    assert!(source(7, 1).source().contains("const N: u32 = 7u;"));
+    let build = |s: &Wgsl, l: &wgpu::BindGroupLayout| {
+        gpu.compute_pipeline("test.cache", s, "main", &[l]).unwrap()
+    };
+    let first = build(&source(7, 1), &layout);
+    assert_eq!(first, build(&source(7, 1), &layout), "rebuilt");
+    assert_eq!(
+        first,
+        build(&source(7, 2), &again),
+        "an unused constant split the cache"
+    );
+    let other = build(&source(9, 1), &layout);
+    assert_ne!(
+        first, other,
+        "a constant the code reads did not split the cache"
+    );
+    let buffer = gpu
+        .buffer_zeroed("test.cache.data", 256, mdas::gpu::buffer::STORAGE)
+        .unwrap();
+    let group = bind_buffers(gpu, "test.cache", &layout, &[&buffer]);
+    for (pipeline, n) in [(&first, 7), (&other, 9)] {
+        let mut encoder = gpu.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, &group, &[]);
+            pass.dispatch_workgroups(1, 1, 1);
+        }
+        gpu.queue.submit([encoder.finish()]);
+        let data: Vec<u32> = gpu.read_buffer(&buffer, 64).unwrap();
+        assert!(data.iter().all(|&v| v == n), "{n}: {data:?}");
     }
 }

@@ -24,16 +24,14 @@ struct Query {
 /// Runs tests/kernels/halton_points.wgsl: (raw radical inverse, shifted sample).
 fn gpu_points(queries: &[Query]) -> (Vec<f32>, Vec<f32>) {
     let gpu = gpu();
-    let layout = gpu
-        .device
-        .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("test.halton.layout"),
-            entries: &[
-                storage_entry(0, true),
-                storage_entry(1, false),
-                storage_entry(2, false),
-            ],
-        });
+    let layout = gpu.bind_group_layout(
+        "test.halton.layout",
+        &[
+            storage_entry(0, true),
+            storage_entry(1, false),
+            storage_entry(2, false),
+        ],
+    );
     let source = Wgsl::new()
         .part(wgsl_file!("shared/rng.wgsl"))
         .part(wgsl_file!("shared/sampling.wgsl"))

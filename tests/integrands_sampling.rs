@@ -119,16 +119,14 @@ fn run_warp(warp: u32, normal: Vec3, inputs: &[[f32; 2]]) -> Vec<[[f32; 4]; 2]> 
     let gpu = gpu();
     let scene = test_scene();
     let gpu_scene = GpuScene::new(gpu, &scene.scene, scene.scene.film).unwrap();
-    let layout = gpu
-        .device
-        .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("test.warps.layout"),
-            entries: &[
-                uniform_entry(0),
-                storage_entry(1, true),
-                storage_entry(2, false),
-            ],
-        });
+    let layout = gpu.bind_group_layout(
+        "test.warps.layout",
+        &[
+            uniform_entry(0),
+            storage_entry(1, true),
+            storage_entry(2, false),
+        ],
+    );
     let source = scene_wgsl().constant("WARP", warp).part((
         "tests/kernels/sampling_warps.wgsl",
         include_str!("kernels/sampling_warps.wgsl"),

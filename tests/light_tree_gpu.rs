@@ -413,16 +413,14 @@ fn gpu_prim_quantities(gpu: &Gpu, prims: &[LightPrim]) -> Vec<[u32; 4]> {
         "tests/kernels/prim_quantities.wgsl",
         include_str!("kernels/prim_quantities.wgsl"),
     ));
-    let layout = gpu
-        .device
-        .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("test.prim.layout"),
-            entries: &[
-                uniform_entry(0),
-                storage_entry(1, true),
-                storage_entry(2, false),
-            ],
-        });
+    let layout = gpu.bind_group_layout(
+        "test.prim.layout",
+        &[
+            uniform_entry(0),
+            storage_entry(1, true),
+            storage_entry(2, false),
+        ],
+    );
     let pipeline = gpu
         .compute_pipeline("test.prim", &source, "main", &[&layout])
         .unwrap();

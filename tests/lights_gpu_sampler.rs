@@ -204,23 +204,17 @@ impl Harness {
     }
 
     fn with_capacity(gpu: &Gpu, capacity: u32) -> Harness {
-        let layout0 = gpu
-            .device
-            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("test.lights.layout0"),
-                entries: &[
-                    storage_entry(0, true),
-                    storage_entry(1, false),
-                    storage_entry(2, true),
-                    storage_entry(3, false),
-                ],
-            });
-        let layout1 = gpu
-            .device
-            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("test.lights.layout1"),
-                entries: &GpuSamplerData::layout_entries(),
-            });
+        let layout0 = gpu.bind_group_layout(
+            "test.lights.layout0",
+            &[
+                storage_entry(0, true),
+                storage_entry(1, false),
+                storage_entry(2, true),
+                storage_entry(3, false),
+            ],
+        );
+        let layout1 =
+            gpu.bind_group_layout("test.lights.layout1", &GpuSamplerData::layout_entries());
         let source: Wgsl = GpuSamplerData::wgsl_for_cuts(capacity)
             .part(("tests/kernels/light_sampler_probe.wgsl", KERNEL));
         let sample = gpu

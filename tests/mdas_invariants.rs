@@ -565,10 +565,15 @@ fn reconstruction_matches_the_cpu_oracle() {
             .flat_map(|v| v[..3].iter().map(|&b| f32::from_bits(b)))
             .filter(|v| v.is_finite())
             .fold(0.0f64, |m, v| m.max(v.abs() as f64));
+        // The rules differ only where a leaf's film box spans pixels, and
+        // a one-pixel film has none: there (the deep case, ~550
+        // iterations a render) the box rule alone is checked.
+        let rules = if film.width * film.height == 1 { 1 } else { 6 };
         let runs = [(Reconstruction::Box, 1.0)]
             .into_iter()
             .chain([0.0, 1.0, 2.5].map(|k| (Reconstruction::Pixel, k)))
-            .chain([0.0, 1.0].map(|k| (Reconstruction::Sampled, k)));
+            .chain([0.0, 1.0].map(|k| (Reconstruction::Sampled, k)))
+            .take(rules);
         let mut box_oracle = Vec::new();
         for (rule, kappa) in runs {
             let q = MdasParams {

@@ -251,11 +251,7 @@ impl GpuScene {
     /// The layout of `@group(1)`: binding 0 uniform, 1–10 read-only storage.
     pub fn bind_group_layout(gpu: &Gpu) -> wgpu::BindGroupLayout {
         let entries = Self::layout_entries();
-        gpu.device
-            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("mdas.scene"),
-                entries: &entries,
-            })
+        gpu.bind_group_layout("mdas.scene", &entries)
     }
 }
 

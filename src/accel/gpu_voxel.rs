@@ -85,12 +85,7 @@ impl GpuVoxels {
             let objects = gpu.buffer_from("mdas.voxel.objects", &layout.objects, STORAGE)?;
             let frames = gpu.buffer_from("mdas.voxel.frames", &layout.frames, STORAGE)?;
             let item_buffer = gpu.buffer_from("mdas.voxel.items", &items, STORAGE)?;
-            let group_layout =
-                gpu.device
-                    .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                        label: Some("mdas.voxel.build"),
-                        entries: &layout_entries(),
-                    });
+            let group_layout = gpu.bind_group_layout("mdas.voxel.build", &layout_entries());
             let pipeline =
                 gpu.compute_pipeline("mdas.voxel.build", &source(), "voxelize", &[&group_layout])?;
             let count = items.len() as u32;

@@ -144,12 +144,7 @@ impl TraceKernel {
     }
 
     pub fn new(gpu: &Gpu, scene: &GpuScene) -> Result<TraceKernel> {
-        let layout = gpu
-            .device
-            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("mdas.trace"),
-                entries: &Self::layout_entries(),
-            });
+        let layout = gpu.bind_group_layout("mdas.trace", &Self::layout_entries());
         let source = Self::source();
         let layouts = [&layout, &scene.layout];
         Ok(TraceKernel {

@@ -58,6 +58,9 @@ pub struct Gpu {
     pub caps: Capabilities,
     /// Errors raised outside any error scope, surfaced by [`Gpu::scoped`].
     uncaptured: Arc<Mutex<Vec<String>>>,
+    /// Layouts and pipelines already built ([`Gpu::bind_group_layout`],
+    /// [`Gpu::compute_pipeline`]).
+    pub(crate) kernels: Mutex<shader::KernelCache>,
 }
 
 static SHARED: OnceLock<std::result::Result<Gpu, String>> = OnceLock::new();
@@ -127,6 +130,7 @@ impl Gpu {
             limits,
             caps,
             uncaptured,
+            kernels: Mutex::default(),
         })
     }
 

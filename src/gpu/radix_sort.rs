@@ -129,12 +129,7 @@ impl RadixSort {
             bail!("radix sort capacity {capacity} needs more workgroups ({tiles}) than this adapter can dispatch");
         }
         let source = Self::source();
-        let layout = gpu
-            .device
-            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("lights.radix_sort.layout"),
-                entries: &Self::layout_entries(),
-            });
+        let layout = gpu.bind_group_layout("lights.radix_sort.layout", &Self::layout_entries());
         let pipeline = |entry: &str| {
             gpu.compute_pipeline(
                 &format!("lights.radix_sort.{entry}"),

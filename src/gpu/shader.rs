@@ -6,10 +6,22 @@
 //! two places. No text substitution happens inside shader files. Each part
 //! is preceded by a `// ---- file ----` marker so that the line numbers in a
 //! compile error can be traced back to a file.
+//!
+//! Building a pipeline is the costliest call a render makes on a CPU
+//! adapter (lavapipe lowers each module through NIR on every creation,
+//! before its own shader cache is consulted), and renders rebuild the same
+//! kernels: every `Mdas` or `Halton` instance, every `tune` configuration,
+//! every frame's integrand. [`Gpu`] therefore keeps what it built: a bind
+//! group layout per list of entries and a pipeline per (source, entry,
+//! layouts). A constant that no part of a module names is left out of its
+//! source, so two kernels built from different constants share a pipeline
+//! wherever they read the same ones (the reconstruction alone reads κ).
 
 use super::Gpu;
 use anyhow::Result;
+use sha2::{Digest, Sha256};
 use std::borrow::Cow;
+use std::collections::{HashMap, HashSet};
 
 /// Embeds `wgsl/<path>` at compile time as a named shader part.
 #[macro_export]
@@ -76,11 +88,22 @@ impl Wgsl {
         self
     }
 
+    /// The module's text: the constants that some part names outside a
+    /// `//` comment, then the parts in order.
     pub fn source(&self) -> String {
+        let named: HashSet<&str> = self
+            .parts
+            .iter()
+            .flat_map(|(_, text)| text.lines())
+            .map(|line| line.split("//").next().unwrap_or(""))
+            .flat_map(|code| code.split(|c: char| !(c.is_ascii_alphanumeric() || c == '_')))
+            .collect();
         let mut out = String::from("// ---- generated constants ----\n");
         for c in &self.constants {
-            out += c;
-            out += "\n";
+            if named.contains(constant_name(c)) {
+                out += c;
+                out += "\n";
+            }
         }
         for (name, text) in &self.parts {
             out += &format!("// ---- {name} ----\n");
@@ -91,14 +114,84 @@ impl Wgsl {
     }
 }
 
+/// `NAME` of a generated `const NAME: type = value;`.
+fn constant_name(declaration: &str) -> &str {
+    let rest = declaration.strip_prefix("const ").unwrap_or(declaration);
+    rest.split(':').next().unwrap_or(rest).trim()
+}
+
+/// What a [`Gpu`] has built, by what defines it. Kept for the process's
+/// life: a render builds a few dozen kernels and a test process a few
+/// hundred, each a few kilobytes of driver state.
+#[derive(Default)]
+pub(crate) struct KernelCache {
+    layouts: HashMap<Vec<wgpu::BindGroupLayoutEntry>, wgpu::BindGroupLayout>,
+    pipelines: HashMap<PipelineKey, wgpu::ComputePipeline>,
+}
+
+/// A pipeline's definition: the SHA-256 of its module's source, its entry
+/// point and its layouts (handles; [`Gpu::bind_group_layout`] gives equal
+/// entries one handle).
+#[derive(PartialEq, Eq, Hash)]
+struct PipelineKey {
+    source: [u8; 32],
+    entry: String,
+    layouts: Vec<wgpu::BindGroupLayout>,
+}
+
 impl Gpu {
-    /// Compiles `source` and builds a compute pipeline for `entry` with the
-    /// given bind group layouts (group 0, 1, ...). WGSL or layout errors are
-    /// returned, not panicked on.
+    /// The bind group layout with these entries, created on first request
+    /// (the label of the first request names it).
+    pub fn bind_group_layout(
+        &self,
+        label: &str,
+        entries: &[wgpu::BindGroupLayoutEntry],
+    ) -> wgpu::BindGroupLayout {
+        let mut cache = self.kernels.lock().unwrap();
+        cache
+            .layouts
+            .entry(entries.to_vec())
+            .or_insert_with(|| {
+                self.device
+                    .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                        label: Some(label),
+                        entries,
+                    })
+            })
+            .clone()
+    }
+
+    /// The compute pipeline for `entry` of `source` with the given bind
+    /// group layouts (group 0, 1, ...), built on first request and shared
+    /// after (the label of the first request names it). WGSL or layout
+    /// errors are returned, not panicked on, and not kept.
     pub fn compute_pipeline(
         &self,
         label: &str,
         source: &Wgsl,
+        entry: &str,
+        layouts: &[&wgpu::BindGroupLayout],
+    ) -> Result<wgpu::ComputePipeline> {
+        let text = source.source();
+        let key = PipelineKey {
+            source: Sha256::digest(text.as_bytes()).into(),
+            entry: entry.to_string(),
+            layouts: layouts.iter().map(|&l| l.clone()).collect(),
+        };
+        if let Some(p) = self.kernels.lock().unwrap().pipelines.get(&key) {
+            return Ok(p.clone());
+        }
+        // Built outside the lock, so that threads build different kernels
+        // at once; two threads building the same one keep the first.
+        let pipeline = self.build_pipeline(label, text, entry, layouts)?;
+        let mut cache = self.kernels.lock().unwrap();
+        Ok(cache.pipelines.entry(key).or_insert(pipeline).clone())
+    }
+
+    fn build_pipeline(
+        &self,
+        label: &str,
+        source: String,
         entry: &str,
         layouts: &[&wgpu::BindGroupLayout],
     ) -> Result<wgpu::ComputePipeline> {
@@ -107,7 +200,7 @@ impl Gpu {
                 .device
                 .create_shader_module(wgpu::ShaderModuleDescriptor {
                     label: Some(label),
-                    source: wgpu::ShaderSource::Wgsl(source.source().into()),
+                    source: wgpu::ShaderSource::Wgsl(source.into()),
                 });
             let layout = self
                 .device

@@ -221,12 +221,7 @@ impl ManyLight {
             // On the GPU path the sort is the first frame's only CPU build.
             *built.cpu_build_ms.get_or_insert(0.0) += sort_ms;
         }
-        let layout = gpu
-            .device
-            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("many_light.group1"),
-                entries: &layout_entries(),
-            });
+        let layout = gpu.bind_group_layout("many_light.group1", &layout_entries());
         let bind_group = Self::bind_group(gpu, &layout, &gpu_scene, &built.sampler);
         let mut this = ManyLight {
             scene: gpu_scene,
@@ -484,11 +479,7 @@ impl ManyLight {
         gpu.scoped("many_light cut selection", || {
             if self.cut_pass.is_none() {
                 let layout0 =
-                    gpu.device
-                        .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                            label: Some("many_light.cuts.group0"),
-                            entries: &cuts_layout_entries(),
-                        });
+                    gpu.bind_group_layout("many_light.cuts.group0", &cuts_layout_entries());
                 let source = cuts_source(self.wgsl(), cuts.blocks());
                 let pipeline = gpu.compute_pipeline(
                     "many_light.cuts",

@@ -152,13 +152,7 @@ impl Halton {
 
     fn layout(&mut self, gpu: &Gpu) -> wgpu::BindGroupLayout {
         self.layout
-            .get_or_insert_with(|| {
-                gpu.device
-                    .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                        label: Some("mdas.halton.layout"),
-                        entries: &layout_entries(),
-                    })
-            })
+            .get_or_insert_with(|| gpu.bind_group_layout("mdas.halton.layout", &layout_entries()))
             .clone()
     }
 

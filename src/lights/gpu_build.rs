@@ -316,12 +316,7 @@ impl GpuLightTree {
         }
         let sorter = RadixSort::new(gpu, capacity)?;
 
-        let layout = gpu
-            .device
-            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("light_tree.layout"),
-                entries: &Self::layout_entries(),
-            });
+        let layout = gpu.bind_group_layout("light_tree.layout", &Self::layout_entries());
         let pipeline = |label: &str, part, entry: &str| {
             gpu.compute_pipeline(label, &Self::source(part), entry, &[&layout])
         };

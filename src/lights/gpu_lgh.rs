@@ -171,12 +171,7 @@ impl GpuLgh {
         let grid_ms = start.elapsed().as_secs_f64() * 1e3;
 
         let source = Self::source();
-        let layout = gpu
-            .device
-            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("lgh.build.layout"),
-                entries: &Self::layout_entries(),
-            });
+        let layout = gpu.bind_group_layout("lgh.build.layout", &Self::layout_entries());
         let pipeline =
             |entry: &str| gpu.compute_pipeline(&format!("lgh.{entry}"), &source, entry, &[&layout]);
         let usage = STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC;

@@ -628,13 +628,8 @@ impl BatchSampler {
     /// Compiles the kernel (one for every sampler kind: the kind is a
     /// uniform of [`GpuSamplerData`]).
     pub fn new(gpu: &Gpu) -> Result<BatchSampler> {
-        let layout = |label, entries: &[wgpu::BindGroupLayoutEntry]| {
-            gpu.device
-                .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                    label: Some(label),
-                    entries,
-                })
-        };
+        let layout =
+            |label, entries: &[wgpu::BindGroupLayoutEntry]| gpu.bind_group_layout(label, entries);
         let layout0 = layout("lights.batch.group0", &Self::layout_entries());
         let layout1 = layout("lights.batch.group1", &GpuSamplerData::layout_entries());
         let pipeline = gpu.compute_pipeline(

@@ -133,12 +133,7 @@ impl GpuTwoLevel {
             let at = i * stride as usize;
             bytes[at..at + size_of::<Tree2Params>()].copy_from_slice(bytemuck::bytes_of(&p));
         }
-        let layout = gpu
-            .device
-            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("tree2.layout"),
-                entries: &Self::layout_entries(),
-            });
+        let layout = gpu.bind_group_layout("tree2.layout", &Self::layout_entries());
         let source = Self::source();
         let leaves_pipeline =
             gpu.compute_pipeline("tree2.leaves", &source, "leaves", &[&layout])?;

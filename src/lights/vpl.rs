@@ -191,18 +191,8 @@ impl VplGenerator {
     }
 
     pub fn new(gpu: &Gpu) -> Result<VplGenerator> {
-        let layout = gpu
-            .device
-            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("vpl.group0"),
-                entries: &Self::layout_entries(),
-            });
-        let scene_layout = gpu
-            .device
-            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("vpl.group1"),
-                entries: &GpuScene::layout_entries(),
-            });
+        let layout = gpu.bind_group_layout("vpl.group0", &Self::layout_entries());
+        let scene_layout = gpu.bind_group_layout("vpl.group1", &GpuScene::layout_entries());
         let pipeline = gpu.compute_pipeline(
             "lights.vpl",
             &Self::source(),

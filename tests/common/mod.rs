@@ -31,12 +31,8 @@ pub fn test_integrand_layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
 
 impl TestIntegrand {
     pub fn new(gpu: &Gpu, case: u32, dims: u32, film: Film) -> Self {
-        let layout = gpu
-            .device
-            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("test.integrand.layout"),
-                entries: &test_integrand_layout_entries(),
-            });
+        let layout =
+            gpu.bind_group_layout("test.integrand.layout", &test_integrand_layout_entries());
         let buffer = gpu
             .buffer_from::<u32>("test.integrand.unused", &[], wgpu::BufferUsages::STORAGE)
             .unwrap();

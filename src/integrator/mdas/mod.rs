@@ -384,11 +384,7 @@ impl Mdas {
         self.layouts
             .entry(extra)
             .or_insert_with(|| {
-                gpu.device
-                    .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                        label: Some("mdas.mdas.layout"),
-                        entries: &gpu_params::layout_entries(extra),
-                    })
+                gpu.bind_group_layout("mdas.mdas.layout", &gpu_params::layout_entries(extra))
             })
             .clone()
     }
@@ -396,11 +392,7 @@ impl Mdas {
     fn args_layout(&mut self, gpu: &Gpu) -> wgpu::BindGroupLayout {
         self.args_layout
             .get_or_insert_with(|| {
-                gpu.device
-                    .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                        label: Some("mdas.mdas.args.layout"),
-                        entries: &gpu_params::args_layout_entries(),
-                    })
+                gpu.bind_group_layout("mdas.mdas.args.layout", &gpu_params::args_layout_entries())
             })
             .clone()
     }
