@@ -30,7 +30,7 @@ run: build
 
 # Formatting is checked first (seconds); clippy runs in CI after the tests
 # (`.ci/run`: make test, then make lint), since a clean clippy build costs
-# another ~4–6 minutes on 2 cores and `make test` must stay under 20.
+# another ~4–6 minutes on 2 cores and `make test` must stay under 15.
 # The examples are built by `cargo test` (test profile, so `run --profile
 # test` reuses them instead of compiling the crate again) and run after it,
 # on small films (README, "Library").
