@@ -318,8 +318,8 @@ fn obj_materials_come_from_its_mtl_unless_overridden() {
 
 /// What an OBJ's materials cannot give is an error at the `file` key: faces
 /// before any `usemtl`, a `usemtl` naming no material (with its line), a
-/// missing material library, an albedo out of [0, 1]. A shape other than
-/// `mesh` still needs `material`.
+/// missing material library, an albedo out of [0, 1], a NaN in Kd or Ke.
+/// A shape other than `mesh` still needs `material`.
 #[test]
 fn obj_material_errors_are_named_at_the_file_key() {
     let (path, _) = load_text("obj-mtl-errors", "");
@@ -327,7 +327,8 @@ fn obj_material_errors_are_named_at_the_file_key() {
     let write = |name: &str, text: &str| std::fs::write(dir.join(name), text).unwrap();
     write(
         "good.mtl",
-        "newmtl a\nKd 0.5 0.5 0.5\nnewmtl bright\nKd 1.5 0 0\n",
+        "newmtl a\nKd 0.5 0.5 0.5\nnewmtl bright\nKd 1.5 0 0\n\
+         newmtl nan_kd\nKd nan .5 .5\nnewmtl nan_ke\nKd 0.5 0.5 0.5\nKe 0 nan 0\n",
     );
     let quad = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n";
     let scene = |obj: &str| format!("{BASE}[[shape]]\ntype = \"mesh\"\nfile = \"{obj}\"\n");
@@ -354,6 +355,18 @@ fn obj_material_errors_are_named_at_the_file_key() {
             "bright.obj",
             format!("mtllib good.mtl\n{quad}usemtl bright\nf 1 2 3 4\n"),
             "material 'bright': Kd must be in [0, 1]".to_string(),
+        ),
+        // A NaN in any channel (issue 54 item 6), which min/max tests
+        // alone let through.
+        (
+            "nan_kd.obj",
+            format!("mtllib good.mtl\n{quad}usemtl nan_kd\nf 1 2 3 4\n"),
+            "material 'nan_kd': Kd must be in [0, 1]".to_string(),
+        ),
+        (
+            "nan_ke.obj",
+            format!("mtllib good.mtl\n{quad}usemtl nan_ke\nf 1 2 3 4\n"),
+            "material 'nan_ke': Ke must be in [0, ".to_string(),
         ),
     ] {
         write(obj, &text);

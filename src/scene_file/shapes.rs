@@ -410,14 +410,21 @@ impl Ctx<'_> {
                 None => {
                     let om = &obj.materials[m];
                     let albedo = om.diffuse.unwrap_or(Vec3::splat(OBJ_DEFAULT_ALBEDO));
-                    if !(albedo.min_element() >= 0.0 && albedo.max_element() <= 1.0) {
+                    // is_finite first: glam's min/max_element pass a NaN by.
+                    if !(albedo.is_finite()
+                        && albedo.min_element() >= 0.0
+                        && albedo.max_element() <= 1.0)
+                    {
                         return Err(in_file(format!(
                             "material '{}': Kd must be in [0, 1] in every channel, found {albedo}",
                             om.name
                         )));
                     }
                     let emission = om.emission.unwrap_or(Vec3::ZERO);
-                    if !(emission.min_element() >= 0.0 && emission.max_element() <= MAX_EMISSION) {
+                    if !(emission.is_finite()
+                        && emission.min_element() >= 0.0
+                        && emission.max_element() <= MAX_EMISSION)
+                    {
                         return Err(in_file(format!(
                             "material '{}': Ke must be in [0, {MAX_EMISSION:e}] in every channel, found {emission}",
                             om.name
