@@ -1115,6 +1115,16 @@ fn hostile_inputs_fail_cleanly() {
             expect: vec![at("bad_obj.toml", 19, 8), "line 3: a vertex needs".into()],
         },
         Hostile {
+            what: "MTL line the parser panics on",
+            args: render(&[&fx("bad_mtl.toml"), "-o", &o]),
+            env: None,
+            expect: vec![
+                at("bad_mtl.toml", 16, 8),
+                "bad.mtl".into(),
+                "line 3: the MTL parser cannot read 'Ka 0.5'".into(),
+            ],
+        },
+        Hostile {
             what: "orbit speed 3e38",
             args: render(&[&fx("orbit_speed.toml"), "-o", &o]),
             env: None,

@@ -54,6 +54,52 @@ pub struct ObjFile {
     pub mtl_files: Vec<PathBuf>,
 }
 
+/// Runs a third-party parser (tobj is not fuzzed against every input) so
+/// that a panic in it comes back as an error value, its message, and
+/// prints nothing: the process's panic hook is wrapped once to stay
+/// silent for panics raised inside `f` on this thread, and prints every
+/// other panic as before.
+fn without_panics<T>(f: impl FnOnce() -> T) -> Result<T, String> {
+    use std::cell::Cell;
+    thread_local! {
+        static QUIET: Cell<bool> = const { Cell::new(false) };
+    }
+    static HOOK: std::sync::Once = std::sync::Once::new();
+    HOOK.call_once(|| {
+        let previous = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            if !QUIET.with(Cell::get) {
+                previous(info);
+            }
+        }));
+    });
+    let was = QUIET.with(|q| q.replace(true));
+    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(f));
+    QUIET.with(|q| q.set(was));
+    result.map_err(|payload| {
+        payload
+            .downcast_ref::<&str>()
+            .map(|m| m.to_string())
+            .or_else(|| payload.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "a panic without a message".to_string())
+    })
+}
+
+/// Why tobj's MTL parser failed on `bytes`: the first line that makes it
+/// fail alone, inside a material of its own (MTL statements do not refer
+/// to one another), or a sentence without a line when none does alone.
+fn mtl_panic(bytes: &[u8]) -> String {
+    let text = String::from_utf8_lossy(bytes);
+    for (i, line) in text.lines().enumerate() {
+        let probe = format!("newmtl probe\n{line}\n");
+        if without_panics(|| tobj::load_mtl_buf(&mut probe.as_bytes())).is_err() {
+            let shown: String = line.trim().chars().take(80).collect();
+            return format!("line {}: the MTL parser cannot read '{shown}'", i + 1);
+        }
+    }
+    "the MTL parser failed on this file (on no single line)".to_string()
+}
+
 /// The largest OBJ file read (a 10M-triangle mesh is about 500 MB).
 pub const MAX_OBJ_BYTES: u64 = 1 << 30;
 
@@ -86,8 +132,14 @@ pub fn load_obj_parts(path: &Path) -> Result<ObjFile, String> {
         let read = super::read_input(&file, MAX_MTL_BYTES)
             .map_err(|e| format!("cannot read material library '{}': {e}", file.display()))
             .and_then(|b| {
-                std::panic::catch_unwind(|| tobj::load_mtl_buf(&mut &b[..]))
-                    .map_err(|_| "the MTL parser failed".to_string())?
+                without_panics(|| tobj::load_mtl_buf(&mut &b[..]))
+                    .map_err(|_| {
+                        format!(
+                            "invalid material library '{}': {}",
+                            file.display(),
+                            mtl_panic(&b)
+                        )
+                    })?
                     .map_err(|e| format!("invalid material library '{}': {e}", file.display()))
             });
         read.map_err(|e| {
@@ -281,10 +333,8 @@ where
     };
     // tobj is not fuzzed against every input; a panic in it must still
     // come back as an error value.
-    let loaded = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        tobj::load_obj_buf(&mut &bytes[..], &options, material_loader)
-    }))
-    .map_err(|_| "the OBJ parser failed on this file".to_string())?;
+    let loaded = without_panics(|| tobj::load_obj_buf(&mut &bytes[..], &options, material_loader))
+        .map_err(|_| "the OBJ parser failed on this file".to_string())?;
     let (models, materials) = loaded.map_err(|e| format!("invalid OBJ: {e}"))?;
     Ok((models, materials, normals))
 }
