@@ -87,6 +87,18 @@ fn selected_now(k: u32, emax_bits: u32) -> bool {
     return bitcast<f32>(e_bits) >= bitcast<f32>(emax_bits) * pow(xi, params.inv_alpha);
 }
 
+// The bound n of one of decide's loops. With UNROLL_LOOPS = 0 (CPU
+// adapters, Config::unroll_loops) the compiler cannot see that it is the
+// constant n (arrayLength(&state) · 4096 > n, unknown until run time), so
+// it keeps the loop: unrolled, the count kernel outgrows llvmpipe's
+// budget of compiled instructions and is rebuilt at every dispatch.
+fn loop_bound(n: u32) -> u32 {
+    if (UNROLL_LOOPS == 1u) {
+        return n;
+    }
+    return min(n, arrayLength(&state) * 4096u);
+}
+
 // The decision of a selected leaf k: best candidate, split or collapse.
 fn decide(k: u32) -> Decision {
     var d: Decision;
@@ -104,11 +116,12 @@ fn decide(k: u32) -> Decision {
     // number of times (MAX_PER_LEAF, DIMS), masked by `i < count` where
     // needed, so that compilers unroll them and keep these arrays in
     // registers (indexed by a loop counter that is not a constant, a
-    // private array lives in memory: on lavapipe per-lane gathers). The
+    // private array lives in memory: on lavapipe per-lane gathers) —
+    // on a GPU; on a CPU adapter `loop_bound` keeps them loops. The
     // slots are loaded first: every load after them is independent.
     let count = min(header_count(h), MAX_PER_LEAF);
     var slots: array<u32, MAX_PER_LEAF>;
-    for (var i = 0u; i < MAX_PER_LEAF; i++) {
+    for (var i = 0u; i < loop_bound(MAX_PER_LEAF); i++) {
         if (i < count) {
             slots[i] = leaf_slot(k, h, i);
         }
@@ -118,10 +131,10 @@ fn decide(k: u32) -> Decision {
     // is finite.
     var value: array<f32, MAX_PER_LEAF>;
     var finite: array<bool, MAX_PER_LEAF>;
-    for (var i = 0u; i < MAX_PER_LEAF; i++) {
+    for (var i = 0u; i < loop_bound(MAX_PER_LEAF); i++) {
         if (i < count) {
             let s = slots[i];
-            for (var w = 0u; w < COORD_WORDS; w++) {
+            for (var w = 0u; w < loop_bound(COORD_WORDS); w++) {
                 coords[i * COORD_WORDS + w] = samples_get(s * SAMPLE_STRIDE + w);
             }
             if (SPLIT_CONTRAST == 1u) {
@@ -139,7 +152,7 @@ fn decide(k: u32) -> Decision {
     if (SPLIT_TRIM == 1u && count >= MAX_PER_LEAF) {
         var sum = 0.0;
         var n = 0u;
-        for (var i = 0u; i < MAX_PER_LEAF; i++) {
+        for (var i = 0u; i < loop_bound(MAX_PER_LEAF); i++) {
             if (i < count && finite[i]) {
                 sum += value[i];
                 n += 1u;
@@ -149,14 +162,14 @@ fn decide(k: u32) -> Decision {
             let mean = sum / f32(n);
             var worst = -1.0;
             var j = 0u;
-            for (var i = 0u; i < MAX_PER_LEAF; i++) {
+            for (var i = 0u; i < loop_bound(MAX_PER_LEAF); i++) {
                 let d = abs(value[i] - mean);
                 if (i < count && finite[i] && d > worst) {
                     worst = d;
                     j = i;
                 }
             }
-            for (var i = 0u; i < MAX_PER_LEAF; i++) {
+            for (var i = 0u; i < loop_bound(MAX_PER_LEAF); i++) {
                 finite[i] = finite[i] && i != j;
             }
         }
@@ -166,19 +179,19 @@ fn decide(k: u32) -> Decision {
     var quantum: array<f32, DIMS>;
     var lo: array<u32, DIMS>;
     var hi: array<u32, DIMS>;
-    for (var axis = 0u; axis < DIMS; axis++) {
+    for (var axis = 0u; axis < loop_bound(DIMS); axis++) {
         quantum[axis] = axis_quantum(axis);
         let word = boxes_get(box_base(k) + axis);
         lo[axis] = box_lo(word);
         hi[axis] = box_hi(word);
     }
     var best = -1.0;
-    for (var c = 0u; c < CANDIDATES; c++) {
+    for (var c = 0u; c < loop_bound(CANDIDATES); c++) {
         let q = candidate(key, c, lo, hi);
         var nearest = 3.0e38;
-        for (var i = 0u; i < MAX_PER_LEAF; i++) {
+        for (var i = 0u; i < loop_bound(MAX_PER_LEAF); i++) {
             var dist = 0.0;
-            for (var axis = 0u; axis < DIMS; axis++) {
+            for (var axis = 0u; axis < loop_bound(DIMS); axis++) {
                 let sq = (coords[i * COORD_WORDS + axis / 2u] >> (16u * (axis % 2u))) & 0xffffu;
                 let t = (f32(q[axis]) - f32(sq)) * quantum[axis];
                 dist += t * t;
@@ -199,17 +212,17 @@ fn decide(k: u32) -> Decision {
         let half = SPLIT_N / 2u;
         var best_extent = -1.0;
         var best_contrast = -1.0;
-        for (var axis = 0u; axis < DIMS; axis++) {
+        for (var axis = 0u; axis < loop_bound(DIMS); axis++) {
             var v: array<u32, SPLIT_N>;
-            for (var i = 0u; i < MAX_PER_LEAF; i++) {
+            for (var i = 0u; i < loop_bound(MAX_PER_LEAF); i++) {
                 v[i] = (coords[i * COORD_WORDS + axis / 2u] >> (16u * (axis % 2u))) & 0xffffu;
             }
             v[MAX_PER_LEAF] = d.cand[axis];
             var below_median = 0u;
             var above_median = 0u;
-            for (var i = 0u; i < SPLIT_N; i++) {
+            for (var i = 0u; i < loop_bound(SPLIT_N); i++) {
                 var rank = 0u;
-                for (var j = 0u; j < SPLIT_N; j++) {
+                for (var j = 0u; j < loop_bound(SPLIT_N); j++) {
                     rank += u32(v[j] < v[i] || (v[j] == v[i] && j < i));
                 }
                 below_median = select(below_median, v[i], rank == half - 1u);
@@ -224,7 +237,7 @@ fn decide(k: u32) -> Decision {
                     // finite samples' channel sums.
                     var sum = vec2<f32>(0.0);
                     var n = vec2<u32>(0u);
-                    for (var i = 0u; i < MAX_PER_LEAF; i++) {
+                    for (var i = 0u; i < loop_bound(MAX_PER_LEAF); i++) {
                         if (finite[i]) {
                             if (v[i] < plane) {
                                 sum.x += value[i];

@@ -482,6 +482,14 @@ pub struct Config {
     /// invocations still take neighbouring samples. The samples and their
     /// values are the same either way.
     pub eval_per_invocation: u32,
+    /// Whether the compiler may unroll `decide`'s loops over a leaf's
+    /// samples, the candidates and the axes (true as made by
+    /// [`Config::new`]; [`super::Mdas::config_for`] sets false on a CPU
+    /// adapter). Unrolled, a GPU keeps the leaf's arrays in registers; on
+    /// lavapipe the unrolled count kernel is so large that llvmpipe evicts
+    /// and rebuilds it at every dispatch (~7 ms a dispatch at m = 8,
+    /// BENCHMARKS.md "Test suite time"). The image is the same either way.
+    pub unroll_loops: bool,
 }
 
 /// The arrays that grow with the budget, in the order of their extra
@@ -629,6 +637,7 @@ impl Config {
                 count: [1; 4],
             },
             eval_per_invocation: 1,
+            unroll_loops: true,
         })
     }
 
@@ -848,6 +857,7 @@ impl Config {
             )
             .constant_f32("UNSAMPLED_WEIGHT", UNSAMPLED_WEIGHT)
             .constant("EVAL_PER_INVOCATION", self.eval_per_invocation)
+            .constant("UNROLL_LOOPS", self.unroll_loops as u32)
             .constant("COORD_WORDS", self.coord_words)
             .constant("SAMPLE_STRIDE", self.sample_stride)
             .constant("LEAF_STRIDE", self.leaf_stride)

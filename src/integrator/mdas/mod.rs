@@ -203,6 +203,8 @@ pub struct Mdas {
     max_page_bytes: Option<u64>,
     /// Override of [`Config::eval_per_invocation`].
     eval_per_invocation: Option<u32>,
+    /// Override of [`Config::unroll_loops`].
+    unroll_loops: Option<bool>,
     args_layout: Option<wgpu::BindGroupLayout>,
     pipelines: HashMap<(String, Option<wgpu::BindGroupLayout>), Pipelines>,
     /// Statistics of the last render.
@@ -275,6 +277,7 @@ impl Mdas {
             layouts: HashMap::new(),
             max_page_bytes: None,
             eval_per_invocation: None,
+            unroll_loops: None,
             args_layout: None,
             pipelines: HashMap::new(),
             last: None,
@@ -368,7 +371,18 @@ impl Mdas {
                 .unwrap_or_else(|| super::halton::default_samples_per_invocation(gpu)),
             integrand,
         );
+        cfg.unroll_loops = self
+            .unroll_loops
+            .unwrap_or(gpu.info.device_type != wgpu::DeviceType::Cpu);
         Ok(cfg)
+    }
+
+    /// Lets the compiler unroll the count pass's loops, or not, instead of
+    /// the adapter's default ([`Config::unroll_loops`]); the image is the
+    /// same.
+    pub fn with_unrolled_loops(mut self, unroll: bool) -> Self {
+        self.unroll_loops = Some(unroll);
+        self
     }
 
     /// Evaluates at most `n` samples per invocation in the evaluate pass
