@@ -250,15 +250,21 @@ pub fn write_atomic(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Res
 pub struct StagedDir {
     target: PathBuf,
     staging: Option<Staged>,
-    /// The target did not exist: a failed run removes it again (if empty).
-    created: bool,
+    /// The directories this run created for the target (it and the
+    /// ancestors that did not exist, deepest first): a failed run removes
+    /// them again, each if empty.
+    created: Vec<PathBuf>,
 }
 
 impl StagedDir {
     /// Creates `target` if needed and a hidden staging directory inside it,
     /// checking both are writable (before any GPU work).
     pub fn new(target: &Path) -> Result<StagedDir> {
-        let created = !target.exists();
+        let created: Vec<PathBuf> = target
+            .ancestors()
+            .take_while(|d| !d.as_os_str().is_empty() && !d.exists())
+            .map(Path::to_path_buf)
+            .collect();
         if target.exists() && !target.is_dir() {
             bail!("output directory {} is not a directory", target.display());
         }
@@ -312,7 +318,7 @@ impl StagedDir {
         }
         // Dropping the armed guard removes the (now empty) staging directory.
         drop(staging);
-        self.created = false;
+        self.created.clear();
         Ok(names)
     }
 }
@@ -321,9 +327,12 @@ impl Drop for StagedDir {
     fn drop(&mut self) {
         // Removes the staging directory with whatever the run wrote.
         self.staging.take();
-        if self.created {
-            // Refuses if anything else appeared there meanwhile.
-            let _ = fs::remove_dir(&self.target);
+        // remove_dir refuses a directory where anything else appeared
+        // meanwhile, and then its ancestors hold it.
+        for dir in &self.created {
+            if fs::remove_dir(dir).is_err() {
+                break;
+            }
         }
     }
 }
@@ -377,8 +386,8 @@ mod tests {
     }
 
     /// A staged directory is invisible until committed, a dropped one leaves
-    /// the old outputs and the user's own files alone, and a directory this
-    /// run created is removed again when the run fails.
+    /// the old outputs and the user's own files alone, and the directories
+    /// this run created are removed again when the run fails.
     #[test]
     fn a_staged_directory_lands_whole_or_not_at_all() {
         let dir = test_dir("dir");
@@ -403,6 +412,15 @@ mod tests {
         let fresh = dir.join("fresh");
         drop(StagedDir::new(&fresh).unwrap());
         assert!(!fresh.exists());
+        // Missing ancestors too (issue 54 item 7: `--out new/a/b` left
+        // new/a), but not one where something else appeared.
+        drop(StagedDir::new(&dir.join("new/a/b")).unwrap());
+        assert!(!dir.join("new").exists());
+        let staged = StagedDir::new(&dir.join("new/a/b")).unwrap();
+        fs::write(dir.join("new/mine.txt"), b"mine").unwrap();
+        drop(staged);
+        assert_eq!(entries(&dir.join("new")), ["mine.txt"]);
+        fs::remove_dir_all(dir.join("new")).unwrap();
         fs::write(&fresh, b"a file").unwrap();
         assert!(StagedDir::new(&fresh).is_err());
         fs::remove_dir_all(&dir).unwrap();
