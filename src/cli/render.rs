@@ -2,6 +2,8 @@
 //! measured against a reference EXR.
 
 use super::*;
+use mdas::integrator::mdas::config::Config;
+use mdas::integrator::mdas::MAX_ITERATIONS_DEFAULT;
 
 /// The largest Halton `--spp` of `render` (every whole number up to it is
 /// exact in the f32 the flag is parsed as).
@@ -190,7 +192,7 @@ pub(crate) fn run(args: RenderArgs, ui: Ui) -> Result<()> {
         gpu.info.name
     ));
     if integrator == IntegratorKind::Mdas {
-        ui.note(describe_grid(mdas_params, film, prepared.integrand.dims()));
+        ui.note(describe_grid(mdas_params, film, prepared.integrand.dims())?);
     }
     if warmup {
         sampler.render(gpu, prepared.integrand.as_ref())?;
@@ -323,16 +325,18 @@ pub(crate) fn integrator_for(
     })
 }
 
-/// MDAS's initial grid and the parameters that shape it, as the render
-/// resolves them for `film` (an automatic grid is chosen here).
-pub(crate) fn describe_grid(params: MdasParams, film: mdas::film::Film, dims: u32) -> String {
-    let p = params.resolved(film);
-    let cells = (p.bits_per_dim + p.extra_image_bits).min(31);
-    let all_cells = (f64::from(dims * p.bits_per_dim + 2 * p.extra_image_bits)).exp2();
-    let budget = (p.spp as f64 * film.width as f64 * film.height as f64).round();
-    let initial = f64::from(p.initial_samples_per_cell) * all_cells;
-    let cells = 1u64 << cells;
-    format!(
+/// MDAS's initial grid and the parameters that shape it, from the
+/// configuration the render itself resolves for `film` (an automatic grid
+/// is chosen there).
+pub(crate) fn describe_grid(
+    params: MdasParams,
+    film: mdas::film::Film,
+    dims: u32,
+) -> Result<String> {
+    let cfg = Config::new(params, dims, film, MAX_ITERATIONS_DEFAULT)?;
+    let p = cfg.params;
+    let cells = 1u64 << (p.bits_per_dim + p.extra_image_bits).min(31);
+    Ok(format!(
         "MDAS grid{}: {cells}×{cells} film cells of {:.2}×{:.2} px (b = {}, e = {}), l = {} samples per cell ({:.0} % of the budget), m = {}, α = {}, reconstruction {} (κ = {})",
         if p.auto_grid { " (automatic)" } else { "" },
         film.width as f64 / cells as f64,
@@ -340,12 +344,12 @@ pub(crate) fn describe_grid(params: MdasParams, film: mdas::film::Film, dims: u3
         p.bits_per_dim,
         p.extra_image_bits,
         p.initial_samples_per_cell,
-        100.0 * initial / budget.max(1.0),
+        100.0 * f64::from(cfg.initial_samples) / f64::from(cfg.budget.max(1)),
         p.max_samples_per_leaf,
         p.alpha,
         p.reconstruction,
         p.pixel_prior,
-    )
+    ))
 }
 
 /// Warnings about the image itself: every pixel 0, and pixels that are

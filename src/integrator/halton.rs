@@ -40,7 +40,6 @@ use crate::gpu::{buffer::STORAGE, Gpu};
 use crate::integrand::{Integrand, MAX_DIMS};
 use crate::wgsl_file;
 use anyhow::{bail, Result};
-use std::collections::HashMap;
 
 /// Samples one invocation evaluates per dispatch: bounds per-invocation
 /// loop counts (each sample traces a couple of rays).
@@ -106,12 +105,6 @@ pub struct Halton {
     /// Samples per invocation: `None` chooses by adapter (module docs).
     per_invocation: Option<u32>,
     progress: Option<Progress>,
-    layout: Option<wgpu::BindGroupLayout>,
-    /// By (source, integrand layout, loop-free evaluate).
-    pipelines: HashMap<
-        (String, Option<wgpu::BindGroupLayout>, bool),
-        (wgpu::ComputePipeline, wgpu::ComputePipeline),
-    >,
 }
 
 impl Halton {
@@ -121,8 +114,6 @@ impl Halton {
             seed,
             per_invocation: None,
             progress: None,
-            layout: None,
-            pipelines: HashMap::new(),
         }
     }
 
@@ -150,24 +141,19 @@ impl Halton {
         self
     }
 
-    fn layout(&mut self, gpu: &Gpu) -> wgpu::BindGroupLayout {
-        self.layout
-            .get_or_insert_with(|| gpu.bind_group_layout("mdas.halton.layout", &layout_entries()))
-            .clone()
+    fn layout(gpu: &Gpu) -> wgpu::BindGroupLayout {
+        gpu.bind_group_layout("mdas.halton.layout", &layout_entries())
     }
 
+    /// The evaluate and accumulate kernels, built once per process
+    /// ([`Gpu::compute_pipeline`] keeps them).
     fn pipelines(
-        &mut self,
         gpu: &Gpu,
         integrand: &dyn Integrand,
         single: bool,
     ) -> Result<(wgpu::ComputePipeline, wgpu::ComputePipeline)> {
-        let layout = self.layout(gpu);
+        let layout = Self::layout(gpu);
         let source = source(integrand.wgsl());
-        let key = (source.source(), integrand.layout().cloned(), single);
-        if let Some(p) = self.pipelines.get(&key) {
-            return Ok(p.clone());
-        }
         let layouts = crate::integrand::kernel_layouts(&layout, integrand);
         let label = format!("mdas.halton.evaluate[{}]", integrand.name());
         let entry = if single {
@@ -178,8 +164,6 @@ impl Halton {
         let evaluate = gpu.compute_pipeline(&label, &source, entry, &layouts)?;
         let accumulate =
             gpu.compute_pipeline("mdas.halton.accumulate", &source, "accumulate", &layouts)?;
-        self.pipelines
-            .insert(key, (evaluate.clone(), accumulate.clone()));
         Ok((evaluate, accumulate))
     }
 }
@@ -265,8 +249,8 @@ impl Integrator for Halton {
         let acc_groups = pixels.div_ceil(WORKGROUP_SIZE as u64) as u32;
         let (acc_gx, acc_gy) = (acc_groups.min(gx), acc_groups.div_ceil(gx));
 
-        let (evaluate, accumulate) = self.pipelines(gpu, integrand, spi == 1)?;
-        let layout = self.layout(gpu);
+        let (evaluate, accumulate) = Self::pipelines(gpu, integrand, spi == 1)?;
+        let layout = Self::layout(gpu);
 
         gpu.scoped("Halton render", || {
             let params: Vec<u8> = (0..chunks)

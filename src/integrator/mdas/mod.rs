@@ -180,7 +180,6 @@ use config::Config;
 pub use config::{MdasParams, Reconstruction, SplitRule};
 use debug::Snapshot;
 use gpu_params::{GpuParams, Grid};
-use std::collections::HashMap;
 pub(crate) use words::{counter, state};
 
 /// Iterations after which a render stops even below its budget.
@@ -196,8 +195,6 @@ const MAX_BATCH: u32 = 32;
 pub struct Mdas {
     params: MdasParams,
     max_iterations: u32,
-    /// Group 0's layout for each number of extra pages.
-    layouts: HashMap<u32, wgpu::BindGroupLayout>,
     /// Cap on a page of the paged arrays (default: the adapter's largest
     /// storage binding).
     max_page_bytes: Option<u64>,
@@ -205,8 +202,6 @@ pub struct Mdas {
     eval_per_invocation: Option<u32>,
     /// Override of [`Config::unroll_loops`].
     unroll_loops: Option<bool>,
-    args_layout: Option<wgpu::BindGroupLayout>,
-    pipelines: HashMap<(String, Option<wgpu::BindGroupLayout>), Pipelines>,
     /// Statistics of the last render.
     last: Option<RunStats>,
     /// Its GPU times with the parts of phases apart ("adaptive/count").
@@ -274,12 +269,9 @@ impl Mdas {
         Ok(Mdas {
             params,
             max_iterations: MAX_ITERATIONS_DEFAULT,
-            layouts: HashMap::new(),
             max_page_bytes: None,
             eval_per_invocation: None,
             unroll_loops: None,
-            args_layout: None,
-            pipelines: HashMap::new(),
             last: None,
             last_passes: None,
             progress: None,
@@ -393,38 +385,24 @@ impl Mdas {
         self
     }
 
-    fn layout(&mut self, gpu: &Gpu, cfg: &Config) -> wgpu::BindGroupLayout {
-        let extra = cfg.pages.extra();
-        self.layouts
-            .entry(extra)
-            .or_insert_with(|| {
-                gpu.bind_group_layout("mdas.mdas.layout", &gpu_params::layout_entries(extra))
-            })
-            .clone()
+    /// Group 0's layout for `cfg`'s pages (one per page count: [`Gpu`]
+    /// keeps layouts).
+    fn layout(gpu: &Gpu, cfg: &Config) -> wgpu::BindGroupLayout {
+        let entries = gpu_params::layout_entries(cfg.pages.extra());
+        gpu.bind_group_layout("mdas.mdas.layout", &entries)
     }
 
-    fn args_layout(&mut self, gpu: &Gpu) -> wgpu::BindGroupLayout {
-        self.args_layout
-            .get_or_insert_with(|| {
-                gpu.bind_group_layout("mdas.mdas.args.layout", &gpu_params::args_layout_entries())
-            })
-            .clone()
+    fn args_layout(gpu: &Gpu) -> wgpu::BindGroupLayout {
+        gpu.bind_group_layout("mdas.mdas.args.layout", &gpu_params::args_layout_entries())
     }
 
-    fn pipelines(
-        &mut self,
-        gpu: &Gpu,
-        cfg: &Config,
-        integrand: &dyn Integrand,
-    ) -> Result<Pipelines> {
-        let layout = self.layout(gpu, cfg);
-        let args_layout = self.args_layout(gpu);
+    /// The kernels for `cfg` and `integrand`, built once per process
+    /// ([`Gpu::compute_pipeline`] keeps them).
+    fn pipelines(gpu: &Gpu, cfg: &Config, integrand: &dyn Integrand) -> Result<Pipelines> {
+        let layout = Self::layout(gpu, cfg);
+        let args_layout = Self::args_layout(gpu);
         let base = cfg.base_wgsl();
         let eval_source = evaluate::source(&base, integrand.wgsl());
-        let key = (eval_source.source(), integrand.layout().cloned());
-        if let Some(p) = self.pipelines.get(&key) {
-            return Ok(p.clone());
-        }
         let own = |label: &str, source: &Wgsl, entry: &str| {
             gpu.compute_pipeline(label, source, entry, &[&layout])
         };
@@ -474,7 +452,6 @@ impl Mdas {
                 "reconstruct",
             )?,
         };
-        self.pipelines.insert(key, p.clone());
         Ok(p)
     }
 

@@ -12,9 +12,9 @@ impl Mdas {
         final_only: bool,
     ) -> Result<Render> {
         let cfg = self.config_for(gpu, integrand)?;
-        let pipes = self.pipelines(gpu, &cfg, integrand)?;
-        let layout = self.layout(gpu, &cfg);
-        let args_layout = self.args_layout(gpu);
+        let pipes = Self::pipelines(gpu, &cfg, integrand)?;
+        let layout = Self::layout(gpu, &cfg);
+        let args_layout = Self::args_layout(gpu);
         // The parameters as this render resolved them (an automatic grid chosen).
         let p = cfg.params;
 
