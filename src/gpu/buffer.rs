@@ -68,8 +68,19 @@ impl Gpu {
             .create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some(label),
                 contents: bytemuck::bytes_of(value),
-                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                usage: self.uniform_usage() | wgpu::BufferUsages::COPY_DST,
             })
+    }
+
+    /// The usage of a buffer bound as a uniform buffer: UNIFORM, and
+    /// STORAGE where uniforms are bound as storage buffers
+    /// ([`Gpu::uniforms_as_storage`]).
+    pub fn uniform_usage(&self) -> wgpu::BufferUsages {
+        if self.uniforms_as_storage {
+            wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::STORAGE
+        } else {
+            wgpu::BufferUsages::UNIFORM
+        }
     }
 
     /// Copies `count` elements of `T` from the start of `buffer` to the host.

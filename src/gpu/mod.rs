@@ -61,6 +61,15 @@ pub struct Gpu {
     /// Layouts and pipelines already built ([`Gpu::bind_group_layout`],
     /// [`Gpu::compute_pipeline`]).
     pub(crate) kernels: Mutex<shader::KernelCache>,
+    /// Whether uniform buffers are bound as read-only storage buffers
+    /// (`var<uniform>` declared `var<storage, read>`, layouts and usages
+    /// to match): on a CPU adapter. Lavapipe (Mesa 22.3, Debian 12's)
+    /// inlines the values of uniforms that decide a branch or a loop and
+    /// does so again, with a full shader compile, every time a pipeline
+    /// with such uniforms is bound: every MDAS iteration rebound and
+    /// recompiled its kernels (about 15 ms for an evaluate pass of a
+    /// motion-blur scene). Storage buffers are never inlined.
+    pub uniforms_as_storage: bool,
 }
 
 static SHARED: OnceLock<std::result::Result<Gpu, String>> = OnceLock::new();
@@ -121,6 +130,7 @@ impl Gpu {
             sink.lock().unwrap().push(e.to_string());
         }));
 
+        let uniforms_as_storage = info.device_type == wgpu::DeviceType::Cpu;
         Ok(Gpu {
             instance,
             adapter,
@@ -131,6 +141,7 @@ impl Gpu {
             caps,
             uncaptured,
             kernels: Mutex::default(),
+            uniforms_as_storage,
         })
     }
 

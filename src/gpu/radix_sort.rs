@@ -212,8 +212,13 @@ impl RadixSort {
 
         let tiles = n.div_ceil(TILE).max(1);
         let (gx, gy) = gpu.dispatch_dims(tiles);
-        let stride = (std::mem::size_of::<Params>() as u64)
-            .next_multiple_of(gpu.limits.min_uniform_buffer_offset_alignment as u64);
+        // Either alignment: the slices may be bound as storage
+        // (`Gpu::uniforms_as_storage`).
+        let stride = (std::mem::size_of::<Params>() as u64).next_multiple_of(
+            gpu.limits
+                .min_uniform_buffer_offset_alignment
+                .max(gpu.limits.min_storage_buffer_offset_alignment) as u64,
+        );
         let mut params = vec![0u8; (stride * MAX_PASSES as u64) as usize];
         for p in 0..passes {
             let shift = p * RADIX_BITS;
@@ -233,7 +238,7 @@ impl RadixSort {
         let params = gpu.buffer_from::<u8>(
             "lights.radix_sort.params",
             &params,
-            wgpu::BufferUsages::UNIFORM,
+            gpu.uniform_usage(),
         )?;
         let groups: Vec<wgpu::BindGroup> = (0..passes)
             .map(|p| {

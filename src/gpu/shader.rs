@@ -147,15 +147,33 @@ impl Gpu {
         label: &str,
         entries: &[wgpu::BindGroupLayoutEntry],
     ) -> wgpu::BindGroupLayout {
+        let entries: Vec<wgpu::BindGroupLayoutEntry> = entries
+            .iter()
+            .map(|&e| match e.ty {
+                wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Uniform,
+                    has_dynamic_offset,
+                    min_binding_size,
+                } if self.uniforms_as_storage => wgpu::BindGroupLayoutEntry {
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Storage { read_only: true },
+                        has_dynamic_offset,
+                        min_binding_size,
+                    },
+                    ..e
+                },
+                _ => e,
+            })
+            .collect();
         let mut cache = self.kernels.lock().unwrap();
         cache
             .layouts
-            .entry(entries.to_vec())
+            .entry(entries.clone())
             .or_insert_with(|| {
                 self.device
                     .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                         label: Some(label),
-                        entries,
+                        entries: &entries,
                     })
             })
             .clone()
@@ -172,7 +190,11 @@ impl Gpu {
         entry: &str,
         layouts: &[&wgpu::BindGroupLayout],
     ) -> Result<wgpu::ComputePipeline> {
-        let text = source.source();
+        let mut text = source.source();
+        if self.uniforms_as_storage {
+            // Same layout: WGSL's uniform rules only restrict it.
+            text = text.replace("var<uniform>", "var<storage, read>");
+        }
         let key = PipelineKey {
             source: Sha256::digest(text.as_bytes()).into(),
             entry: entry.to_string(),

@@ -275,7 +275,7 @@ impl Integrator for Halton {
             let params_buf = gpu.device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("mdas.halton.params"),
                 size: params.len() as u64,
-                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                usage: gpu.uniform_usage() | wgpu::BufferUsages::COPY_DST,
                 mapped_at_creation: false,
             });
             gpu.queue.write_buffer(&params_buf, 0, &params);

@@ -504,7 +504,7 @@ impl GpuLightTree {
                 .copy_from_slice(bytemuck::bytes_of(&e));
         }
         let params =
-            gpu.buffer_from::<u8>("light_tree.params", &bytes, wgpu::BufferUsages::UNIFORM)?;
+            gpu.buffer_from::<u8>("light_tree.params", &bytes, gpu.uniform_usage())?;
         fn binding(b: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
             wgpu::BindGroupEntry {
                 binding: b,

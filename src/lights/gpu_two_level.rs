@@ -150,7 +150,7 @@ impl GpuTwoLevel {
                 STORAGE,
             )?,
             plan_entries: gpu.buffer_from("tree2.plan", &entries, STORAGE)?,
-            params: gpu.buffer_from::<u8>("tree2.params", &bytes, wgpu::BufferUsages::UNIFORM)?,
+            params: gpu.buffer_from::<u8>("tree2.params", &bytes, gpu.uniform_usage())?,
             params_stride: stride,
             counts,
             layout,
