@@ -94,6 +94,21 @@ fn cases() -> Vec<(&'static str, u32, u32, Film, MdasParams)> {
         },
         wide,
     ));
+    // The paced selection at a large α (few leaves would pass the paper's
+    // rule per iteration; c raises them), on the edge (plan.wgsl).
+    let mut paced = params(1, 2, 1, 10.0, 17);
+    paced.alpha = 16.0;
+    paced.pace = 0.25;
+    v.push((
+        "edge 3D paced α=16",
+        3,
+        3,
+        Film {
+            width: 12,
+            height: 8,
+        },
+        paced,
+    ));
     // The defaults of a scene without an [mdas] table: an automatic grid
     // (cells of one pixel, l = 5, m raised to 6), α = 1, the sampled
     // reconstruction; snapshots must read the resolved m.
@@ -427,6 +442,7 @@ fn a_leaf_that_cannot_split_collapses() {
         sample_count: 2,
         emax_bits: 1.0f32.to_bits(),
         inv_alpha: 4.0,
+        inv_pace: 1.0,
         select_all: false,
         epsilon: 1e-2,
         // Cell, header (slot 0 = sample 0, count 2), error, the box, slot
@@ -454,6 +470,55 @@ fn a_leaf_that_cannot_split_collapses() {
         cpu_oracle::decide(&collapsed, 0),
         Default::default(),
         "collapsed leaves are skipped"
+    );
+}
+
+/// The paced selection (plan.wgsl `pace_next`): after each iteration the
+/// factor c that multiplies every leaf's selection probability moves by
+/// T/S, S the leaves that iteration selected and T = max(⌈s·left⌉, floor)
+/// the next iteration's aim (the step within [1/64, 64], c within
+/// [1, 2^24]); checked against a CPU port from consecutive snapshots
+/// (relative 10⁻⁵: WGSL's f32 division may be off by 2.5 ulp). And what
+/// it is for: at α = 16 the paper's rule (s = 0) takes many small
+/// iterations, the paced one at most a third as many for the same budget.
+#[test]
+fn paced_selection_follows_its_rule_and_cuts_iterations() {
+    let (_, case, dims, film, p) = *cases()
+        .iter()
+        .find(|c| c.0 == "edge 3D paced α=16")
+        .expect("a listed case");
+    let (_, snaps) = render_observed(case, dims, film, p);
+    let budget = snaps[0].budget;
+    let initial = snaps[0].sample_count;
+    let floor = ((f64::from(p.pace) / 4.0 * f64::from(budget - initial)).ceil() as u32).max(1);
+    assert_eq!(snaps[0].inv_pace, 1.0, "the first iteration is the paper's rule");
+    let mut raised = false;
+    for w in snaps.windows(2) {
+        let (a, b) = (&w[0], &w[1]);
+        if b.is_final {
+            break;
+        }
+        let selected = b.sample_count - a.sample_count;
+        let left = budget - b.sample_count;
+        let aim = (p.pace * left as f32).ceil().max(floor as f32);
+        let step = (aim / selected.max(1) as f32).clamp(1.0 / 64.0, 64.0);
+        let c = (step / a.inv_pace).clamp(1.0, 16_777_216.0);
+        let want = 1.0 / c;
+        assert!(
+            (b.inv_pace - want).abs() <= 1e-5 * want,
+            "iteration {}: 1/c = {} where the rule gives {want} (S = {selected}, left = {left})",
+            b.iteration,
+            b.inv_pace
+        );
+        raised |= b.inv_pace < 1.0;
+    }
+    assert!(raised, "c never rose above 1: the case does not exercise pacing");
+    let paced_iterations = snaps.last().unwrap().iteration;
+    let (_, plain) = render_observed(case, dims, film, MdasParams { pace: 0.0, ..p });
+    let plain_iterations = plain.last().unwrap().iteration;
+    assert!(
+        3 * paced_iterations <= plain_iterations,
+        "paced: {paced_iterations} iterations, the paper's rule: {plain_iterations}"
     );
 }
 

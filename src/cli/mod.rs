@@ -211,6 +211,12 @@ pub(crate) struct MdasArgs {
     /// larger is closer to box).
     #[arg(long, value_name = "KAPPA")]
     pub(crate) pixel_prior: Option<f32>,
+    /// MDAS: the paced selection, the share of the samples left that each
+    /// adaptive iteration aims to place, in [0, 1] (0: the paper's rule,
+    /// each leaf taken with probability (E/E_max)^alpha; default: the
+    /// scene's, 0.25 without an [mdas] table).
+    #[arg(long, value_name = "SHARE")]
+    pub(crate) pace: Option<f32>,
 }
 
 impl MdasArgs {
@@ -234,6 +240,7 @@ impl MdasArgs {
             (self.split.is_some(), "--split"),
             (self.reconstruction.is_some(), "--reconstruction"),
             (self.pixel_prior.is_some(), "--pixel-prior"),
+            (self.pace.is_some(), "--pace"),
         ]
         .into_iter()
         .filter_map(|(given, name)| given.then_some(name))
@@ -263,6 +270,7 @@ impl MdasArgs {
             split: self.split.unwrap_or(p.split),
             reconstruction: self.reconstruction.unwrap_or(p.reconstruction),
             pixel_prior: self.pixel_prior.unwrap_or(p.pixel_prior),
+            pace: self.pace.unwrap_or(p.pace),
             spp: spp.unwrap_or(p.spp),
             seed: seed.unwrap_or(p.seed),
             auto_grid: p.auto_grid

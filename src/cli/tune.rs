@@ -10,7 +10,7 @@ pub(crate) struct TuneArgs {
     #[arg(long)]
     pub(crate) spp: Option<f32>,
     /// A grid axis, KEY=V1,V2,... (repeatable; keys: split (extent,
-    /// contrast, trimmed), reconstruction (box, pixel, sampled), pixel_prior, alpha, epsilon,
+    /// contrast, trimmed), reconstruction (box, pixel, sampled), pixel_prior, pace, alpha, epsilon,
     /// scale_factor, candidates, max_samples_per_leaf,
     /// initial_samples_per_cell, bits_per_dim, extra_image_bits). Default:
     /// alpha=0,0.015625,0.0625,0.25 scale_factor=0.0625,0.25,1

@@ -46,10 +46,11 @@ use std::collections::BTreeMap;
 /// The `[mdas]` keys a grid may vary (`split` and `reconstruction` take
 /// the rule names, stored as 0 = extent, 1 = contrast, 2 = trimmed and
 /// 0 = box, 1 = pixel, 2 = sampled).
-pub const GRID_KEYS: [&str; 11] = [
+pub const GRID_KEYS: [&str; 12] = [
     "split",
     "reconstruction",
     "pixel_prior",
+    "pace",
     "alpha",
     "epsilon",
     "scale_factor",
@@ -138,6 +139,7 @@ fn with_value(p: MdasParams, key: &str, v: f64) -> Result<MdasParams> {
             })?
         }
         "pixel_prior" => p.pixel_prior = v as f32,
+        "pace" => p.pace = v as f32,
         "alpha" => p.alpha = v as f32,
         "epsilon" => p.epsilon = v as f32,
         "scale_factor" => p.scale_factor = v as f32,
@@ -579,13 +581,14 @@ pub fn mdas_table(p: &MdasParams) -> String {
         grid
     };
     format!(
-        "[mdas]\n{grid}scale_factor = {}\nalpha = {}\nepsilon = {}\nsplit = \"{}\"\nreconstruction = \"{}\"\npixel_prior = {}\ncandidates = {}\nmax_samples_per_leaf = {}\nspp = {}\n",
+        "[mdas]\n{grid}scale_factor = {}\nalpha = {}\nepsilon = {}\nsplit = \"{}\"\nreconstruction = \"{}\"\npixel_prior = {}\npace = {}\ncandidates = {}\nmax_samples_per_leaf = {}\nspp = {}\n",
         p.scale_factor,
         p.alpha,
         p.epsilon,
         p.split,
         p.reconstruction,
         p.pixel_prior,
+        p.pace,
         p.candidates,
         p.max_samples_per_leaf,
         p.spp

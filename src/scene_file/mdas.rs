@@ -71,6 +71,7 @@ impl Ctx<'_> {
                     .map_err(|e| self.error(v.span(), e))?,
             },
             pixel_prior: number(&m.pixel_prior, d.pixel_prior),
+            pace: number(&m.pace, d.pace),
             spp: number(&m.spp, d.spp),
             seed: self.u32(&m.seed, "seed", 0, d.seed)?,
             auto_grid: m.bits_per_dim.is_none()
@@ -113,6 +114,7 @@ impl Ctx<'_> {
             "alpha" => num(&m.alpha),
             "epsilon" => num(&m.epsilon),
             "pixel_prior" => num(&m.pixel_prior),
+            "pace" => num(&m.pace),
             "spp" => num(&m.spp),
             _ => None,
         }

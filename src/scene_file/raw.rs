@@ -306,6 +306,7 @@ pub(super) struct RawMdas {
     pub(super) split: Option<S<String>>,
     pub(super) reconstruction: Option<S<String>>,
     pub(super) pixel_prior: Option<S<Num>>,
+    pub(super) pace: Option<S<Num>>,
     pub(super) spp: Option<S<Num>>,
     pub(super) seed: Option<S<i64>>,
 }

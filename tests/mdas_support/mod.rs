@@ -20,6 +20,7 @@ pub fn params(bits: u32, extra: u32, l: u32, spp: f32, seed: u32) -> MdasParams 
         split: mdas::integrator::mdas::SplitRule::Extent,
         reconstruction: mdas::integrator::mdas::Reconstruction::Box,
         pixel_prior: mdas::integrator::mdas::config::PIXEL_PRIOR,
+        pace: 0.0,
         spp,
         seed,
         auto_grid: false,

@@ -17,8 +17,10 @@
 // Decision of leaf k in iteration t (random numbers: draw(leaf_key(k, t),
 // stream), see common.wgsl):
 //   * collapsed leaves are skipped;
-//   * selected iff E = E_max or E ≥ E_max·ξ^(1/α) (⇔ (E/E_max)^α ≥ ξ,
-//     ξ ∈ (0,1) stream 0; α = 0 selects all);
+//   * selected iff E = E_max or E ≥ E_max·(ξ/c)^(1/α) (⇔ c·(E/E_max)^α
+//     ≥ ξ, ξ ∈ (0,1) stream 0; α = 0 selects all); c = 1 is the paper's
+//     rule, the paced selection raises it (1/c = state[S_INV_PACE],
+//     plan.wgsl);
 //   * best candidate: CANDIDATES uniform quanta in the box (candidate c,
 //     axis a: 16 bits of stream 1 + c·COORD_WORDS + a/2, low half for even
 //     a, high for odd), the one farthest (scaled squared distance) from
@@ -84,7 +86,8 @@ fn selected_now(k: u32, emax_bits: u32) -> bool {
         return true;
     }
     let xi = draw_open(leaf_key(k, iteration()), 0u);  // stream 0
-    return bitcast<f32>(e_bits) >= bitcast<f32>(emax_bits) * pow(xi, params.inv_alpha);
+    let inv_pace = bitcast<f32>(state[S_INV_PACE]);
+    return bitcast<f32>(e_bits) >= bitcast<f32>(emax_bits) * pow(xi * inv_pace, params.inv_alpha);
 }
 
 // The bound n of one of decide's loops. With UNROLL_LOOPS = 0 (CPU

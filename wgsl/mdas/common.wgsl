@@ -45,8 +45,10 @@ struct Params {
     epsilon: f32,
     // κ of the per-pixel reconstruction (RECONSTRUCT_PIXEL).
     pixel_prior: f32,
-    _pad1: u32,
-    _pad2: u32,
+    // The paced selection (plan.wgsl): the share of the samples left that
+    // an iteration aims to place (0: the paper's rule), and the fewest.
+    pace: f32,
+    pace_floor: u32,
     _pad3: u32,
     _pad4: u32,
 }

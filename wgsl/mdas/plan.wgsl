@@ -8,7 +8,16 @@
 //   * the render is done when nothing was added, the budget is reached or
 //     the iteration cap (params.max_iterations) was this iteration;
 //     otherwise the iteration number advances;
-//   * E_max is reset for the next error pass.
+//   * E_max is reset for the next error pass;
+//   * with the paced selection (params.pace > 0), the selection's factor
+//     c (state[S_INV_PACE] = 1/c, adapt.wgsl) is fed back from this
+//     iteration's count: the next iteration aims to place
+//     T = max(⌈pace · left⌉, pace_floor) samples, left those still to
+//     place, and c ← c · T/S (S this iteration's selected leaves, at
+//     least 1; the step kept in [1/64, 64], c in [1, 2^24]). The
+//     probabilities min(1, c·(E/E_max)^α) keep the paper's order; c only
+//     decides how many leaves an iteration takes, so that a large α runs
+//     in a few large iterations rather than many small ones.
 // It writes the indirect arguments of the next evaluate dispatch and of
 // the next iteration's leaf dispatches (error, count, apply): zero
 // workgroups once done, so iterations recorded past the end do nothing
@@ -46,6 +55,14 @@ fn prime() {
     write_args(ARGS_EVALUATE, evaluate_groups(state[S_EVAL_COUNT]));
 }
 
+// The paced selection's factor for the next iteration (see above).
+fn pace_next(selected: u32, left: u32) {
+    let aim = max(ceil(params.pace * f32(left)), f32(params.pace_floor));
+    let step = clamp(aim / f32(max(selected, 1u)), 1.0 / 64.0, 64.0);
+    let c = clamp(step / bitcast<f32>(state[S_INV_PACE]), 1.0, 16777216.0);
+    state[S_INV_PACE] = bitcast<u32>(1.0 / c);
+}
+
 @compute @workgroup_size(1)
 fn plan() {
     if (state[S_DONE] != 0u) {
@@ -78,6 +95,9 @@ fn plan() {
     } else {
         state[S_ITERATION] = it + 1u;
         write_args(ARGS_LEAVES, leaf_groups());
+        if (params.pace > 0.0) {
+            pace_next(selected, params.budget - n);
+        }
     }
     atomicStore(&counters[C_EMAX], 0u);
 }

@@ -48,6 +48,9 @@ pub struct MdasParams {
     /// κ of [`Reconstruction::Pixel`]: the weight, in samples, of the
     /// leaf's mean in each pixel's estimate ([`PIXEL_PRIOR`]).
     pub pixel_prior: f32,
+    /// The paced selection: the share of the samples left that each
+    /// iteration aims to place (0: the paper's rule, [`AUTO_PACE`]).
+    pub pace: f32,
     pub spp: f32,
     pub seed: u32,
     /// Whether the initial grid (b, e, l) is chosen when the render starts,
@@ -73,6 +76,7 @@ impl Default for MdasParams {
             split: SplitRule::Extent,
             reconstruction: Reconstruction::Pixel,
             pixel_prior: PIXEL_PRIOR,
+            pace: 0.0,
             spp: 8.0,
             seed: 0,
             auto_grid: false,
@@ -235,6 +239,7 @@ impl MdasParams {
             alpha: AUTO_ALPHA,
             reconstruction: Reconstruction::Sampled,
             pixel_prior: 0.0,
+            pace: AUTO_PACE,
             ..MdasParams::default()
         }
         .resolved(film)
@@ -275,6 +280,19 @@ pub const AUTO_INITIAL_SHARE: f64 = 5.0 / 6.0;
 /// dispatch cost is not amortised. Until a selection that takes a fixed
 /// share of the budget per iteration exists, the default keeps the cheap α.
 pub const AUTO_ALPHA: f32 = 0.25;
+/// `pace` of a scene without an `[mdas]` table ([`MdasParams::for_film`]).
+///
+/// The paper selects a leaf with probability (E/E_max)^α, so the number of
+/// leaves an iteration takes follows the errors' spread: few at a large α,
+/// and a render of many small iterations (each paying every pass's fixed
+/// cost). With `pace` = s > 0 the probability is min(1, c·(E/E_max)^α), the
+/// factor c ≥ 1 fed back per iteration (plan.wgsl) so that an iteration
+/// places about s of the samples left (at least s/4 of the value-driven
+/// samples): the same order of leaves, in a few large iterations. A
+/// departure from the paper.
+pub const AUTO_PACE: f32 = 0.25;
+/// Largest `pace`: an iteration may aim to place every sample left.
+pub const MAX_PACE: f32 = 1.0;
 /// Fewest samples per cell an automatic grid accepts before it takes a
 /// coarser one, down to cells a pixel wide ([`auto_grid`]).
 pub const AUTO_MIN_SAMPLES_PER_CELL: u32 = 4;
@@ -421,6 +439,9 @@ pub fn validate(p: &MdasParams) -> Result<(), ParamError> {
             &p.pixel_prior,
             format!("must be a number in [0, {MAX_PIXEL_PRIOR}]"),
         );
+    }
+    if !(p.pace.is_finite() && (0.0..=MAX_PACE).contains(&p.pace)) {
+        return fail("pace", &p.pace, format!("must be a number in [0, {MAX_PACE}]"));
     }
     if !(p.scale_factor.is_finite() && p.scale_factor > 0.0) {
         return fail(

@@ -130,7 +130,7 @@ pub fn decide(s: &Snapshot, k: u32) -> Decision {
     if !selected {
         let xi = draw_open(leaf_key(seed, k, it), 0);
         selected =
-            f32::from_bits(leaf.error_bits) >= f32::from_bits(s.emax_bits) * xi.powf(s.inv_alpha);
+            f32::from_bits(leaf.error_bits) >= f32::from_bits(s.emax_bits) * (xi * s.inv_pace).powf(s.inv_alpha);
     }
     if !selected {
         return d;

@@ -22,6 +22,8 @@ pub struct Snapshot {
     pub sample_count: u32,
     pub emax_bits: u32,
     pub inv_alpha: f32,
+    /// 1/c of the paced selection in this iteration (1: the paper's rule).
+    pub inv_pace: f32,
     pub select_all: bool,
     pub epsilon: f32,
     /// Raw words: `leaf_count × (3 + dims + m − 1)`: cell, header, error

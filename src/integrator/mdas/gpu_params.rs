@@ -32,7 +32,12 @@ pub struct GpuParams {
     pub epsilon: f32,
     /// κ of the per-pixel reconstruction (`pixel_prior`).
     pub pixel_prior: f32,
-    pub _pad: [u32; 4],
+    /// The paced selection's share of the samples left per iteration
+    /// (`pace`; 0: the paper's rule, plan.wgsl).
+    pub pace: f32,
+    /// The fewest samples a paced iteration aims to place.
+    pub pace_floor: u32,
+    pub _pad: [u32; 2],
 }
 
 /// Group 0 of every MDAS kernel (`wgsl/mdas/common.wgsl`): `params` at 0,

@@ -54,6 +54,7 @@
 //! | `pixel_prior` κ | the leaf mean's weight in a pixel's estimate | 0..=10⁶ |
 //! | `scale_factor` sf | film axes measure sf·W, sf·H for splitting and distances | > 0 |
 //! | `alpha` α | selection (E/E_max)^α ≥ ξ; 0 selects every leaf | 0..=64 |
+//! | `pace` s | paced selection: c·(E/E_max)^α ≥ ξ, c fed back so that an iteration places about s of the samples left; 0 is the paper's rule ([`config::AUTO_PACE`]) | 0..=1 |
 //! | `candidates` | best-candidate tries | 1..=64 |
 //! | `max_samples_per_leaf` m | a leaf splits when a sample makes it m + 1 | 2..=14 |
 //! | `spp` | budget, samples per pixel on average (may be fractional) | N ≥ 2^(d·b+2e)·l |

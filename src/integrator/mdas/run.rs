@@ -32,6 +32,8 @@ impl Mdas {
                 inv_alpha: if p.alpha > 0.0 { 1.0 / p.alpha } else { 0.0 },
                 epsilon: p.epsilon,
                 pixel_prior: p.pixel_prior,
+                pace: p.pace,
+                pace_floor: pace_floor(p.pace, cfg.budget - cfg.initial_samples.min(cfg.budget)),
                 ..Default::default()
             };
             let paged = |array: usize| -> Result<Vec<wgpu::Buffer>> {
@@ -139,6 +141,7 @@ impl Mdas {
             initial_state[state::ITERATION] = 1;
             initial_state[state::EVAL_COUNT] = cfg.initial_samples;
             initial_state[state::DONE] = (cfg.initial_samples >= cfg.budget) as u32;
+            initial_state[state::INV_PACE] = 1f32.to_bits();
             gpu.queue
                 .write_buffer(&bufs.state, 0, bytemuck::cast_slice(&initial_state));
 
@@ -173,6 +176,7 @@ impl Mdas {
                     sample_count: n,
                     emax_bits: read_counters()?[counter::EMAX],
                     inv_alpha: gp.inv_alpha,
+                    inv_pace: state.inv_pace(),
                     select_all: gp.select_all != 0,
                     epsilon: gp.epsilon,
                     // The snapshot keeps one record per leaf: meta, box, slots.
@@ -345,9 +349,26 @@ impl State {
         self.0[state::DONE] != 0
     }
 
+    /// 1/c of the paced selection for the current iteration (plan.wgsl).
+    fn inv_pace(&self) -> f32 {
+        f32::from_bits(self.0[state::INV_PACE])
+    }
+
     /// The exponent the reconstruction scaled colours by (stats.wgsl).
     fn fixed_exp(&self) -> i32 {
         self.0[state::FIXED_EXP] as i32
+    }
+}
+
+/// The fewest samples a paced iteration aims to place (`pace_floor` of
+/// plan.wgsl): a quarter of what its share takes of the value-driven
+/// samples at the start, so that the geometric shrinking of the share
+/// ends in a few iterations; 0 without pacing.
+fn pace_floor(pace: f32, adaptive: u32) -> u32 {
+    if pace > 0.0 {
+        ((f64::from(pace) / 4.0 * f64::from(adaptive)).ceil() as u32).max(1)
+    } else {
+        0
     }
 }
 

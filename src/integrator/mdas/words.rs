@@ -54,6 +54,10 @@ pub(crate) mod state {
         DONE = 7,
         /// The reconstruction's fixed-point exponent (i32 bits, stats.wgsl).
         FIXED_EXP = 8,
+        /// 1/c of the paced selection (f32 bits; 1 without pacing): a
+        /// leaf is selected with probability min(1, c·(E/E_max)^α)
+        /// (adapt.wgsl `selected_now`, plan.wgsl).
+        INV_PACE = 9,
     }
     pub const LEN: usize = 16;
 }
