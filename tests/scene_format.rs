@@ -106,7 +106,8 @@ fn cornell_box_loads_with_closed_outward_blocks_and_the_ceiling_light() {
     assert_eq!((s.scene.film.width, s.scene.film.height), (256, 256));
     assert_eq!(s.integrand, IntegrandSpec::AreaLight);
     // The defaults of an untuned scene, with the grid chosen for 256×256
-    // at 8 spp: cells of a pixel, 6 samples each (5/6 of the budget).
+    // at 8 spp: cells of a pixel, 6 samples each (5/6 of the budget); α = 2
+    // with the paced selection.
     let m = s.mdas;
     assert!(m.auto_grid);
     assert_eq!(
@@ -116,9 +117,10 @@ fn cornell_box_loads_with_closed_outward_blocks_and_the_ceiling_light() {
             m.initial_samples_per_cell,
             m.max_samples_per_leaf,
             m.alpha,
+            m.pace,
             m.spp
         ),
-        (0, 8, 6, 7, 0.25, 8.0)
+        (0, 8, 6, 7, 2.0, 0.5, 8.0)
     );
     // 5 walls + 2 blocks + the light.
     assert_eq!(s.scene.meshes.len(), 8);
@@ -621,6 +623,22 @@ fn unknown_keys_are_named_with_their_line() {
     assert!(
         m.contains("pixel_prior = -1: must be a number in [0,"),
         "{m}"
+    );
+    // The paced selection's share: [0, 1], 0 the paper's rule; a table
+    // without the key takes the default of a scene without a table.
+    let m = error_at(
+        "mdas-pace",
+        &format!("{BASE}[mdas]\nalpha = 1\npace = 1.5\n"),
+        14,
+        8,
+    );
+    assert!(m.contains("pace = 1.5: must be a number in [0, 1]"), "{m}");
+    let (_, ok) = load_text("mdas-pace-ok", &format!("{BASE}[mdas]\npace = 0\n"));
+    assert_eq!(ok.unwrap().mdas.pace, 0.0);
+    let (_, ok) = load_text("mdas-pace-default", &format!("{BASE}[mdas]\nalpha = 1\n"));
+    assert_eq!(
+        ok.unwrap().mdas.pace,
+        mdas::integrator::mdas::config::AUTO_PACE
     );
 }
 

@@ -214,7 +214,7 @@ pub(crate) struct MdasArgs {
     /// MDAS: the paced selection, the share of the samples left that each
     /// adaptive iteration aims to place, in [0, 1] (0: the paper's rule,
     /// each leaf taken with probability (E/E_max)^alpha; default: the
-    /// scene's, 0.25 without an [mdas] table).
+    /// scene's, 0.5 without an [mdas] table, where alpha is 2).
     #[arg(long, value_name = "SHARE")]
     pub(crate) pace: Option<f32>,
 }

@@ -227,7 +227,8 @@ impl MdasParams {
     /// The defaults of a scene file's `[mdas]` table: the initial grid
     /// chosen per render from the film and the budget (`auto_grid`, see
     /// [`auto_grid`]; the b, e and l stored here are its choice at the
-    /// default 8 spp), α = [`AUTO_ALPHA`], the `Sampled` reconstruction
+    /// default 8 spp), α = [`AUTO_ALPHA`] with the paced selection
+    /// (`pace` = [`AUTO_PACE`]), the `Sampled` reconstruction
     /// with κ = 0 (each pixel from its own samples), and the rest as
     /// [`Default`]. On scenes nobody tuned these replaced a grid of cells
     /// two pixels wide holding 1 spp or less, with the `Pixel`
@@ -270,16 +271,16 @@ impl MdasParams {
 /// stratified grid carries most of MDAS's gain there, and 1/6 is kept for
 /// the value-driven samples, which pay on the scenes with features to find.
 pub const AUTO_INITIAL_SHARE: f64 = 5.0 / 6.0;
-/// α of a scene without an `[mdas]` table ([`MdasParams::for_film`]): the
-/// paper's usual 1/4. α = 1 spends the value-driven part of the budget
-/// better (on 16 generated scenes at 8 spp, 0.90× Halton's RelMSE against
-/// 1.11× for 1/4, geometric means; BENCHMARKS.md, issue 48), but each of
-/// its iterations selects few leaves, so many more run: 2.65× Halton's
-/// time per render against 1.29× on a generated motion-blur scene on
-/// lavapipe, and far more on small films, where each iteration's fixed
-/// dispatch cost is not amortised. Until a selection that takes a fixed
-/// share of the budget per iteration exists, the default keeps the cheap α.
-pub const AUTO_ALPHA: f32 = 0.25;
+/// α of a scene without an `[mdas]` table ([`MdasParams::for_film`]).
+/// A larger α sends the value-driven samples to the leaves of highest
+/// error: on the battery's 32 generated scenes at 8 spp (BENCHMARKS.md,
+/// issue 48) the geometric mean of MDAS/Halton's RelMSE was 1.07 at the
+/// paper's usual 1/4, 0.88 at 1, 0.83 at 4 — but under the paper's rule a
+/// large α takes few leaves per iteration, so many iterations run (46 at
+/// α = 4 on one scene), each paying every pass's fixed cost. With the
+/// paced selection ([`AUTO_PACE`]) α = 2 gives 0.87 in a few iterations:
+/// at equal time 1.34 against α = 1/4's 1.33 (the same battery, lavapipe).
+pub const AUTO_ALPHA: f32 = 2.0;
 /// `pace` of a scene without an `[mdas]` table ([`MdasParams::for_film`]).
 ///
 /// The paper selects a leaf with probability (E/E_max)^α, so the number of
@@ -289,8 +290,10 @@ pub const AUTO_ALPHA: f32 = 0.25;
 /// factor c ≥ 1 fed back per iteration (plan.wgsl) so that an iteration
 /// places about s of the samples left (at least s/4 of the value-driven
 /// samples): the same order of leaves, in a few large iterations. A
-/// departure from the paper.
-pub const AUTO_PACE: f32 = 0.25;
+/// departure from the paper. 1/2 at α = 2 (above); 1/4 took more
+/// iterations for no accuracy at α = 4 (0.83 either way, equal time 1.58
+/// against 1.46).
+pub const AUTO_PACE: f32 = 0.5;
 /// Largest `pace`: an iteration may aim to place every sample left.
 pub const MAX_PACE: f32 = 1.0;
 /// Fewest samples per cell an automatic grid accepts before it takes a
