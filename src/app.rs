@@ -665,6 +665,8 @@ pub fn reference_with(
     let text = serde_json::to_string_pretty(&record)?;
     let (w, h) = (render.film.width, render.film.height);
     let mut writes = crate::atomic::AtomicWrites::new();
+    // A damaged entry read above is this cache's to replace.
+    crate::atomic::release_input(&path);
     image_io::stage_exr(&mut writes, &path, w, h, &render.image, &attributes)?;
     image_io::stage_png(
         &mut writes,

@@ -14,6 +14,12 @@
 //!   in (the report last) only once the run has succeeded. A failed run
 //!   leaves the previous run's files untouched; files of the output
 //!   directory that this run does not write are never touched.
+//! - A target is never something the run reads or a special file:
+//!   [`check_writable`] (which every write above runs first) refuses a
+//!   path that exists and is not a regular file (a rename would replace a
+//!   FIFO or a device node with a file) and one the process has read as
+//!   an input ([`note_input`]: scenes, meshes, material libraries, EXR
+//!   references and cache entries).
 //! - An interrupt (SIGINT, SIGTERM, SIGHUP; [`install_interrupt_cleanup`])
 //!   removes every staged file and staging directory before the process
 //!   exits with status 130, so no hidden temporary is left behind. Only
@@ -33,6 +39,30 @@ static TEMP_COUNTER: AtomicU64 = AtomicU64::new(0);
 
 /// Staged files and directories that an interrupt must remove.
 static PENDING: Mutex<BTreeSet<PathBuf>> = Mutex::new(BTreeSet::new());
+
+/// The files this process has read as inputs, canonical ([`note_input`]).
+static INPUTS: Mutex<BTreeSet<PathBuf>> = Mutex::new(BTreeSet::new());
+
+/// `path` with its directory made canonical (links resolved, `..` gone)
+/// and, if it exists, itself: two names of one file compare equal, and a
+/// file not yet written still has a name to compare.
+fn canonical(path: &Path) -> Option<PathBuf> {
+    if let Ok(p) = path.canonicalize() {
+        return Some(p);
+    }
+    let dir = path.parent().filter(|d| !d.as_os_str().is_empty());
+    let dir = dir.unwrap_or(Path::new(".")).canonicalize().ok()?;
+    Some(dir.join(path.file_name()?))
+}
+
+/// Records that the process read `path` as an input: [`check_writable`]
+/// refuses it as a target from then on (`--json-out scene.toml`, `-o`
+/// naming the scene's OBJ). Readers call it as they open a file.
+pub fn note_input(path: &Path) {
+    if let Some(p) = canonical(path) {
+        INPUTS.lock().unwrap_or_else(|e| e.into_inner()).insert(p);
+    }
+}
 
 fn pending() -> std::sync::MutexGuard<'static, BTreeSet<PathBuf>> {
     // A panic while the lock was held cannot leave the set inconsistent.
@@ -146,9 +176,20 @@ fn temp_path_for(path: &Path) -> Result<PathBuf> {
     Ok(path.with_file_name(temp_name))
 }
 
-/// Checks that `path` can be written: its directory exists and it is not
-/// itself a directory. Cheap; callers run it before any GPU work so that a
-/// bad output path fails in milliseconds, not after the render.
+/// Undoes [`note_input`] for a file its owner means to replace: the
+/// reference cache rebuilding an entry it read and found damaged.
+pub fn release_input(path: &Path) {
+    if let Some(p) = canonical(path) {
+        INPUTS.lock().unwrap_or_else(|e| e.into_inner()).remove(&p);
+    }
+}
+
+/// Checks that `path` can be written: its directory exists, and it is
+/// neither a directory, nor another file that is not a regular one (a
+/// FIFO, socket or device: the rename that lands an output would replace
+/// it), nor an input this process has read ([`note_input`]). Cheap;
+/// callers run it before any GPU work so that a bad output path fails in
+/// milliseconds, not after the render.
 pub fn check_writable(path: &Path) -> Result<()> {
     let directory = match path.parent() {
         Some(parent) if !parent.as_os_str().is_empty() => parent,
@@ -163,6 +204,22 @@ pub fn check_writable(path: &Path) -> Result<()> {
     }
     if path.is_dir() {
         bail!("cannot write {}: it is a directory", path.display());
+    }
+    if let Ok(meta) = fs::metadata(path) {
+        if !meta.is_file() {
+            bail!(
+                "cannot write {}: it exists and is not a regular file (a FIFO, socket or device), which writing the output would replace; choose another path",
+                path.display()
+            );
+        }
+    }
+    if let Some(p) = canonical(path) {
+        if INPUTS.lock().unwrap_or_else(|e| e.into_inner()).contains(&p) {
+            bail!(
+                "cannot write {}: it is an input of this run; choose another path",
+                path.display()
+            );
+        }
     }
     let probe = temp_path_for(path)?;
     let staged = Staged::new(probe.clone());

@@ -149,12 +149,30 @@ pub fn stage_exr(
 /// it is written, but cannot be read back as a reference.
 pub const MAX_EXR_PIXELS: u64 = 1 << 28;
 
+/// Refuses to read anything but a regular file (a FIFO given as
+/// `--reference`, or found at a cache entry's path, would block the read
+/// forever), and notes the file as an input of the run
+/// ([`crate::atomic::note_input`]: no output may replace it).
+fn check_readable(path: &Path) -> Result<()> {
+    let meta =
+        std::fs::metadata(path).map_err(|e| anyhow!("cannot read {}: {e}", path.display()))?;
+    if !meta.is_file() {
+        bail!(
+            "cannot read {}: not a regular file (a directory, FIFO, socket or device)",
+            path.display()
+        );
+    }
+    crate::atomic::note_input(path);
+    Ok(())
+}
+
 /// Reads the R, G, B channels of the first RGB layer of an EXR file (any
 /// sample type, converted to f32) as `(width, height, pixels)`, row-major with
 /// the top row first. Other channels (alpha, ...) are ignored.
 pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>)> {
     use exr::prelude::*;
 
+    check_readable(path)?;
     // The header first: a forged data window must not make the pixel
     // buffer below ask for more memory than any image here can need (an
     // allocation failure aborts the process).
@@ -217,7 +235,7 @@ pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>)> {
 /// file carries outside the standard ones), sorted by name.
 pub fn read_exr_attributes(path: &Path) -> Result<Vec<(String, ExrAttribute)>> {
     use exr::meta::attribute::AttributeValue;
-    let meta = exr::meta::MetaData::read_from_file(path, false)
+    check_readable(path)?;    let meta = exr::meta::MetaData::read_from_file(path, false)
         .map_err(|e| anyhow!("cannot read {}: {e}", path.display()))?;
     let header = meta
         .headers

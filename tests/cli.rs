@@ -1064,6 +1064,23 @@ fn hostile_inputs_fail_cleanly() {
     mdas::image_io::write_exr(&small, 8, 6, &vec![[0.5; 3]; 48]).unwrap();
     let scene_exr = inputs.join("scene.exr");
     std::fs::copy("scenes/area_light_plane.toml", &scene_exr).unwrap();
+    // Targets no output may replace (issue 54 item 1): an input of the run
+    // (a scene, a mesh read under a .png name), a FIFO and a device; and a
+    // FIFO as --reference, whose read would block forever (item 3).
+    let bench_scene = inputs.join("bench_scene.toml");
+    std::fs::copy("scenes/area_light_plane.toml", &bench_scene).unwrap();
+    let mesh_text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+    std::fs::write(inputs.join("mesh.png"), mesh_text).unwrap();
+    let mesh_scene = std::fs::read_to_string(fixtures.join("bad_obj.toml"))
+        .unwrap()
+        .replace("bad.obj", "mesh.png");
+    std::fs::write(inputs.join("mesh_scene.toml"), mesh_scene).unwrap();
+    let fifo_out = inputs.join("fifo.exr");
+    let fifo_ref = inputs.join("fifo_ref.exr");
+    for fifo in [&fifo_out, &fifo_ref] {
+        let made = Command::new("mkfifo").arg(fifo).status().unwrap();
+        assert!(made.success(), "mkfifo {}", fifo.display());
+    }
 
     let s = |p: &Path| p.to_str().unwrap().to_string();
     let plane = "scenes/area_light_plane.toml".to_string();
@@ -1255,6 +1272,60 @@ fn hostile_inputs_fail_cleanly() {
             expect: vec!["lists 32 more than once".into()],
         },
         Hostile {
+            what: "bench --json-out naming its own scene",
+            args: ["bench", &s(&bench_scene), "--json-out", &s(&bench_scene)]
+                .map(String::from)
+                .to_vec(),
+            env: None,
+            expect: vec!["is an input of this run".into()],
+        },
+        Hostile {
+            what: "bench --json-out a character device",
+            args: ["bench", &plane, "--json-out", "/dev/full"]
+                .map(String::from)
+                .to_vec(),
+            env: None,
+            expect: vec!["not a regular file".into()],
+        },
+        Hostile {
+            what: "bench with a missing second scene",
+            args: ["bench", &plane, &s(&inputs.join("absent.toml"))]
+                .map(String::from)
+                .to_vec(),
+            env: None,
+            expect: vec!["absent.toml".into()],
+        },
+        Hostile {
+            what: "render -o naming the scene's mesh (read as mesh.png)",
+            args: render(&[
+                &s(&inputs.join("mesh_scene.toml")),
+                "-o",
+                &s(&inputs.join("mesh.exr")),
+            ]),
+            env: None,
+            expect: vec!["mesh.png: it is an input of this run".into()],
+        },
+        Hostile {
+            what: "render -o a FIFO",
+            args: render(&[&plane, "-o", &s(&fifo_out)]),
+            env: None,
+            expect: vec!["not a regular file".into()],
+        },
+        Hostile {
+            what: "--reference a FIFO",
+            args: render(&[
+                &plane,
+                "--scale",
+                "0.25",
+                "--reference",
+                &s(&fifo_ref),
+                "-o",
+                &o,
+            ]),
+            env: None,
+            expect: vec!["fifo_ref.exr: not a regular file".into()],
+        },
+        Hostile {
             what: "sweep --spps 0",
             args: ["sweep", &plane, "--spps", "0", "--out", &s(&cmp)]
                 .map(String::from)
@@ -1291,6 +1362,22 @@ fn hostile_inputs_fail_cleanly() {
         );
         times.push((secs, case.what));
     }
+    // The inputs the outputs were refused over, and the special files,
+    // are as they were.
+    assert_eq!(
+        std::fs::read(&bench_scene).unwrap(),
+        std::fs::read("scenes/area_light_plane.toml").unwrap()
+    );
+    assert_eq!(
+        std::fs::read_to_string(inputs.join("mesh.png")).unwrap(),
+        mesh_text
+    );
+    for fifo in [&fifo_out, &fifo_ref] {
+        use std::os::unix::fs::FileTypeExt;
+        let kind = std::fs::metadata(fifo).unwrap().file_type();
+        assert!(kind.is_fifo(), "{} was replaced", fifo.display());
+    }
+    assert!(!inputs.join("fifo.png").exists());
     times.sort_by(|a, b| a.0.total_cmp(&b.0));
     eprintln!(
         "{} hostile inputs: median {:.2} s, slowest {:.2} s ({})",

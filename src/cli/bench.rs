@@ -30,8 +30,19 @@ pub(crate) fn run(args: BenchArgs, ui: Ui) -> Result<()> {
         repeats,
         json_out,
     } = args;
+    // Before any GPU work: every scene is a readable file (not only the
+    // first), and --json-out can be written and names none of them (nor
+    // a directory, a FIFO or a device).
+    for scene in &scenes {
+        match std::fs::metadata(scene) {
+            Ok(meta) if meta.is_file() => mdas::atomic::note_input(scene),
+            Ok(_) => bail!("cannot read {}: not a regular file", scene.display()),
+            Err(e) => bail!("cannot read {}: {e}", scene.display()),
+        }
+    }
     if let Some(path) = &json_out {
         ensure_parent(path)?;
+        mdas::atomic::check_writable(path)?;
     }
     let gpu = Gpu::shared()?;
     ui.note(format!("adapter {}", gpu.info.name));

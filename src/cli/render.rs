@@ -144,6 +144,9 @@ pub(crate) fn run(args: RenderArgs, ui: Ui) -> Result<()> {
         Some(r) => Some(read_reference(r, film)?),
         None => None,
     };
+    // Again, now that the scene's meshes and material libraries have been
+    // read: -o must not name any of them either.
+    check_output(&output)?;
     let gpu = Gpu::shared()?;
     let overrides = IntegrandOverrides {
         sampler,

@@ -170,6 +170,7 @@ pub(crate) fn read_input(path: &std::path::Path, limit: u64) -> std::io::Result<
     if !metadata.is_file() {
         return Err(Error::new(ErrorKind::InvalidInput, "not a regular file"));
     }
+    crate::atomic::note_input(path);
     let too_large = |size: u64| {
         Error::new(
             ErrorKind::InvalidData,
