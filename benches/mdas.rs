@@ -123,6 +123,7 @@ fn bench(c: &mut Criterion) {
             split: mdas::integrator::mdas::SplitRule::Extent,
             reconstruction: mdas::integrator::mdas::Reconstruction::Box,
             pixel_prior: mdas::integrator::mdas::config::PIXEL_PRIOR,
+            pace: 0.0,
             spp: 8.0,
             seed: 1,
             auto_grid: false,

@@ -214,7 +214,11 @@ pub fn check_writable(path: &Path) -> Result<()> {
         }
     }
     if let Some(p) = canonical(path) {
-        if INPUTS.lock().unwrap_or_else(|e| e.into_inner()).contains(&p) {
+        if INPUTS
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .contains(&p)
+        {
             bail!(
                 "cannot write {}: it is an input of this run; choose another path",
                 path.display()

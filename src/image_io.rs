@@ -235,7 +235,8 @@ pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>)> {
 /// file carries outside the standard ones), sorted by name.
 pub fn read_exr_attributes(path: &Path) -> Result<Vec<(String, ExrAttribute)>> {
     use exr::meta::attribute::AttributeValue;
-    check_readable(path)?;    let meta = exr::meta::MetaData::read_from_file(path, false)
+    check_readable(path)?;
+    let meta = exr::meta::MetaData::read_from_file(path, false)
         .map_err(|e| anyhow!("cannot read {}: {e}", path.display()))?;
     let header = meta
         .headers

@@ -491,7 +491,10 @@ fn paced_selection_follows_its_rule_and_cuts_iterations() {
     let budget = snaps[0].budget;
     let initial = snaps[0].sample_count;
     let floor = ((f64::from(p.pace) / 4.0 * f64::from(budget - initial)).ceil() as u32).max(1);
-    assert_eq!(snaps[0].inv_pace, 1.0, "the first iteration is the paper's rule");
+    assert_eq!(
+        snaps[0].inv_pace, 1.0,
+        "the first iteration is the paper's rule"
+    );
     let mut raised = false;
     for w in snaps.windows(2) {
         let (a, b) = (&w[0], &w[1]);
@@ -512,7 +515,10 @@ fn paced_selection_follows_its_rule_and_cuts_iterations() {
         );
         raised |= b.inv_pace < 1.0;
     }
-    assert!(raised, "c never rose above 1: the case does not exercise pacing");
+    assert!(
+        raised,
+        "c never rose above 1: the case does not exercise pacing"
+    );
     let paced_iterations = snaps.last().unwrap().iteration;
     let (_, plain) = render_observed(case, dims, film, MdasParams { pace: 0.0, ..p });
     let plain_iterations = plain.last().unwrap().iteration;

@@ -588,8 +588,9 @@ fn small_bright_lamp_does_not_leak_onto_black_pixels() {
     };
     let exact = lamp_image(film);
     let integrand = TestIntegrand::new(gpu, 7, 3, film);
-    let mean =
-        |f: &dyn Fn(u32) -> Vec<[f32; 3]>| (0..16).map(|s| relmse(&f(s), &exact)).sum::<f64>() / 16.0;
+    let mean = |f: &dyn Fn(u32) -> Vec<[f32; 3]>| {
+        (0..16).map(|s| relmse(&f(s), &exact)).sum::<f64>() / 16.0
+    };
     let defaults = MdasParams {
         spp: 8.0,
         ..MdasParams::for_film(film)

@@ -235,11 +235,8 @@ impl RadixSort {
             params[at..at + std::mem::size_of::<Params>()]
                 .copy_from_slice(bytemuck::bytes_of(&value));
         }
-        let params = gpu.buffer_from::<u8>(
-            "lights.radix_sort.params",
-            &params,
-            gpu.uniform_usage(),
-        )?;
+        let params =
+            gpu.buffer_from::<u8>("lights.radix_sort.params", &params, gpu.uniform_usage())?;
         let groups: Vec<wgpu::BindGroup> = (0..passes)
             .map(|p| {
                 let (src, dst) = if p % 2 == 0 {

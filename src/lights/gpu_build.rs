@@ -503,8 +503,7 @@ impl GpuLightTree {
             bytes[at..at + std::mem::size_of::<BuildParams>()]
                 .copy_from_slice(bytemuck::bytes_of(&e));
         }
-        let params =
-            gpu.buffer_from::<u8>("light_tree.params", &bytes, gpu.uniform_usage())?;
+        let params = gpu.buffer_from::<u8>("light_tree.params", &bytes, gpu.uniform_usage())?;
         fn binding(b: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
             wgpu::BindGroupEntry {
                 binding: b,

@@ -444,7 +444,11 @@ pub fn validate(p: &MdasParams) -> Result<(), ParamError> {
         );
     }
     if !(p.pace.is_finite() && (0.0..=MAX_PACE).contains(&p.pace)) {
-        return fail("pace", &p.pace, format!("must be a number in [0, {MAX_PACE}]"));
+        return fail(
+            "pace",
+            &p.pace,
+            format!("must be a number in [0, {MAX_PACE}]"),
+        );
     }
     if !(p.scale_factor.is_finite() && p.scale_factor > 0.0) {
         return fail(

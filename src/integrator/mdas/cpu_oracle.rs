@@ -129,8 +129,8 @@ pub fn decide(s: &Snapshot, k: u32) -> Decision {
     let mut selected = leaf.error_bits == s.emax_bits || s.select_all;
     if !selected {
         let xi = draw_open(leaf_key(seed, k, it), 0);
-        selected =
-            f32::from_bits(leaf.error_bits) >= f32::from_bits(s.emax_bits) * (xi * s.inv_pace).powf(s.inv_alpha);
+        selected = f32::from_bits(leaf.error_bits)
+            >= f32::from_bits(s.emax_bits) * (xi * s.inv_pace).powf(s.inv_alpha);
     }
     if !selected {
         return d;
