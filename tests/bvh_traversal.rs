@@ -468,12 +468,16 @@ fn object_space_t(built: &BuiltScene, ray: &Ray, prim: u32) -> Option<f32> {
 }
 
 /// Whether the GPU and CPU closest hits are both right up to rounding
-/// (see the module docs).
+/// (see the module docs). Where both hit but one of them at t_min within
+/// T_TOL (a ray leaving a surface, whose own or a neighbouring triangle
+/// sits at the self-intersection threshold: which side of it a hit lands
+/// on is rounding, and moving instances round in object space), the
+/// other side's farther hit is as right.
 fn is_tie(ray: &Ray, gpu: &HitRecord, cpu: &HitRecord) -> bool {
     let t_min = ray_t_min(ray.origin.into(), ray.dir.into());
     let marginal_t = |t: f32| t_close(t, ray.t_max) || t_close(t, t_min);
     match (gpu.is_hit(), cpu.is_hit()) {
-        (true, true) => t_close(gpu.t, cpu.t),
+        (true, true) => t_close(gpu.t, cpu.t) || t_close(gpu.t.min(cpu.t), t_min),
         (true, false) => on_boundary(gpu.bary) || marginal_t(gpu.t),
         (false, true) => on_boundary(cpu.bary) || marginal_t(cpu.t),
         (false, false) => unreachable!(),

@@ -16,6 +16,14 @@
 //! leaf). [`BUILD_PARAMS`] is obvhs' `fast_build` preset: PLOC search
 //! radius "low", 2 % reinsertion, and *no pre-splits* — so every triangle
 //! appears in exactly one leaf and leaves can index triangles directly.
+//! The builder sees each primitive's box grown by a tiny amount that
+//! varies from primitive to primitive ([`tie_broken`]): PLOC merges two
+//! clusters only when each is the other's cheapest neighbour, and where
+//! every neighbour costs the same (a row of equal, equally spaced
+//! triangles) every cluster picks the same side, one pair merges per
+//! pass, and the build takes time quadratic in the count (40k such
+//! triangles: 21 s; issue 54 item 4). The grown boxes still bound their
+//! primitives, so traversal is exact.
 //!
 //! **One flat layout.** Triangles are stored in BVH leaf order
 //! (`primitive_indices`), instance after instance, so a leaf's primitive
@@ -89,6 +97,37 @@ pub struct BuiltScene {
 /// surface areas, the builder's cost, stay finite in f32 below it.
 pub const MAX_BOUNDS: f32 = 1e18;
 
+/// A primitive's box as the builder sees it ([`tie_broken`]).
+struct BuilderBox(Aabb);
+
+impl obvhs::Boundable for BuilderBox {
+    fn aabb(&self) -> Aabb {
+        self.0
+    }
+}
+
+/// The boxes grown on every side by u·max(2⁻¹² × the box's largest
+/// extent, 2⁻²⁰ × its largest coordinate), u ∈ [0, 1) a hash of the
+/// primitive's index: enough to separate PLOC's merge costs of equal
+/// neighbours (the second term beats f32 rounding of far-off boxes'
+/// extents), small enough not to matter to traversal. See the module
+/// docs.
+fn tie_broken(boxes: impl Iterator<Item = Aabb>) -> Vec<BuilderBox> {
+    boxes
+        .enumerate()
+        .map(|(i, b)| {
+            let mut h = (i as u64).wrapping_add(0x9e37_79b9_7f4a_7c15);
+            h = (h ^ (h >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+            h = (h ^ (h >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+            let u = ((h ^ (h >> 31)) >> 40) as f32 / (1u64 << 24) as f32;
+            let extent = (b.max - b.min).max_element();
+            let far = b.min.abs().max(b.max.abs()).max_element();
+            let grow = u * (extent * 2f32.powi(-12)).max(far * 2f32.powi(-20));
+            BuilderBox(Aabb::new(b.min - grow, b.max + grow))
+        })
+        .collect()
+}
+
 /// Triangles of one BLAS before reordering.
 struct Group {
     /// Scene mesh of each triangle and its index there.
@@ -129,7 +168,10 @@ impl BuiltScene {
 
         let blases: Vec<CwBvh> = groups
             .iter()
-            .map(|g| builder::build_cwbvh_from_tris(&g.tris, BUILD_PARAMS, &mut core))
+            .map(|g| {
+                let boxes = tie_broken(g.tris.iter().map(|t| t.aabb()));
+                builder::build_cwbvh(&boxes, BUILD_PARAMS, &mut core)
+            })
             .collect();
         let bounds: Vec<Aabb> = groups
             .iter()
@@ -152,7 +194,7 @@ impl BuiltScene {
         let tlas = if bounds.is_empty() {
             CwBvh::default()
         } else {
-            builder::build_cwbvh(&bounds, BUILD_PARAMS, &mut core)
+            builder::build_cwbvh(&tie_broken(bounds.iter().copied()), BUILD_PARAMS, &mut core)
         };
         let build_ms = start.elapsed().as_secs_f64() * 1e3;
 
