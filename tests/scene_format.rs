@@ -1090,3 +1090,32 @@ fn light_set_keys_parse_into_the_set() {
         "{m}"
     );
 }
+
+/// Issue 54 item 5: accepted values that rendered black are refused at
+/// their key: keyframe times and shutter times beyond ±MAX_TIME, a
+/// focus distance beyond MAX_COORDINATE, a many-light scene time beyond
+/// ±MAX_TIME and `sst_nu_min = 0`. The largest accepted values render
+/// lit (tried by hand on 2026-12-07: a time of 10^6 on `moving_lights`,
+/// a focus distance of 10^9 on a generated thin-lens scene, neither with
+/// the all-black warning).
+#[test]
+fn values_that_rendered_black_are_refused_at_their_key() {
+    let shape = format!("{BASE}[[shape]]\ntype = \"sphere\"\nmaterial = \"white\"\nradius = 1\n");
+    let m = error_at(
+        "keyframe-time",
+        &format!("{shape}motion = [{{ time = -3e38 }}, {{ time = 3e38 }}]\n"),
+        16,
+        20,
+    );
+    assert!(m.contains("time must be within ±1e6"), "{m}");
+    let camera = |line: &str| BASE.replace("fov_y = 40\n", &format!("fov_y = 40\n{line}\n"));
+    let m = error_at("focus-far", &camera("focus_distance = 1e20"), 9, 18);
+    assert!(m.contains("focus_distance must be within ±1e9"), "{m}");
+    let m = error_at("shutter-far", &camera("shutter_close = 3e38"), 9, 17);
+    assert!(m.contains("shutter_close must be within ±1e6"), "{m}");
+    let many = |line: &str| format!("{BASE}[integrand]\ntype = \"many_light\"\n{line}\n");
+    let m = error_at("light-time", &many("time = 3e38"), 14, 8);
+    assert!(m.contains("time must be within ±1e6"), "{m}");
+    let m = error_at("nu-min-zero", &many("sst_nu_min = 0"), 14, 14);
+    assert!(m.contains("sst_nu_min must be in (0, 1]"), "{m}");
+}

@@ -186,11 +186,19 @@ impl Ctx<'_> {
             None => 0.0,
         };
         let focus_distance = match &c.focus_distance {
-            Some(d) => self.positive(d, "focus_distance")?,
+            // Bounded like a coordinate: at 10^20 the squared length of a
+            // lens ray's direction overflows f32 and every ray is NaN.
+            Some(d) => self
+                .bounded(d, "focus_distance", super::MAX_COORDINATE)
+                .and_then(|_| self.positive(d, "focus_distance"))?,
             None => (look_at - position).length(),
         };
-        let shutter_open = c.shutter_open.as_ref().map_or(0.0, |t| t.get_ref().0);
-        let shutter_close = c.shutter_close.as_ref().map_or(1.0, |t| t.get_ref().0);
+        let time = |t: &Option<S<Num>>, key: &str, default: f32| {
+            t.as_ref()
+                .map_or(Ok(default), |t| self.bounded(t, key, super::MAX_TIME))
+        };
+        let shutter_open = time(&c.shutter_open, "shutter_open", 0.0)?;
+        let shutter_close = time(&c.shutter_close, "shutter_close", 1.0)?;
         if shutter_close <= shutter_open {
             let span = c
                 .shutter_close

@@ -85,7 +85,10 @@ impl Ctx<'_> {
                     )? as u32,
                     block,
                     interleave,
-                    time: r.time.as_ref().map_or(d.time, |v| v.get_ref().0),
+                    time: r
+                        .time
+                        .as_ref()
+                        .map_or(Ok(d.time), |v| self.bounded(v, "time", super::MAX_TIME))?,
                     frame: self.u32(&r.frame, "frame", 0, d.frame)?,
                     frame_duration: self.finite_nonneg(
                         &r.frame_duration,
@@ -169,8 +172,10 @@ impl Ctx<'_> {
             nu_min: num(
                 &r.sst_nu_min,
                 "sst_nu_min",
-                &|x| (0.0..=1.0).contains(&x),
-                "in [0, 1]",
+                // 0 rendered black (issue 54 item 5): ν ≥ 0 admits every
+                // node, the root included, as a substitute.
+                &|x| x > 0.0 && x <= 1.0,
+                "in (0, 1]",
                 d.nu_min,
             )?,
             sigma_max: num(

@@ -121,6 +121,13 @@ pub const MAX_EMISSION: f32 = 1e20;
 /// sin and cos are accurate only for moderate angles (3·10^38 gave NaN
 /// light positions).
 pub const MAX_ORBIT_SPEED: f32 = 1e4;
+/// Largest magnitude of a scene time (keyframe times, `shutter_open`,
+/// `shutter_close`, the `many_light` integrand's `time`): 10^6 units.
+/// Keyframes at ±3·10^38 interpolated as if static (their span overflows
+/// f32), and a light set at time 3·10^38 lit nothing; at 10^6 an orbit of
+/// the largest speed still has finite positions, and f32 still tells
+/// times 1/16 apart.
+pub const MAX_TIME: f32 = 1e6;
 
 /// Why a scene could not be loaded.
 #[derive(Debug, thiserror::Error)]

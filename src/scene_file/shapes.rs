@@ -495,7 +495,7 @@ impl Ctx<'_> {
         let mut out: Vec<Keyframe> = Vec::with_capacity(frames.len());
         for k in frames {
             let k = k.get_ref();
-            let time = k.time.get_ref().0;
+            let time = self.bounded(&k.time, "time", super::MAX_TIME)?;
             if let Some(prev) = out.last() {
                 if time <= prev.time {
                     return Err(self.error(
