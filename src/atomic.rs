@@ -307,6 +307,36 @@ pub fn write_atomic(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Res
     writes.commit()
 }
 
+/// Removes the staging directories (`.mdas-partial-{pid}-{n}`) that
+/// processes no longer running left in `target`: a run killed with SIGKILL
+/// cannot clean up after itself, so the next run into the same directory
+/// does (issue 54 item 7). A directory whose process is alive, or whose
+/// name does not parse, is left alone. Returns how many were removed.
+fn sweep_stale_staging(target: &Path) -> usize {
+    // Liveness is read from /proc: without it (not Linux), sweep nothing.
+    if !Path::new("/proc/self").exists() {
+        return 0;
+    }
+    let Ok(entries) = fs::read_dir(target) else {
+        return 0;
+    };
+    let mut removed = 0;
+    for entry in entries.flatten() {
+        let name = entry.file_name();
+        let Some(rest) = name.to_str().and_then(|n| n.strip_prefix(".mdas-partial-")) else {
+            continue;
+        };
+        let Some(pid) = rest.split('-').next().and_then(|p| p.parse::<u32>().ok()) else {
+            continue;
+        };
+        let alive = pid == std::process::id() || Path::new(&format!("/proc/{pid}")).exists();
+        if !alive && entry.path().is_dir() && fs::remove_dir_all(entry.path()).is_ok() {
+            removed += 1;
+        }
+    }
+    removed
+}
+
 /// A directory of outputs written as one unit (see the module docs).
 pub struct StagedDir {
     target: PathBuf,
@@ -331,6 +361,7 @@ impl StagedDir {
         }
         fs::create_dir_all(target)
             .with_context(|| format!("cannot create output directory {}", target.display()))?;
+        sweep_stale_staging(target);
         let mut dir = StagedDir {
             target: target.to_path_buf(),
             staging: None,
@@ -449,6 +480,30 @@ mod tests {
     /// A staged directory is invisible until committed, a dropped one leaves
     /// the old outputs and the user's own files alone, and the directories
     /// this run created are removed again when the run fails.
+    /// A staging directory left by a process that no longer runs (a
+    /// SIGKILLed `compare`) is swept by the next run into the same
+    /// directory; a live process's, and names that do not parse, are not.
+    #[test]
+    fn stale_staging_directories_of_dead_processes_are_swept() {
+        let dir = test_dir("sweep");
+        // Above Linux's largest pid (2^22): no such process.
+        let dead = dir.join(".mdas-partial-4000000000-3");
+        let live = dir.join(format!(".mdas-partial-{}-99", std::process::id()));
+        let odd = dir.join(".mdas-partial-x");
+        for d in [&dead, &live, &odd] {
+            fs::create_dir_all(d).unwrap();
+            fs::write(d.join("render.exr"), b"partial").unwrap();
+        }
+        let staged = StagedDir::new(&dir).unwrap();
+        assert!(
+            !dead.exists(),
+            "the dead process's staging directory stayed"
+        );
+        assert!(live.exists() && odd.exists());
+        drop(staged);
+        fs::remove_dir_all(&dir).unwrap();
+    }
+
     #[test]
     fn a_staged_directory_lands_whole_or_not_at_all() {
         let dir = test_dir("dir");
