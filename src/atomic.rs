@@ -23,7 +23,9 @@
 //! - An interrupt (SIGINT, SIGTERM, SIGHUP; [`install_interrupt_cleanup`])
 //!   removes every staged file and staging directory before the process
 //!   exits with status 130, so no hidden temporary is left behind. Only
-//!   SIGKILL or a power cut can leave one (named as above, safe to delete).
+//!   SIGKILL or a power cut can leave one (named as above, safe to
+//!   delete); the next [`StagedDir`] in the same directory removes the
+//!   staging directories of processes that no longer run.
 
 use std::collections::BTreeSet;
 use std::fs;
