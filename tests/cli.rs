@@ -1326,6 +1326,23 @@ fn hostile_inputs_fail_cleanly() {
             expect: vec!["fifo_ref.exr: not a regular file".into()],
         },
         Hostile {
+            what: "compare --spp 1e30 (a budget beyond u64)",
+            args: [
+                "compare",
+                &plane,
+                "--scale",
+                "0.25",
+                "--spp",
+                "1e30",
+                "--out",
+                &s(&cmp),
+            ]
+            .map(String::from)
+            .to_vec(),
+            env: None,
+            expect: vec!["= 7.68000011556454e32 samples exceeds".into()],
+        },
+        Hostile {
             what: "sweep --spps 0",
             args: ["sweep", &plane, "--spps", "0", "--out", &s(&cmp)]
                 .map(String::from)

@@ -634,7 +634,10 @@ impl Config {
             );
         }
         if budget > SAMPLE_LIMIT {
-            bail!("the budget of {budget} samples exceeds the {SAMPLE_LIMIT} MDAS can index; lower spp or the resolution");
+            // As f64: a huge spp saturates the u64 (it printed as
+            // 18446744073709551615; issue 54 item 8).
+            let exact = params.spp as f64 * pixels as f64;
+            bail!("the budget spp × pixels = {} × {pixels} = {exact:e} samples exceeds the {SAMPLE_LIMIT} MDAS can index; lower spp or the resolution", params.spp);
         }
         let m = params.max_samples_per_leaf as u64;
         let h = m.div_ceil(2);
