@@ -1248,6 +1248,12 @@ fn hostile_inputs_fail_cleanly() {
             expect: vec!["WGPU_BACKEND=\"bogus\"".into()],
         },
         Hostile {
+            what: "WGPU_BACKEND=gl (a backend this build lacks)",
+            args: render(&[&plane, "-o", &o]),
+            env: Some(("WGPU_BACKEND", "gl")),
+            expect: vec!["this build has the vulkan, metal and dx12 backends only".into()],
+        },
+        Hostile {
             what: "compare --max-spp 0",
             args: ["compare", &plane, "--max-spp", "0", "--out", &s(&cmp)]
                 .map(String::from)

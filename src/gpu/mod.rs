@@ -262,11 +262,25 @@ fn pick_adapter(adapters: Vec<wgpu::Adapter>) -> Result<wgpu::Adapter> {
             known.contains(&name.trim().to_ascii_lowercase().as_str())
         };
         let backend = std::env::var("WGPU_BACKEND").ok();
-        if let Some(backend) = backend.filter(|b| !b.split(',').all(known)) {
+        if let Some(backend) = backend.as_ref().filter(|b| !b.split(',').all(known)) {
             bail!(
                 "no GPU adapter found with WGPU_BACKEND={backend:?}: wgpu knows the backends \
                  vulkan, metal, dx12 and gl (a comma-separated list), and this build has \
                  vulkan, metal and dx12; unset WGPU_BACKEND to use any of them"
+            );
+        }
+        // Only backends this build lacks (gl): a Vulkan driver may well be
+        // installed, so do not tell the user to install one (issue 54
+        // item 8).
+        let built = ["vulkan", "vk", "metal", "mtl", "dx12", "d3d12"];
+        if let Some(backend) = backend.filter(|b| {
+            !b.split(',')
+                .any(|n| built.contains(&n.trim().to_ascii_lowercase().as_str()))
+        }) {
+            bail!(
+                "no GPU adapter found with WGPU_BACKEND={backend:?}: this build has the \
+                 vulkan, metal and dx12 backends only; unset WGPU_BACKEND (or set it to \
+                 vulkan) to use them"
             );
         }
         bail!(
