@@ -1119,3 +1119,18 @@ fn values_that_rendered_black_are_refused_at_their_key() {
     let m = error_at("nu-min-zero", &many("sst_nu_min = 0"), 14, 14);
     assert!(m.contains("sst_nu_min must be in (0, 1]"), "{m}");
 }
+
+/// Issue 54 item 8: a scene file that is not UTF-8 is refused at the first
+/// bad byte's line and column (a Latin-1 "é" in a comment on line 4,
+/// after "# caf": column 6), not only with the file's name.
+#[test]
+fn a_file_that_is_not_utf8_is_refused_where_it_stops_being_text() {
+    let dir = std::env::temp_dir().join(format!("mdas-scene-format-{}-latin1", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("scene.toml");
+    std::fs::write(&path, b"[film]\nwidth = 8\nheight = 6\n# caf\xe9\n").unwrap();
+    let e = scene_file::load(&path).expect_err("not UTF-8");
+    assert_eq!(e.position(), Some((4, 6)), "{e}");
+    assert!(e.to_string().contains("not UTF-8 text"), "{e}");
+    std::fs::remove_dir_all(&dir).ok();
+}

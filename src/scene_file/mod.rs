@@ -170,11 +170,20 @@ pub fn load(path: &Path) -> Result<SceneFile, SceneError> {
         error,
     };
     let bytes = crate::scene::read_input(path, MAX_SCENE_BYTES).map_err(io)?;
-    let text = String::from_utf8(bytes).map_err(|_| {
-        io(std::io::Error::new(
-            std::io::ErrorKind::InvalidData,
-            "not UTF-8 text",
-        ))
+    let text = String::from_utf8(bytes).map_err(|e| {
+        // Where the first bad byte is (issue 54 item 8): the text before it
+        // is valid, so its lines and characters can be counted.
+        let valid = &e.as_bytes()[..e.utf8_error().valid_up_to()];
+        let before = std::str::from_utf8(valid).unwrap_or_default();
+        let line_start = before.rfind('\n').map_or(0, |i| i + 1);
+        SceneError::Invalid {
+            file: path.to_path_buf(),
+            line: before.matches('\n').count() + 1,
+            column: before[line_start..].chars().count() + 1,
+            message:
+                "not UTF-8 text: the byte here starts no UTF-8 character (save the file as UTF-8)"
+                    .into(),
+        }
     })?;
     parse(&text, path)
 }
