@@ -113,7 +113,25 @@ pub fn load_obj(path: &Path) -> Result<TriMesh, String> {
 
 fn read_obj(path: &Path) -> Result<Vec<u8>, String> {
     super::read_input(path, MAX_OBJ_BYTES)
+        .map(plain_lines)
         .map_err(|e| format!("cannot read mesh file '{}': {e}", path.display()))
+}
+
+/// The text as the OBJ and MTL parser expects it (issue 54 item 8): a
+/// leading UTF-8 byte-order mark dropped (it made the first line's `v`
+/// unknown, and a face far below failed on a missing vertex), and lone
+/// CR line ends (classic Mac OS) turned into LF (the whole file read as
+/// one line). Lines keep their numbers.
+fn plain_lines(mut bytes: Vec<u8>) -> Vec<u8> {
+    if bytes.starts_with(&[0xef, 0xbb, 0xbf]) {
+        bytes.drain(..3);
+    }
+    for i in 0..bytes.len() {
+        if bytes[i] == b'\r' && bytes.get(i + 1) != Some(&b'\n') {
+            bytes[i] = b'\n';
+        }
+    }
+    bytes
 }
 
 /// Read an OBJ file with the materials of its `mtllib` files (paths
@@ -130,6 +148,7 @@ pub fn load_obj_parts(path: &Path) -> Result<ObjFile, String> {
         let file = dir.join(name);
         mtl_files.borrow_mut().push(file.clone());
         let read = super::read_input(&file, MAX_MTL_BYTES)
+            .map(plain_lines)
             .map_err(|e| format!("cannot read material library '{}': {e}", file.display()))
             .and_then(|b| {
                 without_panics(|| tobj::load_mtl_buf(&mut &b[..]))
@@ -453,6 +472,31 @@ mod tests {
         for t in 0..3 {
             assert!(m.face_normal(t).z > 0.0);
         }
+    }
+
+    /// Issue 54 item 8: a UTF-8 byte-order mark and classic Mac OS line
+    /// ends (a lone CR) read as the plain file does; CRLF stays CRLF.
+    #[test]
+    fn a_byte_order_mark_and_cr_line_ends_read_as_plain_text() {
+        let plain = parse_obj(b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+        for bytes in [
+            plain_lines(b"\xef\xbb\xbfv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n".to_vec()),
+            plain_lines(b"v 0 0 0\rv 1 0 0\rv 0 1 0\rf 1 2 3\r".to_vec()),
+            plain_lines(b"v 0 0 0\r\nv 1 0 0\r\nv 0 1 0\r\nf 1 2 3\r\n".to_vec()),
+        ] {
+            let m = parse_obj(&bytes).unwrap();
+            assert_eq!(
+                (m.positions.clone(), m.indices.clone()),
+                (plain.positions.clone(), plain.indices.clone())
+            );
+        }
+        assert_eq!(plain_lines(b"a\r\nb\rc".to_vec()), b"a\r\nb\nc");
+        // Line numbers survive: the bad face is still on line 4.
+        let e = parse_obj(&plain_lines(
+            b"\xef\xbb\xbfv 0 0 0\rv 1 0 0\rv 0 1 0\rf 1 2 9\r".to_vec(),
+        ))
+        .unwrap_err();
+        assert!(e.contains("line 4: face corner '9'"), "{e}");
     }
 
     /// Issue 18 item 10: the common OBJ errors name their line.
