@@ -1118,6 +1118,13 @@ fn values_that_rendered_black_are_refused_at_their_key() {
     assert!(m.contains("time must be within ±1e6"), "{m}");
     let m = error_at("nu-min-zero", &many("sst_nu_min = 0"), 14, 14);
     assert!(m.contains("sst_nu_min must be in (0, 1]"), "{m}");
+    // Item 8: a heightfield's amplitude that throws its vertices beyond
+    // the coordinate bound is named at its own key, not at `min`.
+    let field = format!(
+        "{BASE}[[shape]]\ntype = \"heightfield\"\nmaterial = \"white\"\nmin = [-1, -1]\nmax = [1, 1]\nresolution = [4, 4]\namplitude = 1e20\n"
+    );
+    let m = error_at("field-amplitude", &field, 18, 13);
+    assert!(m.contains("amplitude must be within ±1e9"), "{m}");
 }
 
 /// Issue 54 item 8: a scene file that is not UTF-8 is refused at the first

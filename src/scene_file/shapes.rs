@@ -282,8 +282,15 @@ impl Ctx<'_> {
                     min,
                     max,
                     resolution: [nx as u32, nz as u32],
-                    base_y: r.base_y.as_ref().map_or(0.0, |v| v.get_ref().0),
-                    amplitude: r.amplitude.as_ref().map_or(1.0, |v| v.get_ref().0),
+                    // Bounded at their keys like coordinates: a vertex
+                    // beyond ±MAX_COORDINATE was reported at `min` when
+                    // these made it (issue 54 item 8).
+                    base_y: r.base_y.as_ref().map_or(Ok(0.0), |v| {
+                        self.bounded(v, "base_y", super::MAX_COORDINATE)
+                    })?,
+                    amplitude: r.amplitude.as_ref().map_or(Ok(1.0), |v| {
+                        self.bounded(v, "amplitude", super::MAX_COORDINATE)
+                    })?,
                     frequency: r
                         .frequency
                         .as_ref()
