@@ -193,6 +193,19 @@ pub fn release_input(path: &Path) {
 /// callers run it before any GPU work so that a bad output path fails in
 /// milliseconds, not after the render.
 pub fn check_writable(path: &Path) -> Result<()> {
+    // `x.exr/` names a directory to the file system (the final rename
+    // fails), though its file name reads `x.exr`.
+    if path
+        .as_os_str()
+        .to_string_lossy()
+        .ends_with(std::path::MAIN_SEPARATOR)
+    {
+        bail!(
+            "cannot write {}: a file's path cannot end with '{}'",
+            path.display(),
+            std::path::MAIN_SEPARATOR
+        );
+    }
     let directory = match path.parent() {
         Some(parent) if !parent.as_os_str().is_empty() => parent,
         _ => Path::new("."),

@@ -1312,6 +1312,12 @@ fn hostile_inputs_fail_cleanly() {
             expect: vec!["mesh.png: it is an input of this run".into()],
         },
         Hostile {
+            what: "render -o x.exr/ (a trailing slash)",
+            args: render(&[&plane, "-o", &format!("{}/", s(&out.join("slash.exr")))]),
+            env: None,
+            expect: vec!["cannot end with '/'".into()],
+        },
+        Hostile {
             what: "render -o a FIFO",
             args: render(&[&plane, "-o", &s(&fifo_out)]),
             env: None,
