@@ -19,7 +19,8 @@
 //!   path that exists and is not a regular file (a rename would replace a
 //!   FIFO or a device node with a file) and one the process has read as
 //!   an input ([`note_input`]: scenes, meshes, material libraries, EXR
-//!   references and cache entries).
+//!   references and cache entries; in the `mdas` command, which calls
+//!   [`guard_inputs`], not in a program using the library).
 //! - An interrupt (SIGINT, SIGTERM, SIGHUP; [`install_interrupt_cleanup`])
 //!   removes every staged file and staging directory before the process
 //!   exits with status 130, so no hidden temporary is left behind. Only
@@ -45,6 +46,18 @@ static PENDING: Mutex<BTreeSet<PathBuf>> = Mutex::new(BTreeSet::new());
 /// The files this process has read as inputs, canonical ([`note_input`]).
 static INPUTS: Mutex<BTreeSet<PathBuf>> = Mutex::new(BTreeSet::new());
 
+/// Whether inputs are recorded ([`guard_inputs`]): the `mdas` command
+/// turns it on; a program using the library reads and rewrites its own
+/// files as it pleases.
+static GUARD_INPUTS: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// From now on, every file read as an input ([`note_input`]) is refused
+/// as an output target by [`check_writable`]. The `mdas` command calls it
+/// first thing: no output of a run replaces one of its inputs.
+pub fn guard_inputs() {
+    GUARD_INPUTS.store(true, Ordering::Relaxed);
+}
+
 /// `path` with its directory made canonical (links resolved, `..` gone)
 /// and, if it exists, itself: two names of one file compare equal, and a
 /// file not yet written still has a name to compare.
@@ -59,8 +72,12 @@ fn canonical(path: &Path) -> Option<PathBuf> {
 
 /// Records that the process read `path` as an input: [`check_writable`]
 /// refuses it as a target from then on (`--json-out scene.toml`, `-o`
-/// naming the scene's OBJ). Readers call it as they open a file.
+/// naming the scene's OBJ). Readers call it as they open a file; it
+/// records nothing until [`guard_inputs`] is called.
 pub fn note_input(path: &Path) {
+    if !GUARD_INPUTS.load(Ordering::Relaxed) {
+        return;
+    }
     if let Some(p) = canonical(path) {
         INPUTS.lock().unwrap_or_else(|e| e.into_inner()).insert(p);
     }

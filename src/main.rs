@@ -8,6 +8,7 @@ use std::process::ExitCode;
 
 fn main() -> ExitCode {
     quiet_headless_vulkan();
+    mdas::atomic::guard_inputs();
     if let Err(e) = mdas::atomic::install_interrupt_cleanup() {
         eprintln!("warning: {e:#}; an interrupt may leave hidden partial outputs");
     }

@@ -639,7 +639,7 @@ fn bad_many_light_input_is_an_error_at_its_position() {
         "{m}"
     );
     let m = error_at("nu", &integrand("sst_nu_min = 1.5\n"), 14, 14);
-    assert!(m.contains("sst_nu_min must be in [0, 1], found 1.5"), "{m}");
+    assert!(m.contains("sst_nu_min must be in (0, 1], found 1.5"), "{m}");
     let m = error_at("sigma", &integrand("sst_sigma_max = -1\n"), 14, 17);
     assert!(
         m.contains("sst_sigma_max must be a finite distance ≥ 0, found -1"),
