@@ -1434,6 +1434,31 @@ fn hostile_inputs_fail_cleanly() {
         err.contains("no light to sample") && err.contains("every pixel of the image is 0"),
         "{err}"
     );
+    // An accepted extreme that runs many small iterations says so (issue
+    // 54 item 3): α = 64 under the paper's rule, the plane's table.
+    let (o, _) = mdas_capped(
+        &render(&[
+            &plane,
+            "--integrator",
+            "mdas",
+            "--alpha",
+            "64",
+            "--spp",
+            "8",
+            "--scale",
+            "0.125",
+            "-o",
+            &s(&dir.join("alpha64.exr")),
+        ]),
+        None,
+        std::time::Duration::from_secs(60),
+    );
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains("expect many small adaptive iterations"),
+        "{err}"
+    );
     std::fs::remove_dir_all(&dir).ok();
 }
 

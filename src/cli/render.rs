@@ -196,6 +196,9 @@ pub(crate) fn run(args: RenderArgs, ui: Ui) -> Result<()> {
     ));
     if integrator == IntegratorKind::Mdas {
         ui.note(describe_grid(mdas_params, film, prepared.integrand.dims())?);
+        if let Some(w) = slow_selection_warning(&mdas_params) {
+            eprintln!("warning: {w}");
+        }
     }
     if warmup {
         sampler.render(gpu, prepared.integrand.as_ref())?;
@@ -353,6 +356,21 @@ pub(crate) fn describe_grid(
         p.reconstruction,
         p.pixel_prior,
     ))
+}
+
+/// A large α under the paper's selection rule (`pace = 0`) takes few
+/// leaves per iteration, so the render runs many small iterations (α = 64
+/// on a 16×12 film at 8 spp: about 1,000, seconds where α = 1/4 takes
+/// milliseconds; issue 54 item 3). The paced selection keeps α's order
+/// of leaves in a few iterations.
+pub(crate) fn slow_selection_warning(p: &mdas::integrator::mdas::MdasParams) -> Option<String> {
+    (p.pace == 0.0 && p.alpha > 4.0).then(|| {
+        format!(
+            "alpha = {} with pace = 0 (the paper's selection rule) takes few leaves per iteration: \
+             expect many small adaptive iterations; --pace 0.5 takes half the samples left per iteration",
+            p.alpha
+        )
+    })
 }
 
 /// Warnings about the image itself: every pixel 0, and pixels that are
