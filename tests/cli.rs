@@ -1075,6 +1075,24 @@ fn hostile_inputs_fail_cleanly() {
         .unwrap()
         .replace("bad.obj", "mesh.png");
     std::fs::write(inputs.join("mesh_scene.toml"), mesh_scene).unwrap();
+    // 120 triangles, each half the last and beside it: a BVH deeper than
+    // the GPU's traversal stack (issue 54 item 8: name the mesh).
+    let mut deep = String::new();
+    for k in 0..120 {
+        let a = 2f64.powi(-k);
+        deep.push_str(&format!(
+            "v {a:e} 0 0\nv {:e} 0 0\nv {a:e} {a:e} 0\n",
+            2.0 * a
+        ));
+    }
+    for k in 0..120 {
+        deep.push_str(&format!("f {} {} {}\n", 3 * k + 1, 3 * k + 2, 3 * k + 3));
+    }
+    std::fs::write(inputs.join("deep.obj"), deep).unwrap();
+    let deep_scene = std::fs::read_to_string(fixtures.join("bad_obj.toml"))
+        .unwrap()
+        .replace("bad.obj", "deep.obj");
+    std::fs::write(inputs.join("deep.toml"), deep_scene).unwrap();
     let fifo_out = inputs.join("fifo.exr");
     let fifo_ref = inputs.join("fifo_ref.exr");
     for fifo in [&fifo_out, &fifo_ref] {
@@ -1316,6 +1334,12 @@ fn hostile_inputs_fail_cleanly() {
             args: render(&[&plane, "-o", &format!("{}/", s(&out.join("slash.exr")))]),
             env: None,
             expect: vec!["cannot end with '/'".into()],
+        },
+        Hostile {
+            what: "a BVH deeper than the traversal stack",
+            args: render(&[&s(&inputs.join("deep.toml")), "-o", &o]),
+            env: None,
+            expect: vec!["the BVH over mesh 'shape0'".into()],
         },
         Hostile {
             what: "render -o a FIFO",

@@ -205,6 +205,8 @@ impl BuiltScene {
             ..Default::default()
         };
         let mut max_blas_depth = 0;
+        // The group of the deepest BLAS, to name in a stack-depth error.
+        let mut deepest_group = 0usize;
         // Instance i of the flat layout is group tlas.primitive_indices[i].
         for (instance, &g) in tlas.primitive_indices.iter().enumerate() {
             let (group, blas) = (&groups[g as usize], &blases[g as usize]);
@@ -246,7 +248,10 @@ impl BuiltScene {
                     .push([v2.x, v2.y, v2.z, f32::from_bits(record)]);
                 out.source.push([mesh, tri]);
             }
-            max_blas_depth = max_blas_depth.max(depth(blas));
+            if depth(blas) > max_blas_depth {
+                max_blas_depth = depth(blas);
+                deepest_group = g as usize;
+            }
         }
         out.stack_depth = if out.instances.is_empty() {
             0
@@ -254,11 +259,31 @@ impl BuiltScene {
             depth(&tlas) + 1 + max_blas_depth
         };
         if out.stack_depth > super::BVH_STACK_SIZE {
+            // Name the meshes of the deepest BLAS (issue 54 item 8): the
+            // static group can hold many, a moving mesh is its own.
+            let mut names: Vec<&str> = groups
+                .get(deepest_group)
+                .map(|g| {
+                    g.source
+                        .iter()
+                        .map(|s| scene.meshes[s[0] as usize].name.as_str())
+                        .collect()
+                })
+                .unwrap_or_default();
+            names.dedup();
+            let shown = names
+                .iter()
+                .take(4)
+                .map(|n| format!("'{n}'"))
+                .collect::<Vec<_>>();
+            let more = if names.len() > 4 { ", …" } else { "" };
             bail!(
                 "the scene's BVH needs a traversal stack of {} entries but the GPU traversal has {}; \
-                 the geometry is probably degenerate (many coincident triangles)",
+                 the deepest part is the BVH over mesh {}{more}, whose geometry is probably \
+                 degenerate (many coincident or nested triangles)",
                 out.stack_depth,
-                super::BVH_STACK_SIZE
+                super::BVH_STACK_SIZE,
+                shown.join(", ")
             );
         }
         Ok(out)
