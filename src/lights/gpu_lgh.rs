@@ -23,7 +23,7 @@ use crate::gpu::radix_sort::RadixSort;
 use crate::gpu::shader::{bind_buffers, storage_entry, uniform_entry, Wgsl};
 use crate::gpu::{Gpu, Profiler};
 use crate::wgsl_file;
-use anyhow::{bail, Result};
+use anyhow::{bail, Context, Result};
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
@@ -139,8 +139,18 @@ impl GpuLgh {
             below = here;
         }
         let capacity = capacity.max(1);
-        gpu.check_binding_size("lgh index", 4 * total)?;
-        gpu.check_binding_size("lgh grid lights", 64 * capacity)?;
+        // Name the key that sets the size (issue 54 item 8).
+        let levels = || {
+            format!(
+                "[integrand] lgh_levels = {}: the grid hierarchy does not fit this adapter; \
+                 lower lgh_levels",
+                grid.levels
+            )
+        };
+        gpu.check_binding_size("lgh index", 4 * total)
+            .with_context(levels)?;
+        gpu.check_binding_size("lgh grid lights", 64 * capacity)
+            .with_context(levels)?;
         let cpu = gpu.info.device_type == wgpu::DeviceType::Cpu;
         let (walk, gather) = Self::loop_bounds(&grid, prims, params, cpu);
         if cpu {

@@ -44,7 +44,7 @@ use crate::gpu::{Gpu, Profiler};
 use crate::scene::motion::{normalized_keys, transform_at};
 use crate::scene::{Light, Scene};
 use crate::wgsl_file;
-use anyhow::{bail, Result};
+use anyhow::{bail, Context, Result};
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
@@ -264,7 +264,15 @@ impl VplGenerator {
             _pad: [0; 3],
         };
         let bytes = count as u64 * size_of::<LightPrim>() as u64;
-        gpu.check_binding_size("lights.vpl.out", bytes)?;
+        // Name the keys that set the size (issue 54 item 8).
+        gpu.check_binding_size("lights.vpl.out", bytes)
+            .with_context(|| {
+                format!(
+                "[integrand] vpls = {} with vpl_bounces = {}: {count} virtual point lights do not \
+                 fit this adapter; lower vpls or vpl_bounces",
+                spec.paths, spec.bounces
+            )
+            })?;
         let uniform = gpu.uniform("lights.vpl.params", &params);
         let src = gpu.buffer_from("lights.vpl.sources", sources, STORAGE)?;
         let cdf = gpu.buffer_from("lights.vpl.cdf", &cdf, STORAGE)?;
