@@ -39,8 +39,11 @@
 //! intensity-weighted illumination centre `v + P/W` (the paper's; its
 //! demo weights positions by w alone) and its variance `Q/W − (P/W)²`,
 //! without the cancellation of raw second moments far from the origin.
-//! Coarser levels gather from the level below (paper: "using the grid
-//! lights of the first level"): a grid light of level ℓ − 1 with centre
+//! Coarser levels gather from the level below — a departure from the
+//! paper, which builds every coarser level from the grid lights of the
+//! first level S₁ (§3.1: "we build these levels using the grid lights of
+//! the first level S₁"; issue 49 item 2, its effect not measured yet): a
+//! grid light of level ℓ − 1 with centre
 //! `y` is scattered like a light at `y` into level ℓ, its moments moved
 //! to the new vertex exactly (`P' = P + WΔ`, `Q' = Q + 2ΔP + WΔ²`,
 //! `Δ = v_old − v_new`), so each level carries all the light and every
