@@ -252,6 +252,8 @@ fn check_lines(text: &str) -> Result<bool, String> {
     let mut normals: i64 = 0;
     // The first face's line and whether it gave normals.
     let mut first_face: Option<(usize, bool)> = None;
+    // The first vertex's line and whether it gave colours.
+    let mut first_colors: Option<(usize, bool)> = None;
     for (n, line) in text.lines().enumerate() {
         let at = |what: String| format!("line {}: {what}", n + 1);
         let mut fields = line.split_whitespace();
@@ -270,6 +272,30 @@ fn check_lines(text: &str) -> Result<bool, String> {
                     )));
                 }
                 if record == "v" {
+                    // tobj reads x y z, x y z w or x y z r g b, and the
+                    // colours only when every vertex has them; otherwise
+                    // its error names no line (issue 54 item 8).
+                    let colored = match coords.len() {
+                        3 | 4 => false,
+                        6 => true,
+                        k => {
+                            return Err(at(format!(
+                                "a vertex has 3 numbers (x y z), 4 (x y z w) or 6 (x y z r g b), found {k}: '{}'",
+                                line.trim()
+                            )))
+                        }
+                    };
+                    match first_colors {
+                        None => first_colors = Some((n + 1, colored)),
+                        Some((first, c)) if c != colored => {
+                            return Err(at(format!(
+                                "vertex colours must be given for every vertex or none: line {first} {} them and this line {}",
+                                if c { "gives" } else { "does not give" },
+                                if colored { "does" } else { "does not" }
+                            )))
+                        }
+                        _ => {}
+                    }
                     vertices += 1;
                 } else {
                     normals += 1;
@@ -499,6 +525,19 @@ mod tests {
         assert!(e.contains("line 4: face corner '9'"), "{e}");
     }
 
+    /// The vertex forms tobj reads still load: x y z w, and colours on
+    /// every vertex.
+    #[test]
+    fn homogeneous_and_coloured_vertices_load() {
+        for text in [
+            "v 0 0 0 1\nv 1 0 0 1\nv 0 1 0 1\nf 1 2 3\n",
+            "v 0 0 0 1 0 0\nv 1 0 0 0 1 0\nv 0 1 0 0 0 1\nf 1 2 3\n",
+        ] {
+            let m = parse_obj(text.as_bytes()).unwrap();
+            assert_eq!((m.positions.len(), m.indices.len()), (3, 1), "{text}");
+        }
+    }
+
     /// Issue 18 item 10: the common OBJ errors name their line.
     #[test]
     fn bad_records_name_their_line() {
@@ -508,6 +547,14 @@ mod tests {
                 "line 3: a vertex needs",
             ),
             ("v 0 0 0\nv 1 0 0\nv nan 1 0\n", "line 3: a vertex needs"),
+            (
+                "v 0 0 0\nv 1 0 0 1 0.5 0.5 0.5\nv 0 1 0\nf 1 2 3\n",
+                "line 2: a vertex has 3 numbers (x y z), 4 (x y z w) or 6 (x y z r g b), found 7",
+            ),
+            (
+                "v 0 0 0\nv 1 0 0 0.5 0.5 0.5\nv 0 1 0\nf 1 2 3\n",
+                "line 2: vertex colours must be given for every vertex or none",
+            ),
             (
                 "v 0 0 0\nv 1 0 0\nv 0 1 0\n\nf 1 2 4\n",
                 "line 5: face corner '4'",
