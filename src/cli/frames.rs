@@ -232,6 +232,11 @@ pub(crate) fn run(args: RenderArgs, ui: Ui) -> Result<()> {
 
     let mut loaded = SceneFile::load(&scene)?;
     warn_unlit(&loaded);
+    // Again, now that the scene's meshes and material libraries have been
+    // read: no frame may replace one of them either.
+    for f in [frames.start, frames.start + (frames.count - 1)] {
+        check_output(&numbered(&output, f))?;
+    }
     if let (Some(t), mdas::integrand::IntegrandSpec::ManyLight(spec)) =
         (frame_duration, &mut loaded.integrand)
     {
