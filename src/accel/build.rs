@@ -17,7 +17,7 @@
 //! radius "low", 2 % reinsertion, and *no pre-splits* — so every triangle
 //! appears in exactly one leaf and leaves can index triangles directly.
 //! The builder sees each primitive's box grown by a tiny amount that
-//! varies from primitive to primitive ([`tie_broken`]): PLOC merges two
+//! varies from primitive to primitive (`tie_broken`): PLOC merges two
 //! clusters only when each is the other's cheapest neighbour, and where
 //! every neighbour costs the same (a row of equal, equally spaced
 //! triangles) every cluster picks the same side, one pair merges per

@@ -514,9 +514,11 @@ pub struct Config {
     /// samples, the candidates and the axes (true as made by
     /// [`Config::new`]; [`super::Mdas::config_for`] sets false on a CPU
     /// adapter). Unrolled, a GPU keeps the leaf's arrays in registers; on
-    /// lavapipe the unrolled count kernel is so large that llvmpipe evicts
-    /// and rebuilds it at every dispatch (~7 ms a dispatch at m = 8,
-    /// BENCHMARKS.md "Test suite time"). The image is the same either way.
+    /// lavapipe the unrolled count kernel was rebuilt at every dispatch
+    /// (~7 ms a dispatch at m = 8, BENCHMARKS.md "Test suite time") —
+    /// since uniforms are bound as storage there
+    /// ([`crate::gpu::Gpu::uniforms_as_storage`]) it no longer is, and
+    /// either setting costs the same. The image is the same either way.
     pub unroll_loops: bool,
 }
 
