@@ -186,8 +186,8 @@ impl Ctx<'_> {
             None => 0.0,
         };
         let focus_distance = match &c.focus_distance {
-            // Bounded like a coordinate: at 10^20 the squared length of a
-            // lens ray's direction overflows f32 and every ray is NaN.
+            // Bounded like a coordinate: 10^20 rendered black (issue 54
+            // item 5); lens rays aim at a point that far along the view.
             Some(d) => self
                 .bounded(d, "focus_distance", super::MAX_COORDINATE)
                 .and_then(|_| self.positive(d, "focus_distance"))?,
