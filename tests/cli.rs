@@ -1251,7 +1251,7 @@ fn hostile_inputs_fail_cleanly() {
                 &o,
             ]),
             env: None,
-            expect: vec!["= 8589934592 Morton bits".into()],
+            expect: vec!["extra_image_bits = 4294967295: must be in 0..=13".into()],
         },
         Hostile {
             what: "MDAS flags under Halton",

@@ -199,7 +199,7 @@ fn film_defaults_fit_one_spp_on_any_film() {
 /// to l + 1 and leaves a fixed grid alone.
 #[test]
 fn automatic_grid_fits_the_budget_and_the_pixels() {
-    use mdas::integrator::mdas::config::{
+    use mdas::integrator::mdas::params::{
         auto_grid, AUTO_INITIAL_SHARE, AUTO_MAX_SAMPLES_PER_CELL, AUTO_MIN_SAMPLES_PER_CELL,
     };
     for (w, h) in [

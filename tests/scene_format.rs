@@ -638,7 +638,7 @@ fn unknown_keys_are_named_with_their_line() {
     let (_, ok) = load_text("mdas-pace-default", &format!("{BASE}[mdas]\nalpha = 1\n"));
     assert_eq!(
         ok.unwrap().mdas.pace,
-        mdas::integrator::mdas::config::AUTO_PACE
+        mdas::integrator::mdas::params::AUTO_PACE
     );
 }
 

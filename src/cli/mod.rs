@@ -17,7 +17,9 @@ pub(crate) use indicatif::{ProgressBar, ProgressStyle};
 pub(crate) use mdas::accel::voxel::VisibilityKind;
 pub(crate) use mdas::app::{self, IntegrandOverrides, ReferenceSpec};
 pub(crate) use mdas::gpu::Gpu;
+use mdas::integrator::mdas::params::{Kind, Param};
 pub(crate) use mdas::integrator::mdas::MdasParams;
+use mdas::integrator::mdas::PARAMS;
 pub(crate) use mdas::integrator::{Halton, Integrator, Mdas, Render};
 pub(crate) use mdas::lights::sampler::SamplerKind;
 pub(crate) use mdas::scene_file::SceneFile;
@@ -163,91 +165,86 @@ impl IntegratorKind {
     }
 }
 
-/// Overrides of the scene's `[mdas]` table (MDAS paper §5.1).
-#[derive(clap::Args, Debug, Default)]
+/// Overrides of the scene's `[mdas]` table (MDAS paper §5.1): one flag per
+/// tunable key of the registry ([`mdas::integrator::mdas::PARAMS`]), with
+/// its doc line and range as `--help`.
+#[derive(Clone, Debug, Default)]
 pub(crate) struct MdasArgs {
-    /// MDAS: Morton bits per dimension of the initial grid (b).
-    #[arg(long)]
-    pub(crate) bits_per_dim: Option<u32>,
-    /// MDAS: extra Morton bits of the two film axes (e). Without it, the
-    /// scene's e is lowered by round(log2(1/F)) at --scale F.
-    #[arg(long)]
-    pub(crate) extra_image_bits: Option<u32>,
-    /// MDAS: samples per initial grid cell (l).
-    #[arg(long)]
-    pub(crate) initial_samples_per_cell: Option<u32>,
-    /// MDAS: scale sf of the film axes in the sampling domain (not the film --scale).
-    #[arg(long)]
-    pub(crate) scale_factor: Option<f32>,
-    /// MDAS: exponent α of the stochastic leaf selection (E/E_max)^α ≥ ξ.
-    #[arg(long)]
-    pub(crate) alpha: Option<f32>,
-    /// MDAS: best-candidate tries per inserted sample.
-    #[arg(long)]
-    pub(crate) candidates: Option<u32>,
-    /// MDAS: samples a leaf holds before it splits.
-    #[arg(long)]
-    pub(crate) max_samples_per_leaf: Option<u32>,
-    /// MDAS: ε of the contrast error E = V·(ε + c), c in [0, 2] (default
-    /// 0.01; larger is less adaptive and less biased).
-    #[arg(long)]
-    pub(crate) epsilon: Option<f32>,
-    /// MDAS: split axis rule, extent (the paper's largest scaled extent),
-    /// contrast (where the two halves' sample means differ most) or
-    /// trimmed (contrast without the leaf's most outlying sample: one lucky
-    /// sample cannot steer the split, which cuts contrast's dark bias).
-    #[arg(long, value_name = "RULE")]
-    pub(crate) split: Option<mdas::integrator::mdas::SplitRule>,
-    /// MDAS: reconstruction, box (the paper's eq. 7: a leaf's mean over
-    /// its whole film footprint), pixel (each pixel from the leaf's
-    /// samples inside it, blended with the leaf mean by --pixel-prior) or
-    /// sampled (pixel, but a leaf's part of a pixel without any of its
-    /// samples counts only where no leaf sampled the pixel; the default of
-    /// a scene without an [mdas] table, with --pixel-prior 0).
-    #[arg(long, value_name = "RULE")]
-    pub(crate) reconstruction: Option<mdas::integrator::mdas::Reconstruction>,
-    /// MDAS: κ of --reconstruction pixel and sampled, the leaf mean's
-    /// weight in samples (default: the scene's, 0 without an [mdas] table;
-    /// larger is closer to box).
-    #[arg(long, value_name = "KAPPA")]
-    pub(crate) pixel_prior: Option<f32>,
-    /// MDAS: the paced selection, the share of the samples left that each
-    /// adaptive iteration aims to place, in [0, 1] (0: the paper's rule,
-    /// each leaf taken with probability (E/E_max)^alpha; default: the
-    /// scene's, 0.5 without an [mdas] table, where alpha is 2).
-    #[arg(long, value_name = "SHARE")]
-    pub(crate) pace: Option<f32>,
+    /// The flags given, with their values, in registry order.
+    values: Vec<(&'static Param, f64)>,
+}
+
+/// The flags' `--help` heading.
+const MDAS_HEADING: &str = "MDAS parameters (override the scene's [mdas] table)";
+
+impl clap::Args for MdasArgs {
+    fn augment_args(cmd: clap::Command) -> clap::Command {
+        PARAMS.iter().filter(|p| p.tunable).fold(cmd, |cmd, p| {
+            let value_name = match p.kind {
+                Kind::Int => "N",
+                Kind::Number => "X",
+                Kind::Rule(_) => "RULE",
+            };
+            let parser = move |s: &str| -> Result<f64, String> {
+                let v = p.parse(s)?;
+                if p.kind == Kind::Int && (v.fract() != 0.0 || v < 0.0 || v > f64::from(u32::MAX)) {
+                    return Err(format!("'{s}' is not a whole number ≥ 0"));
+                }
+                Ok(v)
+            };
+            let arg = clap::Arg::new(p.key)
+                .long(p.key.replace('_', "-"))
+                .value_name(value_name)
+                .help(match p.kind {
+                    Kind::Rule(_) => format!("{} [scene default: {}]", p.doc, p.default_text()),
+                    _ => format!(
+                        "{} [{}; scene default: {}]",
+                        p.doc,
+                        p.range_text(),
+                        p.default_text()
+                    ),
+                })
+                .help_heading(MDAS_HEADING);
+            let arg = match p.kind {
+                Kind::Rule(names) => arg.value_parser(clap::builder::TypedValueParser::map(
+                    clap::builder::PossibleValuesParser::new(names),
+                    move |s: String| names.iter().position(|&n| n == s).unwrap_or(0) as f64,
+                )),
+                _ => arg.value_parser(parser),
+            };
+            cmd.arg(arg)
+        })
+    }
+
+    fn augment_args_for_update(cmd: clap::Command) -> clap::Command {
+        Self::augment_args(cmd)
+    }
+}
+
+impl clap::FromArgMatches for MdasArgs {
+    fn from_arg_matches(matches: &clap::ArgMatches) -> Result<Self, clap::Error> {
+        let values = PARAMS
+            .iter()
+            .filter(|p| p.tunable)
+            .filter_map(|p| matches.get_one::<f64>(p.key).map(|&v| (p, v)))
+            .collect();
+        Ok(MdasArgs { values })
+    }
+
+    fn update_from_arg_matches(&mut self, matches: &clap::ArgMatches) -> Result<(), clap::Error> {
+        *self = Self::from_arg_matches(matches)?;
+        Ok(())
+    }
 }
 
 impl MdasArgs {
     /// The flags given, by name (`--alpha`, …).
-    pub(crate) fn given(&self) -> Vec<&'static str> {
-        [
-            (self.bits_per_dim.is_some(), "--bits-per-dim"),
-            (self.extra_image_bits.is_some(), "--extra-image-bits"),
-            (
-                self.initial_samples_per_cell.is_some(),
-                "--initial-samples-per-cell",
-            ),
-            (self.scale_factor.is_some(), "--scale-factor"),
-            (self.alpha.is_some(), "--alpha"),
-            (self.candidates.is_some(), "--candidates"),
-            (
-                self.max_samples_per_leaf.is_some(),
-                "--max-samples-per-leaf",
-            ),
-            (self.epsilon.is_some(), "--epsilon"),
-            (self.split.is_some(), "--split"),
-            (self.reconstruction.is_some(), "--reconstruction"),
-            (self.pixel_prior.is_some(), "--pixel-prior"),
-            (self.pace.is_some(), "--pace"),
-        ]
-        .into_iter()
-        .filter_map(|(given, name)| given.then_some(name))
-        .collect()
+    pub(crate) fn given(&self) -> Vec<String> {
+        self.values.iter().map(|(p, _)| p.flag()).collect()
     }
 
-    /// The scene's parameters (adjusted for `scale`) with the flags applied.
+    /// The scene's parameters (adjusted for `scale`) with the flags applied
+    /// (a flag of the initial grid fixes the grid: `auto_grid` off).
     pub(crate) fn params(
         &self,
         scene: MdasParams,
@@ -255,28 +252,14 @@ impl MdasArgs {
         spp: Option<f32>,
         seed: Option<u32>,
     ) -> MdasParams {
-        let p = app::mdas_params_at_scale(scene, scale);
+        let mut p = app::mdas_params_at_scale(scene, scale);
+        for &(param, v) in &self.values {
+            param.set(&mut p, v);
+        }
         MdasParams {
-            bits_per_dim: self.bits_per_dim.unwrap_or(p.bits_per_dim),
-            extra_image_bits: self.extra_image_bits.unwrap_or(p.extra_image_bits),
-            initial_samples_per_cell: self
-                .initial_samples_per_cell
-                .unwrap_or(p.initial_samples_per_cell),
-            scale_factor: self.scale_factor.unwrap_or(p.scale_factor),
-            alpha: self.alpha.unwrap_or(p.alpha),
-            candidates: self.candidates.unwrap_or(p.candidates),
-            max_samples_per_leaf: self.max_samples_per_leaf.unwrap_or(p.max_samples_per_leaf),
-            epsilon: self.epsilon.unwrap_or(p.epsilon),
-            split: self.split.unwrap_or(p.split),
-            reconstruction: self.reconstruction.unwrap_or(p.reconstruction),
-            pixel_prior: self.pixel_prior.unwrap_or(p.pixel_prior),
-            pace: self.pace.unwrap_or(p.pace),
             spp: spp.unwrap_or(p.spp),
             seed: seed.unwrap_or(p.seed),
-            auto_grid: p.auto_grid
-                && self.bits_per_dim.is_none()
-                && self.extra_image_bits.is_none()
-                && self.initial_samples_per_cell.is_none(),
+            ..p
         }
     }
 }

@@ -9,10 +9,9 @@ pub(crate) struct TuneArgs {
     /// MDAS's budget, samples per pixel (default: the scene's [mdas] spp).
     #[arg(long)]
     pub(crate) spp: Option<f32>,
-    /// A grid axis, KEY=V1,V2,... (repeatable; keys: split (extent,
-    /// contrast, trimmed), reconstruction (box, pixel, sampled), pixel_prior, pace, alpha, epsilon,
-    /// scale_factor, candidates, max_samples_per_leaf,
-    /// initial_samples_per_cell, bits_per_dim, extra_image_bits). Default:
+    /// A grid axis, KEY=V1,V2,... (repeatable; KEY is any [mdas] key with
+    /// a flag under "MDAS parameters" below, in its TOML spelling, e.g.
+    /// alpha=1,2 or split=extent,trimmed). Default:
     /// alpha=0,0.015625,0.0625,0.25 scale_factor=0.0625,0.25,1
     /// epsilon=0.01,0.1 (24 configurations). Keys not in the grid keep
     /// the scene's values (after --scale and the MDAS flags).

@@ -36,30 +36,20 @@ use crate::atomic::StagedDir;
 use crate::gpu::Gpu;
 use crate::image_io;
 use crate::integrand::Integrand;
-use crate::integrator::mdas::{MdasParams, Reconstruction, SplitRule};
+use crate::integrator::mdas::params::{Kind, Param};
+use crate::integrator::mdas::{MdasParams, PARAMS};
 use crate::integrator::{Halton, Integrator, Mdas};
 use anyhow::{bail, Context, Result};
 use indicatif::ProgressBar;
 use serde::Serialize;
 use std::collections::BTreeMap;
 
-/// The `[mdas]` keys a grid may vary (`split` and `reconstruction` take
-/// the rule names, stored as 0 = extent, 1 = contrast, 2 = trimmed and
-/// 0 = box, 1 = pixel, 2 = sampled).
-pub const GRID_KEYS: [&str; 12] = [
-    "split",
-    "reconstruction",
-    "pixel_prior",
-    "pace",
-    "alpha",
-    "epsilon",
-    "scale_factor",
-    "candidates",
-    "max_samples_per_leaf",
-    "initial_samples_per_cell",
-    "bits_per_dim",
-    "extra_image_bits",
-];
+/// The `[mdas]` keys a grid may vary: the registry's tunable ones
+/// ([`PARAMS`]; `split` and `reconstruction` take the rule names, stored
+/// as their index in the rule's names).
+pub fn grid_keys() -> impl Iterator<Item = &'static Param> {
+    PARAMS.iter().filter(|p| p.tunable)
+}
 
 /// Most configurations one run may hold.
 pub const MAX_CONFIGS: usize = 512;
@@ -78,38 +68,26 @@ pub fn default_grid() -> Vec<(String, Vec<f64>)> {
     ]
 }
 
-/// Parses `KEY=V1,V2,...` (a key of [`GRID_KEYS`], numbers).
+/// Parses `KEY=V1,V2,...` (a key of [`grid_keys`]; numbers, or a rule's
+/// names).
 pub fn parse_grid_entry(s: &str) -> Result<(String, Vec<f64>)> {
     let (key, values) = s
         .split_once('=')
         .with_context(|| format!("grid entry '{s}' is not KEY=V1,V2,..."))?;
     let key = key.trim();
-    if !GRID_KEYS.contains(&key) {
+    let Some(param) = grid_keys().find(|p| p.key == key) else {
+        let keys: Vec<&str> = grid_keys().map(|p| p.key).collect();
         bail!(
             "grid entry '{s}': unknown key '{key}', expected one of {}",
-            GRID_KEYS.join(", ")
+            keys.join(", ")
         );
-    }
+    };
     let values: Vec<f64> = values
         .split(',')
         .map(|v| {
-            let v = v.trim();
-            if key == "split" {
-                return v
-                    .parse::<SplitRule>()
-                    .map(|r| SplitRule::ALL.iter().position(|&x| x == r).unwrap() as f64)
-                    .map_err(|e| anyhow::anyhow!("grid entry '{s}': {e}"));
-            }
-            if key == "reconstruction" {
-                return v
-                    .parse::<Reconstruction>()
-                    .map(|r| Reconstruction::ALL.iter().position(|&x| x == r).unwrap() as f64)
-                    .map_err(|e| anyhow::anyhow!("grid entry '{s}': {e}"));
-            }
-            v.parse::<f64>()
-                .ok()
-                .filter(|x| x.is_finite())
-                .with_context(|| format!("grid entry '{s}': '{v}' is not a finite number"))
+            param
+                .parse(v)
+                .map_err(|e| anyhow::anyhow!("grid entry '{s}': {e}"))
         })
         .collect::<Result<_>>()?;
     if values.is_empty() {
@@ -118,48 +96,26 @@ pub fn parse_grid_entry(s: &str) -> Result<(String, Vec<f64>)> {
     Ok((key.to_string(), values))
 }
 
-/// `p` with `key` set to `v` (integers must be whole and non-negative).
+/// `p` with `key` set to `v`: an integer must be whole and fit a u32, a
+/// rule's index name a rule (the ranges are `validate`'s, checked against
+/// the integrand before any render). A key of the initial grid fixes the
+/// grid: every key of it takes the (resolved) value the render would have
+/// chosen.
 fn with_value(p: MdasParams, key: &str, v: f64) -> Result<MdasParams> {
-    let int = || -> Result<u32> {
-        if v.fract() != 0.0 || !(0.0..=u32::MAX as f64).contains(&v) {
-            bail!("{key} = {v}: must be a whole number ≥ 0");
+    let param = grid_keys()
+        .find(|p| p.key == key)
+        .with_context(|| format!("unknown grid key '{key}'"))?;
+    match param.kind {
+        Kind::Int if v.fract() != 0.0 || !(0.0..=f64::from(u32::MAX)).contains(&v) => {
+            bail!("{key} = {v}: must be a whole number ≥ 0")
         }
-        Ok(v as u32)
-    };
-    let mut p = p;
-    match key {
-        "split" => {
-            p.split = *SplitRule::ALL
-                .get(int()? as usize)
-                .with_context(|| format!("split = {v}: 0 (extent), 1 (contrast) or 2 (trimmed)"))?
-        }
-        "reconstruction" => {
-            p.reconstruction = *Reconstruction::ALL.get(int()? as usize).with_context(|| {
-                format!("reconstruction = {v}: 0 (box), 1 (pixel) or 2 (sampled)")
-            })?
-        }
-        "pixel_prior" => p.pixel_prior = v as f32,
-        "pace" => p.pace = v as f32,
-        "alpha" => p.alpha = v as f32,
-        "epsilon" => p.epsilon = v as f32,
-        "scale_factor" => p.scale_factor = v as f32,
-        "candidates" => p.candidates = int()?,
-        "max_samples_per_leaf" => p.max_samples_per_leaf = int()?,
-        "initial_samples_per_cell" | "bits_per_dim" | "extra_image_bits" => {
-            // The grid is then the configuration's: every key of it takes
-            // the (resolved) value the render would have chosen.
-            p = MdasParams {
-                auto_grid: false,
-                ..p
-            };
-            match key {
-                "initial_samples_per_cell" => p.initial_samples_per_cell = int()?,
-                "bits_per_dim" => p.bits_per_dim = int()?,
-                _ => p.extra_image_bits = int()?,
-            }
-        }
-        _ => bail!("unknown grid key '{key}'"),
+        Kind::Rule(_) => param
+            .check(v)
+            .map_err(|why| anyhow::anyhow!("{key} = {v}: {why}"))?,
+        _ => {}
     }
+    let mut p = p;
+    param.set(&mut p, v);
     Ok(p)
 }
 
@@ -193,16 +149,10 @@ fn configurations(base: MdasParams, grid: &[(String, Vec<f64>)]) -> Result<Vec<C
         }
         for (key, _) in grid {
             let v = values[key];
-            label.push(match (key.as_str(), v) {
-                ("split", v) => SplitRule::ALL
-                    .get(v as usize)
-                    .map_or_else(|| format!("split={v}"), |r| format!("split={r}")),
-                ("reconstruction", v) => Reconstruction::ALL.get(v as usize).map_or_else(
-                    || format!("reconstruction={v}"),
-                    |r| format!("reconstruction={r}"),
-                ),
-                _ => format!("{key}={v}"),
-            });
+            let shown = grid_keys()
+                .find(|p| p.key == key)
+                .map_or_else(|| v.to_string(), |p| p.format(v));
+            label.push(format!("{key}={shown}"));
         }
         out.push((label.join(" "), values, params));
     }
@@ -565,34 +515,28 @@ fn rank(rows: &mut [TuneRow], equal_samples: bool) {
     });
 }
 
-/// `p` as an `[mdas]` table. An automatic grid (`auto_grid`) is written
-/// as a comment, so that the table keeps choosing it per render.
+/// `p` as an `[mdas]` table (every key of [`PARAMS`] but `seed`, in the
+/// registry's order). An automatic grid (`auto_grid`) is written as a
+/// comment, so that the table keeps choosing it per render.
 pub fn mdas_table(p: &MdasParams) -> String {
-    let grid = format!(
-        "bits_per_dim = {}\nextra_image_bits = {}\ninitial_samples_per_cell = {}\n",
-        p.bits_per_dim, p.extra_image_bits, p.initial_samples_per_cell
-    );
-    let grid = if p.auto_grid {
-        format!(
-            "# initial grid chosen per render from the film and budget; here:\n{}",
-            grid.lines().map(|l| format!("# {l}\n")).collect::<String>()
-        )
-    } else {
-        grid
+    let row = |param: &Param| {
+        let mut one = toml::Table::new();
+        one.insert(param.key.into(), param.toml(param.get(p)));
+        toml::to_string(&one).expect("a one-key table serializes")
     };
-    format!(
-        "[mdas]\n{grid}scale_factor = {}\nalpha = {}\nepsilon = {}\nsplit = \"{}\"\nreconstruction = \"{}\"\npixel_prior = {}\npace = {}\ncandidates = {}\nmax_samples_per_leaf = {}\nspp = {}\n",
-        p.scale_factor,
-        p.alpha,
-        p.epsilon,
-        p.split,
-        p.reconstruction,
-        p.pixel_prior,
-        p.pace,
-        p.candidates,
-        p.max_samples_per_leaf,
-        p.spp
-    )
+    let mut out = String::from("[mdas]\n");
+    if p.auto_grid {
+        out += "# initial grid chosen per render from the film and budget; here:\n";
+    }
+    for param in PARAMS.iter().filter(|q| q.key != "seed") {
+        let line = row(param);
+        if p.auto_grid && param.grid {
+            out += &format!("# {line}");
+        } else {
+            out += &line;
+        }
+    }
+    out
 }
 
 pub const CSV_HEADER: &str = "rank,label,relmse,relmse_lo,relmse_hi,bias_r,bias_g,bias_b,mse_bias2,mse_variance,time_ms,equal_samples_ratio,equal_time_ratio";
@@ -686,6 +630,7 @@ pub fn table(report: &TuneReport) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::integrator::mdas::SplitRule;
 
     #[test]
     fn grid_entries_parse_or_name_what_is_wrong() {

@@ -1,87 +1,67 @@
-//! `[mdas]`: [`MdasParams`]. A key left out takes its value from
-//! [`MdasParams::for_film`] of the scene's film (so does a missing table);
-//! a table that gives none of `bits_per_dim`, `extra_image_bits` and
-//! `initial_samples_per_cell` leaves the initial grid to each render
-//! (`auto_grid`, [`crate::integrator::mdas::config::auto_grid`]).
-//! Only types are checked here (integers ≥ 0,
-//! finite numbers); the ranges are the integrator's own
-//! ([`crate::integrator::mdas::config::validate`]), and its error is
-//! positioned at the key it names (at the table when that key was left at
-//! its default).
+//! `[mdas]`: [`MdasParams`]. The keys, their kinds and their ranges are
+//! the integrator's registry's ([`crate::integrator::mdas::PARAMS`]). A key
+//! left out takes its value from [`MdasParams::for_film`] of the scene's
+//! film (so does a missing table); a table that gives none of
+//! `bits_per_dim`, `extra_image_bits` and `initial_samples_per_cell`
+//! leaves the initial grid to each render (`auto_grid`,
+//! [`crate::integrator::mdas::params::auto_grid`]).
+//! Only kinds are checked here (whole numbers that fit a u32, finite
+//! numbers, a rule's names); the ranges are the integrator's own
+//! ([`crate::integrator::mdas::validate`]), and its error is positioned at
+//! the key it names (at the table when that key was left at its default).
 
 use super::ctx::{Ctx, Result};
 use super::raw::*;
-use super::values::{Num, S};
+use super::values::{Loose, S};
 use super::*;
 use crate::film::Film;
-use crate::integrator::mdas::config;
+use crate::integrator::mdas::params::{self, Kind, Param};
 use std::ops::Range;
+
+/// One key as written: its row, its value, and where the value stands.
+type Written = (&'static Param, f64, Range<usize>);
 
 impl Ctx<'_> {
     pub(super) fn mdas(&self, table: &S<RawMdas>, film: Film) -> Result<MdasParams> {
-        let m = table.get_ref();
-        let number =
-            |v: &Option<S<Num>>, default: f32| v.as_ref().map_or(default, |v| v.get_ref().0);
-        // The defaults, with the automatic grid chosen at the table's spp.
-        let d = MdasParams::for_film(film);
-        let d = MdasParams {
-            spp: number(&m.spp, d.spp),
-            ..d
+        let mut entries: Vec<_> = table.get_ref().iter().collect();
+        entries.sort_by_key(|(k, _)| k.span().start);
+        let mut written: Vec<Written> = Vec::with_capacity(entries.len());
+        for (key, value) in entries {
+            let Some(param) = params::param(key.get_ref()) else {
+                return Err(self.error(
+                    key.span(),
+                    format!(
+                        "unknown field '{}', expected one of {}",
+                        key.get_ref(),
+                        params::key_list(false)
+                    ),
+                ));
+            };
+            written.push((param, self.mdas_value(param, value)?, value.span()));
         }
-        .resolved(film);
-        // Before an automatic grid raises it to l + 1: a table that fixes
+        let given = |key: &str| written.iter().find(|w| w.0.key == key).map(|w| w.1);
+        // The defaults, with the automatic grid chosen at the table's spp.
+        let mut d = MdasParams::for_film(film);
+        if let Some(spp) = given("spp") {
+            d.spp = spp as f32;
+        }
+        let d = d.resolved(film);
+        // m before an automatic grid raises it to l + 1: a table that fixes
         // the grid keeps the plain default, and a missing l stays within it.
-        let max_samples_per_leaf = self.u32(
-            &m.max_samples_per_leaf,
-            "max_samples_per_leaf",
-            0,
-            MdasParams::default().max_samples_per_leaf,
-        )?;
-        let params = MdasParams {
-            bits_per_dim: self.u32(&m.bits_per_dim, "bits_per_dim", 0, d.bits_per_dim)?,
-            extra_image_bits: self.u32(
-                &m.extra_image_bits,
-                "extra_image_bits",
-                0,
-                d.extra_image_bits,
-            )?,
-            initial_samples_per_cell: self.u32(
-                &m.initial_samples_per_cell,
-                "initial_samples_per_cell",
-                0,
-                d.initial_samples_per_cell.min(max_samples_per_leaf.max(1)),
-            )?,
-            scale_factor: number(&m.scale_factor, d.scale_factor),
-            alpha: number(&m.alpha, d.alpha),
-            candidates: self.u32(&m.candidates, "candidates", 0, d.candidates)?,
+        let max_samples_per_leaf = given("max_samples_per_leaf")
+            .map_or(MdasParams::default().max_samples_per_leaf, |m| m as u32);
+        let mut params = MdasParams {
             max_samples_per_leaf,
-            epsilon: number(&m.epsilon, d.epsilon),
-            split: match &m.split {
-                None => d.split,
-                Some(v) => v
-                    .get_ref()
-                    .parse::<config::SplitRule>()
-                    .map_err(|e| self.error(v.span(), e))?,
-            },
-            reconstruction: match &m.reconstruction {
-                None => d.reconstruction,
-                Some(v) => v
-                    .get_ref()
-                    .parse::<config::Reconstruction>()
-                    .map_err(|e| self.error(v.span(), e))?,
-            },
-            pixel_prior: number(&m.pixel_prior, d.pixel_prior),
-            pace: number(&m.pace, d.pace),
-            spp: number(&m.spp, d.spp),
-            seed: self.u32(&m.seed, "seed", 0, d.seed)?,
-            auto_grid: m.bits_per_dim.is_none()
-                && m.extra_image_bits.is_none()
-                && m.initial_samples_per_cell.is_none(),
+            initial_samples_per_cell: d.initial_samples_per_cell.min(max_samples_per_leaf.max(1)),
+            ..d
         };
+        for &(param, v, _) in &written {
+            param.set(&mut params, v);
+        }
         // The values as written are checked; an automatic grid (none of its
         // keys written) is checked with one sample per cell, since its l
         // is chosen per render and raises m to l + 1 if need be.
-        let written = if params.auto_grid {
+        let checked = if params.auto_grid {
             MdasParams {
                 initial_samples_per_cell: 1,
                 ..params
@@ -89,8 +69,11 @@ impl Ctx<'_> {
         } else {
             params
         };
-        config::validate(&written).map_err(|e| {
-            let span = self.mdas_key_span(m, e.key).unwrap_or_else(|| table.span());
+        crate::integrator::mdas::validate(&checked).map_err(|e| {
+            let span = written
+                .iter()
+                .find(|w| w.0.key == e.key)
+                .map_or_else(|| table.span(), |w| w.2.clone());
             self.error(span, e.to_string())
         })?;
         // A table that sets the budget or the leaf size but not the grid:
@@ -99,24 +82,45 @@ impl Ctx<'_> {
         Ok(params.resolved(film))
     }
 
-    /// Where `key` is written in the table, if it is.
-    fn mdas_key_span(&self, m: &RawMdas, key: &str) -> Option<Range<usize>> {
-        let int = |v: &Option<S<i64>>| v.as_ref().map(|v| v.span());
-        let num = |v: &Option<S<Num>>| v.as_ref().map(|v| v.span());
-        match key {
-            "bits_per_dim" => int(&m.bits_per_dim),
-            "extra_image_bits" => int(&m.extra_image_bits),
-            "initial_samples_per_cell" => int(&m.initial_samples_per_cell),
-            "candidates" => int(&m.candidates),
-            "max_samples_per_leaf" => int(&m.max_samples_per_leaf),
-            "seed" => int(&m.seed),
-            "scale_factor" => num(&m.scale_factor),
-            "alpha" => num(&m.alpha),
-            "epsilon" => num(&m.epsilon),
-            "pixel_prior" => num(&m.pixel_prior),
-            "pace" => num(&m.pace),
-            "spp" => num(&m.spp),
-            _ => None,
+    /// `value` as a value of `param`'s kind (its range is `validate`'s).
+    fn mdas_value(&self, param: &Param, value: &S<Loose>) -> Result<f64> {
+        let key = param.key;
+        let wrong = |expected: &str| {
+            self.error(
+                value.span(),
+                format!(
+                    "{key}: invalid type: {}, expected {expected}",
+                    value.get_ref().what()
+                ),
+            )
+        };
+        match (param.kind, value.get_ref()) {
+            (Kind::Int, &Loose::Int(i)) => {
+                let i = S::new(value.span(), i);
+                Ok(self.int(&i, key, 0..=i64::from(u32::MAX))? as f64)
+            }
+            (Kind::Int, _) => Err(wrong("an integer")),
+            (Kind::Number, &Loose::Int(i)) => Ok(f64::from(i as f32)),
+            (Kind::Number, &Loose::Float(x)) => {
+                if !x.is_finite() {
+                    Err(self.error(
+                        value.span(),
+                        format!(
+                            "expected a finite number, found {}",
+                            x.to_string().to_lowercase()
+                        ),
+                    ))
+                } else if !(x as f32).is_finite() {
+                    Err(self.error(value.span(), format!("number {x:e} is out of range")))
+                } else {
+                    Ok(f64::from(x as f32))
+                }
+            }
+            (Kind::Number, _) => Err(wrong("a number")),
+            (Kind::Rule(_), Loose::Str(s)) => {
+                param.parse(s).map_err(|e| self.error(value.span(), e))
+            }
+            (Kind::Rule(_), _) => Err(wrong("a string")),
         }
     }
 }

@@ -5,7 +5,7 @@
 //! its owner's own limits: `max_bounces` by
 //! [`crate::integrand::path::max_bounces_limit`], sampler names by
 //! [`SamplerKind`], the `[mdas]` table by
-//! [`crate::integrator::mdas::config::validate`]. The full reference, with a table per section, is
+//! [`crate::integrator::mdas::params::validate`]. The full reference, with a table per section, is
 //! `docs/scene-format.md`; in short:
 //!
 //! ```text
@@ -30,8 +30,8 @@
 //!             | many_light (sampler, cut_size, block, interleave, time, frame);
 //!             any type: visibility = bvh | voxel, voxel_directions,
 //!             voxel_resolution, voxel_skip
-//! [mdas]      bits_per_dim, extra_image_bits, initial_samples_per_cell,
-//!             scale_factor, alpha, candidates, max_samples_per_leaf, spp, seed
+//! [mdas]      the keys of crate::integrator::mdas::PARAMS (alpha, pace,
+//!             spp, seed, …)
 //! ```
 //!
 //! Every error — TOML syntax, unknown keys, wrong types, NaN/Inf, values

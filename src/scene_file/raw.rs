@@ -292,21 +292,6 @@ pub(super) const INTEGRAND_TYPES: [(&str, &[&str]); 6] = [
     ),
 ];
 
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-pub(super) struct RawMdas {
-    pub(super) bits_per_dim: Option<S<i64>>,
-    pub(super) extra_image_bits: Option<S<i64>>,
-    pub(super) initial_samples_per_cell: Option<S<i64>>,
-    pub(super) scale_factor: Option<S<Num>>,
-    pub(super) alpha: Option<S<Num>>,
-    pub(super) candidates: Option<S<i64>>,
-    pub(super) max_samples_per_leaf: Option<S<i64>>,
-    pub(super) epsilon: Option<S<Num>>,
-    pub(super) split: Option<S<String>>,
-    pub(super) reconstruction: Option<S<String>>,
-    pub(super) pixel_prior: Option<S<Num>>,
-    pub(super) pace: Option<S<Num>>,
-    pub(super) spp: Option<S<Num>>,
-    pub(super) seed: Option<S<i64>>,
-}
+/// `[mdas]`: keys and values as written; the keys, their kinds and their
+/// ranges are the integrator's registry's (`mdas.rs`).
+pub(super) type RawMdas = std::collections::BTreeMap<S<String>, S<Loose>>;

@@ -127,7 +127,7 @@ fn mdas_table_uses_the_integrators_limits() {
         Path::new("t.toml"),
     )
     .unwrap();
-    crate::integrator::mdas::config::validate(&ok.mdas).unwrap();
+    crate::integrator::mdas::params::validate(&ok.mdas).unwrap();
 }
 
 /// Each `[integrand] type` name parses to the spec whose `type_name` is

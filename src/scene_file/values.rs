@@ -128,3 +128,65 @@ impl<'de> Deserialize<'de> for Scale {
         d.deserialize_any(V)
     }
 }
+
+/// A value whose kind its key decides (an `[mdas]` key: the integrator's
+/// registry, `crate::integrator::mdas::PARAMS`, holds the kinds).
+#[derive(Clone, Debug)]
+pub(super) enum Loose {
+    Int(i64),
+    Float(f64),
+    Str(String),
+    /// Anything else, by what it is ("a boolean", "an array", "a table").
+    Other(&'static str),
+}
+
+impl<'de> Deserialize<'de> for Loose {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = Loose;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a number or a string")
+            }
+            fn visit_i64<E: de::Error>(self, v: i64) -> Result<Loose, E> {
+                Ok(Loose::Int(v))
+            }
+            fn visit_u64<E: de::Error>(self, v: u64) -> Result<Loose, E> {
+                Ok(i64::try_from(v).map_or(Loose::Float(v as f64), Loose::Int))
+            }
+            fn visit_f64<E: de::Error>(self, v: f64) -> Result<Loose, E> {
+                Ok(Loose::Float(v))
+            }
+            fn visit_str<E: de::Error>(self, v: &str) -> Result<Loose, E> {
+                Ok(Loose::Str(v.to_string()))
+            }
+            fn visit_bool<E: de::Error>(self, _: bool) -> Result<Loose, E> {
+                Ok(Loose::Other("a boolean"))
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Loose, A::Error> {
+                while seq.next_element::<de::IgnoredAny>()?.is_some() {}
+                Ok(Loose::Other("an array"))
+            }
+            fn visit_map<A: de::MapAccess<'de>>(self, mut map: A) -> Result<Loose, A::Error> {
+                while map
+                    .next_entry::<de::IgnoredAny, de::IgnoredAny>()?
+                    .is_some()
+                {}
+                Ok(Loose::Other("a table or a date"))
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+impl Loose {
+    /// What it is, for a message.
+    pub(super) fn what(&self) -> String {
+        match self {
+            Loose::Int(i) => format!("integer {i}"),
+            Loose::Float(x) => format!("floating point {x}"),
+            Loose::Str(s) => format!("string \"{s}\""),
+            Loose::Other(what) => (*what).to_string(),
+        }
+    }
+}

@@ -5,8 +5,8 @@
 //! and E_max from the snapshot drive the decisions; [`leaf_error`]
 //! recomputes them independently for comparison.
 
-use super::config::SplitRule;
 use super::debug::Snapshot;
+use super::params::SplitRule;
 use super::words::leaf::{self, COLLAPSED_BIT, DIRTY};
 
 pub fn hash_u32(mut x: u32) -> u32 {

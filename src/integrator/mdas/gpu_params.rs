@@ -42,7 +42,7 @@ pub struct GpuParams {
 
 /// Group 0 of every MDAS kernel (`wgsl/mdas/common.wgsl`): `params` at 0,
 /// eight read-write storage buffers at 1–8, and `extra_pages` more from 9
-/// on for the paged arrays' further pages ([`super::config::Pages`]).
+/// on for the paged arrays' further pages ([`super::pages::Pages`]).
 /// Device-free, so that `tests/shader_interfaces.rs` checks the same
 /// entries the runtime uses.
 pub fn layout_entries(extra_pages: u32) -> Vec<wgpu::BindGroupLayoutEntry> {

@@ -44,21 +44,12 @@
 //!
 //! ## Parameters (`[mdas]` table, [`MdasParams`])
 //!
-//! | key | meaning | valid |
-//! |---|---|---|
-//! | `bits_per_dim` b | Morton bits per axis of the initial grid | d·b + 2e ≤ 27 |
-//! | `extra_image_bits` e | extra, high-order bits per film axis | b + e ≤ 13 |
-//! | `initial_samples_per_cell` l | samples per grid cell | 1..=m |
-//! | `auto_grid` | b, e, l chosen per render from its film and budget ([`config::auto_grid`]; a scene without them) | — |
-//! | `reconstruction` | `box` (eq. 7), `pixel` or `sampled` ([`Reconstruction`]) | — |
-//! | `pixel_prior` κ | the leaf mean's weight in a pixel's estimate | 0..=10⁶ |
-//! | `scale_factor` sf | film axes measure sf·W, sf·H for splitting and distances | > 0 |
-//! | `alpha` α | selection (E/E_max)^α ≥ ξ; 0 selects every leaf | 0..=64 |
-//! | `pace` s | paced selection: c·(E/E_max)^α ≥ ξ, c fed back so that an iteration places about s of the samples left; 0 is the paper's rule ([`config::AUTO_PACE`]) | 0..=1 |
-//! | `candidates` | best-candidate tries | 1..=64 |
-//! | `max_samples_per_leaf` m | a leaf splits when a sample makes it m + 1 | 2..=14 |
-//! | `spp` | budget, samples per pixel on average (may be fractional) | N ≥ 2^(d·b+2e)·l |
-//! | `seed` | random numbers | any |
+//! One registry, [`params::PARAMS`], names every parameter with its range,
+//! the default of a scene without the key and a doc line; `mdas render
+//! --help` prints them, and `docs/scene-format.md` has the table (checked
+//! against the registry by `params`' tests). The initial grid (b, e, l) is
+//! chosen per render from the film and budget when a scene gives none of
+//! its keys ([`params::auto_grid`]).
 //!
 //! Integrands of 3..=16 dimensions are supported.
 //!
@@ -93,7 +84,7 @@
 //! `Render::gpu_bytes` reports the total actually allocated.
 //!
 //! The four arrays that grow with the budget (leaves, boxes, sample
-//! coordinates, values) are paged ([`config::Pages`]): while one fits the
+//! coordinates, values) are paged ([`pages::Pages`]): while one fits the
 //! adapter's largest storage binding it is one binding, indexed directly;
 //! beyond that it is split into power-of-two pages, one binding each,
 //! reached through generated accessors. So the capacity is the device's
@@ -163,6 +154,8 @@ pub mod evaluate;
 pub mod gpu_params;
 pub mod initial;
 pub mod morton;
+pub mod pages;
+pub mod params;
 pub mod plan;
 pub mod reconstruct;
 mod run;
@@ -178,9 +171,9 @@ use crate::gpu::Gpu;
 use crate::integrand::Integrand;
 use anyhow::Result;
 use config::Config;
-pub use config::{MdasParams, Reconstruction, SplitRule};
 use debug::Snapshot;
 use gpu_params::{GpuParams, Grid};
+pub use params::{validate, MdasParams, ParamError, Reconstruction, SplitRule, PARAMS};
 pub(crate) use words::{counter, state};
 
 /// Iterations after which a render stops even below its budget.
@@ -253,7 +246,7 @@ pub struct Kernels {
 /// The buffers of one render.
 struct Buffers {
     params: wgpu::Buffer,
-    /// The pages of each paged array (`config::Pages`).
+    /// The pages of each paged array (`pages::Pages`).
     leaves: Vec<wgpu::Buffer>,
     boxes: Vec<wgpu::Buffer>,
     samples: Vec<wgpu::Buffer>,
@@ -266,7 +259,7 @@ struct Buffers {
 impl Mdas {
     /// Validates everything that does not depend on the integrand.
     pub fn new(params: MdasParams) -> Result<Mdas> {
-        config::validate(&params)?;
+        validate(&params)?;
         Ok(Mdas {
             params,
             max_iterations: MAX_ITERATIONS_DEFAULT,
@@ -288,7 +281,7 @@ impl Mdas {
     /// compiles them once.
     pub fn set_spp(&mut self, spp: f32) -> Result<()> {
         let params = MdasParams { spp, ..self.params };
-        config::validate(&params)?;
+        validate(&params)?;
         self.params = params;
         Ok(())
     }
@@ -436,7 +429,7 @@ impl Mdas {
                     if cfg.pages.extra() == 0 {
                         return e;
                     }
-                    let own = config::BASE_STORAGE_BINDINGS + cfg.pages.extra();
+                    let own = pages::BASE_STORAGE_BINDINGS + cfg.pages.extra();
                     e.context(format!(
                         "MDAS capacity: {} samples need {own} storage buffers ({} pages beyond one per array) \
                          and the integrand '{}' binds its own on top; this adapter allows {} per shader stage: \

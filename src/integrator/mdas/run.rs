@@ -37,7 +37,7 @@ impl Mdas {
                 ..Default::default()
             };
             let paged = |array: usize| -> Result<Vec<wgpu::Buffer>> {
-                let name = config::PAGED_ARRAYS[array].0;
+                let name = pages::PAGED_ARRAYS[array].0;
                 (0..cfg.pages.count[array])
                     .map(|page| {
                         let label = format!("mdas.{name}[{page}]");
