@@ -19,12 +19,16 @@ pub mod gpu;
 pub mod image_io;
 pub mod integrand;
 pub mod integrator;
+pub mod kernel_base;
 pub mod lights;
 pub mod metrics;
 pub mod provenance;
 pub mod scene;
 pub mod scene_file;
 pub mod scene_gen;
+
+#[cfg(test)]
+mod layout_tests;
 
 /// The wgpu this crate is built on (version 30), so that a library user
 /// writing an [`integrand::Integrand`] needs no separate, matching

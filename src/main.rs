@@ -47,6 +47,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         quiet: cli.quiet,
     };
     match cli.command {
+        // A sequence (`--frames`) reuses render's arguments and integrator.
+        Command::Render(args) if args.frames.is_some() => cli::frames::run(args, ui),
         Command::Render(args) => cli::render::run(args, ui),
         Command::Reference(args) => cli::reference::run(args, ui),
         Command::Compare(args) => cli::compare::run(args, ui),

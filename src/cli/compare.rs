@@ -55,8 +55,8 @@ pub(crate) struct CompareArgs {
     /// frame_duration` (as `render --frames`). Each frame gets its own
     /// reference and a full comparison in OUT/frame-NNNN/; OUT/frames.csv
     /// and the printed summary give each method's means over the frames.
-    #[arg(long, value_name = "A..B", value_parser = super::frames::FrameRange::parse)]
-    pub(crate) frames: Option<super::frames::FrameRange>,
+    #[arg(long, value_name = "A..B", value_parser = FrameRange::parse)]
+    pub(crate) frames: Option<FrameRange>,
     #[command(flatten)]
     pub(crate) common: ExperimentArgs,
 }
@@ -172,7 +172,7 @@ struct MethodMeans {
 /// one unit each: a failed frame leaves the finished ones), then writes
 /// `out/frames.csv` and prints each method's means.
 fn compare_frames(
-    frames: super::frames::FrameRange,
+    frames: FrameRange,
     out: &Path,
     compare_at: impl Fn(Option<u32>, PathBuf) -> Result<mdas::compare::Report>,
     ui: Ui,

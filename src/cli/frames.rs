@@ -9,49 +9,9 @@
 //! `X.frames.csv` is rewritten after every frame, so an interrupted run
 //! keeps the frames it finished and their times.
 
-use super::render::{integrator_for, warn_image, RenderArgs};
+use super::render::{check_sampling, integrator_for, warn_image, RenderArgs};
 use super::*;
 use mdas::gpu::profiler::PhaseTimes;
-
-/// Frames `start .. start + count`, from `A..B` (B excluded) or `A..=B`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) struct FrameRange {
-    pub(crate) start: u32,
-    /// At least 1.
-    pub(crate) count: u32,
-}
-
-impl FrameRange {
-    /// Parses `A..B` or `A..=B` (whole numbers, a non-empty range).
-    pub(crate) fn parse(text: &str) -> std::result::Result<FrameRange, String> {
-        let (a, b, inclusive) = if let Some((a, b)) = text.split_once("..=") {
-            (a, b, true)
-        } else if let Some((a, b)) = text.split_once("..") {
-            (a, b, false)
-        } else {
-            return Err(format!(
-                "expected A..B (frames A to B − 1) or A..=B, e.g. 0..512; got '{text}'"
-            ));
-        };
-        let number = |s: &str| {
-            s.trim()
-                .parse::<u32>()
-                .map_err(|_| format!("'{s}' is not a frame number (0..=4294967295) in '{text}'"))
-        };
-        let (a, b) = (number(a)?, number(b)?);
-        let end = u64::from(b) + u64::from(inclusive);
-        if end <= u64::from(a) {
-            return Err(format!("'{text}' holds no frame"));
-        }
-        let count = u32::try_from(end - u64::from(a))
-            .map_err(|_| format!("'{text}' holds more than 2^32 − 1 frames"))?;
-        Ok(FrameRange { start: a, count })
-    }
-
-    pub(crate) fn iter(self) -> impl Iterator<Item = u32> {
-        (0..self.count).map(move |i| self.start + i)
-    }
-}
 
 /// The output of frame `f` for `-o X.ext`: `X.NNNN.ext` (at least four
 /// digits).
@@ -196,7 +156,10 @@ fn times_csv(records: &[FrameRecord]) -> String {
     out
 }
 
+/// `mdas render --frames`.
 pub(crate) fn run(args: RenderArgs, ui: Ui) -> Result<()> {
+    // Fail on bad input before any GPU work.
+    check_sampling(args.integrator, args.spp, &args.mdas)?;
     let RenderArgs {
         scene,
         integrator,

@@ -64,8 +64,8 @@ pub(crate) struct RenderArgs {
     /// .png) per frame for -o X.exr, and X.frames.csv with every frame's
     /// set-up (light build, cuts, VPLs) and render times. The seed is the
     /// same every frame.
-    #[arg(long, value_name = "A..B", value_parser = super::frames::FrameRange::parse)]
-    pub(crate) frames: Option<super::frames::FrameRange>,
+    #[arg(long, value_name = "A..B", value_parser = FrameRange::parse)]
+    pub(crate) frames: Option<FrameRange>,
     /// Scene time between frames, overriding the scene's [integrand]
     /// frame_duration (default 1/30); only with --frames.
     #[arg(long, value_name = "T")]
@@ -110,9 +110,6 @@ struct ErrorRecord {
 pub(crate) fn run(args: RenderArgs, ui: Ui) -> Result<()> {
     // Fail on bad input before any GPU work.
     check_sampling(args.integrator, args.spp, &args.mdas)?;
-    if args.frames.is_some() {
-        return super::frames::run(args, ui);
-    }
     if args.frame_duration.is_some() {
         bail!("--frame-duration sets the time between frames; it needs --frames");
     }

@@ -14,10 +14,12 @@ pub mod equal_time;
 pub mod experiment;
 pub mod figure;
 pub mod heatmap;
+pub mod inputs;
 pub mod intervals;
 pub mod outputs;
 pub mod phases;
 pub mod plot;
+pub mod progress;
 pub mod report;
 pub mod samplers;
 pub mod seeds;
@@ -28,9 +30,8 @@ pub mod tune;
 pub use equal_time::{
     halton_at_equal_time, measure, search_equal_time, EqualTime, HaltonRun, Measured,
 };
-pub use experiment::{
-    compare, compare_integrand, compare_with, Budget, CompareSpec, ReferenceSource, Setup, Subject,
-};
+pub use experiment::{compare, compare_integrand, compare_with};
+pub use inputs::{Budget, CompareSpec, ReferenceSource, Setup, Subject};
 pub use report::Report;
 pub use samplers::{compare_samplers, SamplersSpec};
 pub use sweep::{sweep_integrand, SweepSpec};

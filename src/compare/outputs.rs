@@ -6,9 +6,9 @@
 //! `--crop`s), captions with each method's RelMSE interval and FLIP, and
 //! the maps with colour bars. `report.json` is written last, by the caller.
 
-use super::experiment::{ReferenceSource, Subject};
 use super::figure;
 use super::heatmap;
+use super::inputs::{ReferenceSource, Subject};
 use super::seeds::SeedStats;
 use super::CompareSpec;
 use crate::app;

@@ -30,10 +30,12 @@
 //! and its MSE relative to `uniform`'s (when listed).
 
 use super::equal_time::{interpolate_log_log, EqualTime};
-use super::experiment::{check_budget, check_mdas, spinner, write_report, Budget, Setup};
+use super::experiment::{check_budget, check_mdas, write_report};
 use super::heatmap;
+use super::inputs::{Budget, Setup};
 use super::intervals;
 use super::outputs::{reference_attributes, Files};
+use super::progress::spinner;
 use super::report::*;
 use super::seeds::{bootstrap_ci95, mean};
 use super::timing::{halton_search, nearer, time_mdas, MdasTiming};

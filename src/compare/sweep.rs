@@ -10,7 +10,8 @@
 //! below its initial sample count are skipped and listed in the result.
 
 use super::equal_time::measure;
-use super::experiment::{check_reference, mdas_min_spp, ReferenceSource, Setup, Subject};
+use super::experiment::mdas_min_spp;
+use super::inputs::{check_reference, ReferenceSource, Setup, Subject};
 use super::intervals::seed_plan;
 use super::plot::{loglog_svg, svg_to_png, Series};
 use super::seeds::mean_ci95;
@@ -183,7 +184,7 @@ fn sweep_subject(
         halton_seeds,
     } = plan;
     let (integrand, reference, params) = (subject.integrand, subject.reference, subject.mdas);
-    let bar = super::experiment::bar(
+    let bar = super::progress::bar(
         spec.setup.progress,
         (spec.spps.len() + mdas_spps.len()) as u64,
         "sweep {bar:40} {pos}/{len} points {msg} [{elapsed_precise} < {eta}]",

@@ -3,7 +3,7 @@
 //! target time.
 
 use super::equal_time::{measure, search_equal_time, EqualTime, HaltonRun};
-use super::experiment::{Budget, Setup};
+use super::inputs::{Budget, Setup};
 use crate::gpu::Gpu;
 use crate::integrand::Integrand;
 use crate::integrator::mdas::MdasParams;

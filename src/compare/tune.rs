@@ -28,8 +28,9 @@
 //! as an `[mdas]` table ready to paste into the scene file.
 
 use super::equal_time::{interpolate_log_log, TimeFit};
-use super::experiment::{bar, check_reference, ReferenceSource, Setup, Subject};
+use super::inputs::{check_reference, ReferenceSource, Setup, Subject};
 use super::intervals::seed_plan;
+use super::progress::bar;
 use super::seeds::SeedStats;
 use crate::app;
 use crate::atomic::StagedDir;

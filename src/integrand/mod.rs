@@ -39,10 +39,8 @@ pub mod motion_blur;
 pub mod path;
 pub mod spec;
 
-use crate::accel::GpuScene;
 use crate::film::Film;
 use crate::gpu::shader::Wgsl;
-use crate::wgsl_file;
 
 pub use ambient_occlusion::AmbientOcclusion;
 pub use area_light::AreaLight;
@@ -52,26 +50,7 @@ pub use motion_blur::MotionBlur;
 pub use path::PathTracing;
 pub use spec::{IntegrandSpec, ManyLightSpec, DEFAULT_FRAME_DURATION};
 
-/// Most dimensions (film included) any integrand may use.
-pub const MAX_DIMS: u32 = 16;
-
-/// The WGSL declaration of `IntegrandPoint` and `MAX_U_DIMS`.
-pub fn point_wgsl() -> Wgsl {
-    Wgsl::new()
-        .constant("MAX_DIMS", MAX_DIMS)
-        .constant("MAX_U_DIMS", MAX_DIMS - 2)
-        .part(wgsl_file!("shared/integrand_point.wgsl"))
-}
-
-/// What every scene integrand's WGSL starts from: the point, the scene
-/// bindings and traversal, the warps, the camera and the shared shading.
-pub fn scene_wgsl() -> Wgsl {
-    point_wgsl()
-        .include(&GpuScene::wgsl())
-        .part(wgsl_file!("shared/sampling.wgsl"))
-        .part(wgsl_file!("shared/camera.wgsl"))
-        .part(wgsl_file!("shared/shading.wgsl"))
-}
+pub use crate::kernel_base::{point_wgsl, scene_wgsl, MAX_DIMS};
 
 /// A function over the film and the unit hypercube that integrators render
 /// (module docs): its WGSL, its dimension count and film, and its own GPU

@@ -68,14 +68,7 @@ pub struct LightBvh {
     pub cones: Vec<LightCone>,
 }
 
-/// The split cost of a build (module docs).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Cost {
-    /// Surface area heuristic (bounds only).
-    Sah,
-    /// Surface area orientation heuristic (bounds, cones, intensity).
-    Saoh,
-}
+pub use super::sampler::Cost;
 
 #[derive(Clone, Copy)]
 struct Aabb {

@@ -74,16 +74,7 @@ impl LightTree for PerfectTree {
     }
 }
 
-/// Which node importance a tree sampler uses.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Importance {
-    /// The paper's: bounds and intensity only (`tree`, `tree_nocut`,
-    /// `unbalanced_nocone`).
-    Plain,
-    /// With the orientation cones and the clamped near distance
-    /// (`tree_cone`, `unbalanced`, `unbalanced_nocut`).
-    Cones,
-}
+pub use super::sampler::Importance;
 
 impl Importance {
     /// The importance of `node` of `tree` at `s`.

@@ -15,8 +15,8 @@
 //!   order varies from run to run, their values and the index's meaning do
 //!   not: shading reads them through the index only).
 
-use super::gpu_sampler::LightParams;
 use super::lgh::{self, GridLight, LghGrid, LghParams};
+use super::light_params::LightParams;
 use super::{gpu_build, LightPrim, KIND_TRIANGLE};
 use crate::gpu::buffer::STORAGE;
 use crate::gpu::radix_sort::RadixSort;

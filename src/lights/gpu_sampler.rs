@@ -25,6 +25,7 @@ use super::gpu_lgh::GpuLgh;
 use super::gpu_two_level::GpuTwoLevel;
 use super::importance::NEAR_CLAMP;
 use super::lgh::{self, GridLight};
+pub use super::light_params::LightParams;
 use super::perfect::{self, PerfectTree};
 use super::sampler::SamplerKind;
 use super::substitute::{self, Substitute, SubstituteParams, SubstituteTree};
@@ -39,62 +40,6 @@ use bytemuck::{Pod, Zeroable};
 
 /// First binding of the light samplers in `@group(1)`.
 pub const FIRST_BINDING: u32 = 16;
-
-/// `light_params` (binding 21), mirrored by `LightParams` in
-/// `wgsl/lights/bindings.wgsl`.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct LightParams {
-    /// N.
-    pub count: u32,
-    /// [`SamplerKind::index`].
-    pub kind: u32,
-    /// Perfect tree: `L + 1` levels and `P` leaves; 0 otherwise.
-    pub levels: u32,
-    pub leaf_count: u32,
-    pub node_count: u32,
-    /// Entries per block in `light_cuts` (1 for the kinds without cuts).
-    pub cut_size: u32,
-    pub block_size: u32,
-    pub blocks_per_row: u32,
-    /// Power: N, or 0 when `Σ I = 0`.
-    pub alias_count: u32,
-    /// Interleaved sampling (paper §3.4): sub-block side m (1 = off).
-    pub interleave: u32,
-    /// Frame number: rotates the sub-block assignment, p = (i + frame) mod m²,
-    /// and the cut pre-pass's representative pixels.
-    pub frame: u32,
-    /// Frame time in scene time units (shading and shadow rays are traced
-    /// at it); a uniform, so a new frame time compiles no new shader.
-    pub time: f32,
-    /// Square of the VPL distance clamp: a VPL's `1/d²` uses
-    /// `max(d², vpl_clamp2)` (0 = no clamp).
-    pub vpl_clamp2: f32,
-    /// `sst`: ν_min and σ_max² of the suitability test (eq. 3).
-    pub sst_nu_min: f32,
-    pub sst_sigma_max2: f32,
-    pub _pad: u32,
-    /// `lgh` ([`super::lgh`]): the grid's `lo`, L, h_1, 1/h_1, α, whether
-    /// level 0 is used, the shadow samples S, and where the level-1 cell
-    /// ranges and the sorted light ids start in `light_index` (after the
-    /// vertex index of every level).
-    pub lgh_lo: [f32; 3],
-    pub lgh_levels: u32,
-    pub lgh_h1: f32,
-    pub lgh_inv_h1: f32,
-    pub lgh_alpha: f32,
-    pub lgh_level0: u32,
-    pub lgh_shadows: u32,
-    pub lgh_cells_offset: u32,
-    pub lgh_sorted_offset: u32,
-    /// `lgh`: the emissive triangles T (the last T sorted ids).
-    pub lgh_triangles: u32,
-    /// `lgh`: the grid lights' additive distance clamp (c·R)².
-    pub lgh_soft2: f32,
-    pub _pad1: u32,
-    pub _pad2: u32,
-    pub _pad3: u32,
-}
 
 impl LightParams {
     /// Sets `sst`'s suitability thresholds.

@@ -52,6 +52,7 @@ pub mod gpu_sampler;
 pub mod gpu_two_level;
 pub mod importance;
 pub mod lgh;
+pub mod light_params;
 pub mod morton;
 pub mod perfect;
 pub mod sampler;

@@ -10,7 +10,7 @@
 //! | `power` | [`PowerSampler`](super::alias::PowerSampler) (alias table, `I_i/ΣI`) | pbrt-v4 |
 //! | `tree_nocut` | [`TreeSampler`](super::cut::TreeSampler) over a [`PerfectTree`](super::perfect::PerfectTree), cut = root | §3.2 |
 //! | `tree` | same, with a greedy cut per pixel block | §3.2–3.3 |
-//! | `tree_cone` | `tree` with orientation cones ([`Importance::Cones`](super::cut::Importance)) | §3.1 + Conty & Kulla 2018 |
+//! | `tree_cone` | `tree` with orientation cones ([`Importance::Cones`]) | §3.1 + Conty & Kulla 2018 |
 //! | `unbalanced_nocut` | [`TreeSampler`](super::cut::TreeSampler) with cones over a SAOH [`LightBvh`](super::bvh::LightBvh), cut = root | §4, pbrt-v4 |
 //! | `unbalanced` | same, with a greedy cut | §4, pbrt-v4 |
 //! | `unbalanced_nocone` | a cone-free SAH BVH with a greedy cut | §4 |
@@ -22,9 +22,29 @@
 //! A sampler's pmf is an f64 product of the f32 probabilities the
 //! sampling decisions use, so `sample(s, u).pmf == pmf(s, light)` exactly.
 
-use super::bvh::Cost;
-use super::cut::Importance;
 use super::importance::Shading;
+
+/// Which node importance a tree sampler uses (computed by
+/// [`Importance::of`](super::cut::Importance::of)).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Importance {
+    /// The paper's: bounds and intensity only (`tree`, `tree_nocut`,
+    /// `unbalanced_nocone`).
+    Plain,
+    /// With the orientation cones and the clamped near distance
+    /// (`tree_cone`, `unbalanced`, `unbalanced_nocut`).
+    Cones,
+}
+
+/// The split cost of an unbalanced BVH build ([`super::bvh`]'s module
+/// docs).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Cost {
+    /// Surface area heuristic (bounds only).
+    Sah,
+    /// Surface area orientation heuristic (bounds, cones, intensity).
+    Saoh,
+}
 use std::fmt;
 use std::str::FromStr;
 

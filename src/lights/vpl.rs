@@ -172,7 +172,7 @@ impl VplGenerator {
     /// The kernel's WGSL: the scene and shading code, the light structs,
     /// then `lights/vpl.wgsl`.
     pub fn source() -> Wgsl {
-        crate::integrand::scene_wgsl()
+        crate::kernel_base::scene_wgsl()
             .include(&super::gpu_build::prim_wgsl())
             .constant("VPL_WG", WG)
             .constant("KIND_DIRECTIONAL_SOURCE", KIND_DIRECTIONAL_SOURCE)

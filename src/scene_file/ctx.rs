@@ -1,7 +1,6 @@
 //! The parse context (file text and name, for positions) and the value
 //! checks shared by every table.
 
-use super::lights::fmt3;
 use super::values::*;
 use super::SceneError;
 use super::MAX_SHAPE_TRIANGLES;

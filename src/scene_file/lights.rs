@@ -330,7 +330,3 @@ pub(super) enum LightOut {
     Delta(Light),
     Area { corners: [Vec3; 4], radiance: Vec3 },
 }
-
-pub(super) fn fmt3(v: Vec3) -> String {
-    format!("[{}, {}, {}]", v.x, v.y, v.z)
-}

@@ -190,3 +190,8 @@ impl Loose {
         }
     }
 }
+
+/// `[x, y, z]` as a scene file writes it, for messages.
+pub(super) fn fmt3(v: Vec3) -> String {
+    format!("[{}, {}, {}]", v.x, v.y, v.z)
+}
