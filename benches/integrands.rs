@@ -20,11 +20,11 @@
 //! Run: `cargo bench --bench integrands` (a few minutes on lavapipe;
 //! `MDAS_BENCH_SCALE=0.25` for larger films on a GPU).
 
-use mdas::app;
 use mdas::gpu::shader::{bind_buffers, storage_entry, uniform_entry};
 use mdas::gpu::Gpu;
 use mdas::integrand::Integrand;
 use mdas::integrator::{Halton, Integrator};
+use mdas::session;
 use std::path::Path;
 
 const SCENES: [&str; 7] = [
@@ -127,7 +127,7 @@ fn main() -> anyhow::Result<()> {
     println!("|---|---|---|---|---|---|---|---|---|---|");
     for name in SCENES {
         let path = format!("scenes/{name}.toml");
-        let prepared = app::prepare(gpu, Path::new(&path), scale)?;
+        let prepared = session::prepare(gpu, Path::new(&path), scale)?;
         let integrand = prepared.integrand.as_ref();
         let mut halton = Halton::new(SPP, SEED);
         halton.render(gpu, integrand)?; // warm-up: pipelines, caches

@@ -28,7 +28,6 @@
 
 use glam::Vec3;
 use mdas::accel::GpuScene;
-use mdas::app;
 use mdas::gpu::Gpu;
 use mdas::integrand::IntegrandSpec;
 use mdas::integrand::ManyLight;
@@ -38,6 +37,7 @@ use mdas::lights::perfect;
 use mdas::lights::sampler::SamplerKind;
 use mdas::lights::substitute::{self, SstSampler};
 use mdas::lights::{LightPrim, Shading, KIND_VPL};
+use mdas::session;
 use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
 use std::path::Path;
@@ -63,7 +63,7 @@ fn main() -> anyhow::Result<()> {
     ] {
         let loaded = mdas::scene_file::load(Path::new(file))?;
         let scene = &loaded.scene;
-        let film = app::scaled_film(scene.film, s)?;
+        let film = session::scaled_film(scene.film, s)?;
         let IntegrandSpec::ManyLight(spec) = &loaded.integrand else {
             anyhow::bail!("{file} is not a many_light scene")
         };

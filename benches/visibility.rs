@@ -31,11 +31,11 @@ use glam::Vec3;
 use mdas::accel::trace::pinhole_rays;
 use mdas::accel::voxel::{Visibility, VoxelParams};
 use mdas::accel::{BuiltScene, GpuScene, HitRecord, Ray, TraceKernel, TraceMode};
-use mdas::app;
 use mdas::gpu::buffer::STORAGE;
 use mdas::gpu::Gpu;
 use mdas::integrand::{IntegrandSpec, ManyLight};
 use mdas::lights::{LightPrim, KIND_TRIANGLE, KIND_VPL};
+use mdas::session;
 use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
 use std::path::Path;
@@ -213,7 +213,7 @@ fn main() -> Result<()> {
     for file in scenes.split_whitespace() {
         let loaded = mdas::scene_file::load(Path::new(file))?;
         let scene = &loaded.scene;
-        let film = app::scaled_film(scene.film, scale)?;
+        let film = session::scaled_film(scene.film, scale)?;
         let built = BuiltScene::new(scene)?;
         let exact_scene = Arc::new(GpuScene::upload(gpu, scene, &built, film)?);
         let kernel = TraceKernel::new(gpu, &exact_scene)?;

@@ -12,9 +12,9 @@
 //! reuses it.
 
 use anyhow::{Context, Result};
-use mdas::app::mdas_params_at_scale;
 use mdas::compare::{compare, report, Budget, CompareSpec, Setup};
 use mdas::gpu::Gpu;
+use mdas::session::mdas_params_at_scale;
 use std::path::PathBuf;
 
 fn main() -> Result<()> {

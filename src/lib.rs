@@ -11,7 +11,6 @@
 
 pub mod accel;
 pub mod analytic;
-pub mod app;
 pub mod atomic;
 pub mod compare;
 pub mod film;
@@ -26,6 +25,7 @@ pub mod provenance;
 pub mod scene;
 pub mod scene_file;
 pub mod scene_gen;
+pub mod session;
 
 #[cfg(test)]
 mod layout_tests;

@@ -19,9 +19,9 @@
 mod common;
 
 use common::{gpu, image_bits};
-use mdas::app;
 use mdas::integrator::{Halton, Integrator};
 use mdas::metrics;
+use mdas::session;
 use std::path::Path;
 
 const SCENE: &str = "scenes/area_light_plane.toml";
@@ -95,7 +95,7 @@ fn range(i: u32, j: u32) -> f64 {
 #[test]
 fn area_light_plane_converges_to_the_closed_form_within_the_variance_bound() {
     let gpu = gpu();
-    let prepared = app::prepare(gpu, Path::new(SCENE), 1.0).unwrap();
+    let prepared = session::prepare(gpu, Path::new(SCENE), 1.0).unwrap();
     assert_eq!((prepared.film.width, prepared.film.height), (W, H));
     let exact = mdas::analytic::area_light_plane_image(W, H);
     let ranges: Vec<f64> = (0..H)
@@ -155,7 +155,7 @@ fn area_light_plane_converges_to_the_closed_form_within_the_variance_bound() {
 #[test]
 fn halton_render_of_a_scene_is_deterministic() {
     let gpu = gpu();
-    let prepared = app::prepare(gpu, Path::new(SCENE), 0.25).unwrap();
+    let prepared = session::prepare(gpu, Path::new(SCENE), 0.25).unwrap();
     let a = Halton::new(8, 3)
         .render(gpu, prepared.integrand.as_ref())
         .unwrap();

@@ -4,15 +4,15 @@ mod common;
 mod mdas_support;
 
 use common::gpu;
-use mdas::app;
 use mdas::compare::{halton_at_equal_time, measure};
 use mdas::integrator::Halton;
+use mdas::session;
 use std::path::Path;
 
 #[test]
 fn halton_budget_search_brackets_the_target_time() {
     let gpu = gpu();
-    let prepared = app::prepare(gpu, Path::new("scenes/area_light_plane.toml"), 0.25).unwrap();
+    let prepared = session::prepare(gpu, Path::new("scenes/area_light_plane.toml"), 0.25).unwrap();
     let (w, h) = (prepared.film.width, prepared.film.height);
     let reference = mdas::analytic::area_light_plane_image(w, h);
     // Target: the time Halton itself needs at 24 spp.
@@ -69,7 +69,7 @@ fn seed_intervals_cover_the_exact_answer() {
     use mdas::compare::seeds::SeedStats;
     use mdas::integrator::Integrator;
     let gpu = gpu();
-    let prepared = app::prepare(gpu, Path::new("scenes/area_light_plane.toml"), 0.25).unwrap();
+    let prepared = session::prepare(gpu, Path::new("scenes/area_light_plane.toml"), 0.25).unwrap();
     let (w, h) = (prepared.film.width, prepared.film.height);
     let exact = mdas::analytic::area_light_plane_image(w, h);
     let mut halton = Halton::new(4, 0);

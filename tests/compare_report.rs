@@ -26,7 +26,7 @@ fn temp_dir(name: &str) -> PathBuf {
 /// The CLI's default MDAS parameters at `scale`, with `spp` if given.
 fn params_at(scale: f32, spp: Option<f32>) -> impl Fn(MdasParams) -> MdasParams {
     move |p| {
-        let p = mdas::app::mdas_params_at_scale(p, scale);
+        let p = mdas::session::mdas_params_at_scale(p, scale);
         MdasParams {
             spp: spp.unwrap_or(p.spp),
             ..p
@@ -291,7 +291,7 @@ fn compare_area_light_plane_writes_a_consistent_report() {
     // one candidate, bit for bit (the scene's α = ¼ and four candidates
     // give another image).
     let prepared =
-        mdas::app::prepare(gpu(), Path::new("scenes/area_light_plane.toml"), 0.25).unwrap();
+        mdas::session::prepare(gpu(), Path::new("scenes/area_light_plane.toml"), 0.25).unwrap();
     let p = params(prepared.scene.mdas);
     assert!(p.alpha > 0.0 && p.candidates > 1);
     let mut uniform = mdas::integrator::Mdas::new(MdasParams {
@@ -355,7 +355,7 @@ fn compare_at_a_time_budget_searches_both_methods() {
     // A budget safely above MDAS's smallest render on this (shared, noisy)
     // adapter: three times its measured time.
     let prepared =
-        mdas::app::prepare(gpu(), Path::new("scenes/area_light_plane.toml"), 0.25).unwrap();
+        mdas::session::prepare(gpu(), Path::new("scenes/area_light_plane.toml"), 0.25).unwrap();
     let integrand = prepared.integrand.as_ref();
     let p = params(prepared.scene.mdas);
     let min_spp = mdas::compare::experiment::mdas_min_spp(p, integrand).unwrap();

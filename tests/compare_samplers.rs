@@ -347,18 +347,18 @@ fn cli_render_with_a_sampler_override() {
 #[test]
 fn damaged_reference_cache_entries_are_rebuilt() {
     let cache = temp_dir("ref-cache-damage");
-    let spec = mdas::app::ReferenceSpec {
+    let spec = mdas::session::ReferenceSpec {
         spp: 2,
         scale: 0.25,
         seed: 0,
     };
     let path = Path::new(SCENE);
-    let get = || mdas::app::reference(gpu(), path, spec, &cache, None);
+    let get = || mdas::session::reference(gpu(), path, spec, &cache, None);
     let first = get().unwrap();
-    assert_eq!(first.cache, mdas::app::CacheUse::Rendered);
+    assert_eq!(first.cache, mdas::session::CacheUse::Rendered);
     assert!(get().unwrap().cached());
     let exr = first.path.clone();
-    let record = mdas::app::reference_record_path(&exr);
+    let record = mdas::session::reference_record_path(&exr);
     let (w, h) = (first.film.width, first.film.height);
     let bytes = std::fs::read(&exr).unwrap();
     type Damage<'a> = Box<dyn Fn() + 'a>;
@@ -395,7 +395,7 @@ fn damaged_reference_cache_entries_are_rebuilt() {
         damage();
         let again = get().unwrap();
         match &again.cache {
-            mdas::app::CacheUse::Rebuilt(reason) => {
+            mdas::session::CacheUse::Rebuilt(reason) => {
                 assert!(reason.contains(why), "{name}: {reason}")
             }
             other => panic!("{name}: {other:?}"),
@@ -413,18 +413,18 @@ fn damaged_reference_cache_entries_are_rebuilt() {
 #[test]
 fn reference_sampler_override_is_part_of_the_cache_key() {
     let cache = temp_dir("ref-cache");
-    let spec = mdas::app::ReferenceSpec {
+    let spec = mdas::session::ReferenceSpec {
         spp: 4,
         scale: 0.5,
         seed: 0,
     };
     let path = Path::new(SCENE);
     let with = |k: Option<SamplerKind>| {
-        mdas::app::reference_with(
+        mdas::session::reference_with(
             gpu(),
             path,
             spec,
-            mdas::app::IntegrandOverrides {
+            mdas::session::IntegrandOverrides {
                 sampler: k,
                 visibility: None,
                 frame: None,
@@ -437,7 +437,7 @@ fn reference_sampler_override_is_part_of_the_cache_key() {
     let own = with(None).path;
     assert_eq!(
         own,
-        mdas::app::reference_cache_path(&cache, path, spec).unwrap()
+        mdas::session::reference_cache_path(&cache, path, spec).unwrap()
     );
     // The scene's own sampler named explicitly: the same cache entry.
     let same = with(Some(SamplerKind::Tree));
@@ -450,12 +450,12 @@ fn reference_sampler_override_is_part_of_the_cache_key() {
     // Overrides on a scene whose integrand has no light sampler fail, even
     // when that scene's reference is already in the cache.
     let plane = Path::new("scenes/area_light_plane.toml");
-    mdas::app::reference(gpu(), plane, spec, &cache, None).unwrap();
-    let err = mdas::app::reference_with(
+    mdas::session::reference(gpu(), plane, spec, &cache, None).unwrap();
+    let err = mdas::session::reference_with(
         gpu(),
         Path::new("scenes/area_light_plane.toml"),
         spec,
-        mdas::app::IntegrandOverrides::sampler(SamplerKind::Power),
+        mdas::session::IntegrandOverrides::sampler(SamplerKind::Power),
         &cache,
         None,
     )
@@ -478,7 +478,7 @@ fn compare_with_a_sampler_override_reports_it() {
     let report = mdas::compare::compare_with(
         gpu(),
         &spec,
-        mdas::app::IntegrandOverrides::sampler(SamplerKind::Power),
+        mdas::session::IntegrandOverrides::sampler(SamplerKind::Power),
     )
     .unwrap();
     let json: Value =
@@ -497,7 +497,7 @@ fn compare_with_a_sampler_override_reports_it() {
     let err = mdas::compare::compare_with(
         gpu(),
         &bad_spec,
-        mdas::app::IntegrandOverrides::sampler(SamplerKind::Power),
+        mdas::session::IntegrandOverrides::sampler(SamplerKind::Power),
     )
     .unwrap_err();
     assert!(format!("{err:#}").contains("many_light"));

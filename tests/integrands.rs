@@ -14,11 +14,11 @@
 mod common;
 
 use common::gpu;
-use mdas::app;
 use mdas::integrand::IntegrandSpec;
 use mdas::integrator::{Halton, Integrator, Render};
 use mdas::scene_file;
 use mdas::scene_file::SceneFile;
+use mdas::session;
 use std::path::Path;
 
 fn parse(text: &str) -> SceneFile {
@@ -27,7 +27,7 @@ fn parse(text: &str) -> SceneFile {
 
 fn render(scene: &SceneFile, spp: u32, seed: u32) -> Render {
     let gpu = gpu();
-    let integrand = app::integrand_for(gpu, scene, scene.scene.film).unwrap();
+    let integrand = session::integrand_for(gpu, scene, scene.scene.film).unwrap();
     let r = Halton::new(spp, seed)
         .render(gpu, integrand.as_ref())
         .unwrap();
@@ -387,7 +387,7 @@ fn ambient_occlusion_of_an_unoccluded_plane_is_exactly_one() {
     for (p, v) in r.image.iter().enumerate() {
         assert_eq!(*v, [1.0; 3], "pixel {p}");
     }
-    let integrand = app::integrand_for(gpu(), &scene, scene.scene.film).unwrap();
+    let integrand = session::integrand_for(gpu(), &scene, scene.scene.film).unwrap();
     let params = mdas::integrator::mdas::MdasParams {
         extra_image_bits: 2,
         spp: 8.0,
@@ -497,7 +497,7 @@ fn path_tracer_furnace_converges_to_the_truncated_geometric_series() {
             scene.integrand,
             IntegrandSpec::PathTracing { max_bounces: m }
         );
-        let integrand = app::integrand_for(gpu(), &scene, scene.scene.film).unwrap();
+        let integrand = session::integrand_for(gpu(), &scene, scene.scene.film).unwrap();
         assert_eq!(integrand.dims(), 4 + 4 * m);
         let r = Halton::new(64, 11)
             .render(gpu(), integrand.as_ref())
@@ -934,7 +934,7 @@ fn tilted_emitter_over_tilted_receiver_matches_lambert() {
         // One integrand (and its pipelines) for all seeds.
         let gpu = gpu();
         let scene = tilted_scene(integrand, false);
-        let f = app::integrand_for(gpu, &scene, scene.scene.film).unwrap();
+        let f = session::integrand_for(gpu, &scene, scene.scene.film).unwrap();
         let seeds: Vec<Vec<f64>> = (0..K)
             .map(|s| {
                 let r = Halton::new(64, 100 + s).render(gpu, f.as_ref()).unwrap();
@@ -980,7 +980,7 @@ fn tilted_emitter_over_tilted_receiver_matches_lambert() {
 fn obj_scene_is_lit_by_its_mtl_emissive_group() {
     let s = scene_file::load(Path::new("scenes/tests/obj_materials.toml")).unwrap();
     let gpu = gpu();
-    let f = app::integrand_for(gpu, &s, s.scene.film).unwrap();
+    let f = session::integrand_for(gpu, &s, s.scene.film).unwrap();
     let r = Halton::new(16, 1).render(gpu, f.as_ref()).unwrap();
     assert_eq!(r.nonfinite, 0);
     let red = r

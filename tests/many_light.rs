@@ -9,7 +9,6 @@ mod stats;
 
 use common::{gpu, image_bits};
 use glam::{DVec3, Vec3};
-use mdas::app;
 use mdas::film::Film;
 use mdas::integrand::IntegrandSpec;
 use mdas::integrand::ManyLight;
@@ -17,6 +16,7 @@ use mdas::integrator::{Halton, Integrator, Mdas};
 use mdas::lights::sampler::SamplerKind;
 use mdas::lights::scene_lights::light_prims;
 use mdas::scene_file::SceneFile;
+use mdas::session;
 use std::path::Path;
 use std::sync::Arc;
 
@@ -346,12 +346,12 @@ fn many_light_scenes_render_under_halton_and_mdas() {
         ("scenes/lights_1m.toml", 1.0 / 8.0),
         ("scenes/street_lights.toml", 1.0 / 8.0),
     ] {
-        let p = app::prepare(gpu(), Path::new(file), scale).unwrap();
+        let p = session::prepare(gpu(), Path::new(file), scale).unwrap();
         assert_eq!(p.integrand.name(), "many_light");
         let h = Halton::new(2, 1)
             .render(gpu(), p.integrand.as_ref())
             .unwrap();
-        let params = app::mdas_params_at_scale(p.scene.mdas, scale);
+        let params = session::mdas_params_at_scale(p.scene.mdas, scale);
         let m = Mdas::new(params)
             .unwrap()
             .render(gpu(), p.integrand.as_ref())

@@ -113,7 +113,7 @@ fn check_bias(
 #[test]
 fn bias_on_the_area_light_plane() {
     let gpu = gpu();
-    let prepared = mdas::app::prepare(
+    let prepared = mdas::session::prepare(
         gpu,
         std::path::Path::new("scenes/area_light_plane.toml"),
         0.25,

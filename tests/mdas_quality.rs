@@ -145,7 +145,7 @@ fn pixel_reconstruction_keeps_an_edge_inside_wide_leaves() {
 #[test]
 fn mdas_beats_halton_on_a_shadow_edge_scene() {
     let gpu = gpu();
-    let prepared = mdas::app::prepare(
+    let prepared = mdas::session::prepare(
         gpu,
         std::path::Path::new("scenes/tests/shadow_edge.toml"),
         1.0,
@@ -180,7 +180,7 @@ fn mdas_beats_halton_on_a_shadow_edge_scene() {
 #[test]
 fn area_light_plane_converges_to_a_halton_reference() {
     let gpu = gpu();
-    let prepared = mdas::app::prepare(
+    let prepared = mdas::session::prepare(
         gpu,
         std::path::Path::new("scenes/area_light_plane.toml"),
         0.5,
@@ -214,7 +214,7 @@ fn area_light_plane_converges_to_a_halton_reference() {
 #[test]
 fn area_light_plane_converges_to_the_closed_form() {
     let gpu = gpu();
-    let prepared = mdas::app::prepare(
+    let prepared = mdas::session::prepare(
         gpu,
         std::path::Path::new("scenes/area_light_plane.toml"),
         0.5,

@@ -10,11 +10,11 @@
 mod common;
 
 use common::gpu;
-use mdas::app;
 use mdas::integrand::IntegrandSpec;
 use mdas::integrator::{Halton, Integrator, Mdas, Render};
 use mdas::scene::Light;
 use mdas::scene_file::SceneFile;
+use mdas::session;
 use std::path::Path;
 
 struct Expect {
@@ -198,7 +198,7 @@ fn load_and_render(file: &str) {
     for e in expectations().into_iter().filter(|e| e.file == file) {
         let path = format!("scenes/{}.toml", e.file);
         let start = std::time::Instant::now();
-        let prepared = app::prepare(gpu, Path::new(&path), scale).unwrap();
+        let prepared = session::prepare(gpu, Path::new(&path), scale).unwrap();
         let load_s = start.elapsed().as_secs_f64();
         check_configuration(&e, &prepared.scene);
         let integrand = prepared.integrand.as_ref();
@@ -232,13 +232,13 @@ fn load_and_render(file: &str) {
         if let Some(dir) = &out {
             let dir = Path::new(dir);
             std::fs::create_dir_all(dir).unwrap();
-            app::write_outputs(
+            session::write_outputs(
                 &dir.join(format!("{}-halton.exr", e.file)),
                 halton.film,
                 &halton.image,
             )
             .unwrap();
-            app::write_outputs(
+            session::write_outputs(
                 &dir.join(format!("{}-mdas.exr", e.file)),
                 mdas.film,
                 &mdas.image,

@@ -213,7 +213,7 @@ pub(crate) fn run(args: RenderArgs, ui: Ui) -> Result<()> {
     };
     // The first frame's set-up is inside the scene upload: timed with it.
     let start = std::time::Instant::now();
-    let mut seq = app::prepare_sequence(gpu, loaded, &scene, scale, overrides, frames.start)?;
+    let mut seq = session::prepare_sequence(gpu, loaded, &scene, scale, overrides, frames.start)?;
     let first_wall_ms = start.elapsed().as_secs_f64() * 1e3;
     let film = seq.film;
     let params = mdas.params(seq.scene.mdas, scale, spp, seed);
@@ -255,12 +255,13 @@ pub(crate) fn run(args: RenderArgs, ui: Ui) -> Result<()> {
         let render = integrator_box.render(gpu, &seq.integrand)?;
         warn_image(&render);
         let time = seq.spec.at_frame(f).time;
-        let mut attributes = app::render_attributes(integrator_box.name(), seed, &render, &scene);
+        let mut attributes =
+            session::render_attributes(integrator_box.name(), seed, &render, &scene);
         attributes.push(("frame", image_io::ExrAttribute::I32(f as i32)));
         attributes.push(("frameTime", image_io::ExrAttribute::F64(f64::from(time))));
         attributes.push(("setupMs", image_io::ExrAttribute::F64(setup.total())));
         let path = numbered(&output, f);
-        let files = app::write_outputs_with(&path, film, &render.image, &attributes)?;
+        let files = session::write_outputs_with(&path, film, &render.image, &attributes)?;
         let record = FrameRecord {
             frame: f,
             time,

@@ -15,7 +15,6 @@ pub(crate) use anyhow::{bail, Result};
 pub(crate) use clap::{Parser, Subcommand, ValueEnum};
 pub(crate) use indicatif::{ProgressBar, ProgressStyle};
 pub(crate) use mdas::accel::voxel::VisibilityKind;
-pub(crate) use mdas::app::{self, IntegrandOverrides, ReferenceSpec};
 pub(crate) use mdas::gpu::Gpu;
 use mdas::integrator::mdas::params::{Kind, Param};
 pub(crate) use mdas::integrator::mdas::MdasParams;
@@ -23,6 +22,7 @@ use mdas::integrator::mdas::PARAMS;
 pub(crate) use mdas::integrator::{Halton, Integrator, Mdas, Render};
 pub(crate) use mdas::lights::sampler::SamplerKind;
 pub(crate) use mdas::scene_file::SceneFile;
+pub(crate) use mdas::session::{self, IntegrandOverrides, ReferenceSpec};
 pub(crate) use mdas::{image_io, metrics};
 pub(crate) use std::path::{Path, PathBuf};
 
@@ -292,7 +292,7 @@ impl MdasArgs {
         spp: Option<f32>,
         seed: Option<u32>,
     ) -> MdasParams {
-        let mut p = app::mdas_params_at_scale(scene, scale);
+        let mut p = session::mdas_params_at_scale(scene, scale);
         for &(param, v) in &self.values {
             param.set(&mut p, v);
         }
@@ -448,7 +448,7 @@ pub(crate) fn default_output(scene: &Path, integrator: &str) -> PathBuf {
 /// An output must be an `.exr` or `.png` path whose directory exists or
 /// can be made and is writable, and whose files are not directories.
 pub(crate) fn check_output(path: &Path) -> Result<()> {
-    let (exr, png) = app::output_files(path)?;
+    let (exr, png) = session::output_files(path)?;
     ensure_parent(path)?;
     for file in exr.iter().chain([&png]) {
         mdas::atomic::check_writable(file)?;
@@ -459,7 +459,7 @@ pub(crate) fn check_output(path: &Path) -> Result<()> {
 /// Refuses an output that would overwrite one of the run's inputs (`render
 /// scene.exr -o scene.exr`, or `-o` naming the `--reference`).
 pub(crate) fn check_not_input(output: &Path, inputs: &[&Path]) -> Result<()> {
-    let (exr, png) = app::output_files(output)?;
+    let (exr, png) = session::output_files(output)?;
     for file in exr.iter().chain([&png]) {
         // The directory exists (check_output); the file may not yet.
         let canonical = |p: &Path| {

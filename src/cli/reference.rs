@@ -80,14 +80,14 @@ pub(crate) fn run(args: ReferenceArgs, ui: Ui) -> Result<()> {
     );
     let b = bar.clone();
     let spec = ReferenceSpec { spp, scale, seed };
-    let app::Reference {
+    let session::Reference {
         film,
         image,
         path,
         cache: cache_use,
         warnings,
         notes,
-    } = app::reference_with(
+    } = session::reference_with(
         gpu,
         &scene,
         spec,
@@ -103,13 +103,13 @@ pub(crate) fn run(args: ReferenceArgs, ui: Ui) -> Result<()> {
     for w in warnings.iter().chain(&notes) {
         eprintln!("warning: {w}");
     }
-    if let app::CacheUse::Rebuilt(why) = &cache_use {
+    if let session::CacheUse::Rebuilt(why) = &cache_use {
         eprintln!(
             "warning: the cached reference {} was unusable ({why}); rendered it again",
             path.display()
         );
     }
-    let cached = cache_use == app::CacheUse::Hit;
+    let cached = cache_use == session::CacheUse::Hit;
     ui.result(format!(
         "reference {}×{} at {spp} spp: {} ({})\n",
         film.width,
@@ -125,7 +125,7 @@ pub(crate) fn run(args: ReferenceArgs, ui: Ui) -> Result<()> {
             .iter()
             .map(|(n, v)| (n.as_str(), v.clone()))
             .collect();
-        files = app::write_outputs_with(&out, film, &image, &attributes)?
+        files = session::write_outputs_with(&out, film, &image, &attributes)?
             .iter()
             .map(|f| f.display().to_string())
             .collect();
@@ -140,7 +140,7 @@ pub(crate) fn run(args: ReferenceArgs, ui: Ui) -> Result<()> {
         scale,
         path: path.display().to_string(),
         cached,
-        record: app::reference_record_path(&path).display().to_string(),
+        record: session::reference_record_path(&path).display().to_string(),
         files,
     })
 }

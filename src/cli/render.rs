@@ -136,7 +136,7 @@ pub(crate) fn run(args: RenderArgs, ui: Ui) -> Result<()> {
     check_not_input(&output, &inputs)?;
     let loaded = SceneFile::load(&scene)?;
     warn_unlit(&loaded);
-    let film = app::scaled_film(loaded.scene.film, scale)?;
+    let film = session::scaled_film(loaded.scene.film, scale)?;
     let reference_image = match &reference {
         Some(r) => Some(read_reference(r, film)?),
         None => None,
@@ -159,7 +159,7 @@ pub(crate) fn run(args: RenderArgs, ui: Ui) -> Result<()> {
             loaded.scene.triangle_count()
         ));
     }
-    let prepared = app::prepare_loaded(gpu, loaded, &scene, scale, overrides)?;
+    let prepared = session::prepare_loaded(gpu, loaded, &scene, scale, overrides)?;
     debug_assert_eq!(film, prepared.film);
     // A bar once the render has taken a second (Halton then waits for the
     // GPU every few dispatches to report; MDAS reads its state anyway).
@@ -175,7 +175,7 @@ pub(crate) fn run(args: RenderArgs, ui: Ui) -> Result<()> {
         mdas_params,
         ui.progress().then_some(&bar),
     )?;
-    let mut light_sampler = app::light_sampler(&prepared.scene.integrand)
+    let mut light_sampler = session::light_sampler(&prepared.scene.integrand)
         .map_or_else(String::new, |k| format!(", sampler {k}"));
     if prepared.scene.visibility.is_voxel() {
         light_sampler += &format!(", shadows {}", prepared.scene.visibility.describe());
@@ -235,8 +235,8 @@ pub(crate) fn run(args: RenderArgs, ui: Ui) -> Result<()> {
             nonfinite_pixels: e.nonfinite_pixels,
         });
     }
-    let attributes = app::render_attributes(integrator.name(), seed, &render, &scene);
-    let files = app::write_outputs_with(&output, film, &render.image, &attributes)?;
+    let attributes = session::render_attributes(integrator.name(), seed, &render, &scene);
+    let files = session::write_outputs_with(&output, film, &render.image, &attributes)?;
     let names: Vec<String> = files.iter().map(|f| f.display().to_string()).collect();
     ui.note(format!("wrote {}", names.join(" and ")));
     ui.json(&RenderRecord {

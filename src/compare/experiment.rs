@@ -6,7 +6,7 @@
 //!    the scene, MDAS's parameters against the integrand (a budget below
 //!    its initial sample count fails here), then the output directory
 //!    (created and probed for writing).
-//! 2. The reference: Halton at `ref_spp` (`app::reference`, cached).
+//! 2. The reference: Halton at `ref_spp` (`session::reference`, cached).
 //! 3. Timing ([`super::measure`]): MDAS at its spp, then Halton's budget search
 //!    at MDAS's median time ([`super::halton_at_equal_time`]). With
 //!    [`Budget::TimeMs`] both methods get the same target and both are
@@ -26,14 +26,15 @@
 //! first seed's; the methods' `relmse` are the means over seeds at those
 //! runs' budgets, and the ratio uses Halton's RelMSE at the fitted spp.
 
+use super::equal_time::{EqualTime, HaltonRun, TimeFit};
 use super::heatmap;
 use super::inputs::*;
 use super::intervals;
 use super::outputs::{write_outputs, CompareOutputs, Written};
 use super::progress::{bar, spinner};
 use super::report::*;
+use super::seeds::SeedStats;
 use super::timing::{halton_search, nearer, time_mdas, MdasTiming};
-use crate::app::{self, IntegrandOverrides};
 use crate::atomic::StagedDir;
 use crate::gpu::Gpu;
 use crate::image_io;
@@ -41,7 +42,9 @@ use crate::integrand::Integrand;
 use crate::integrator::mdas::MdasParams;
 use crate::integrator::{Halton, Mdas};
 use crate::scene_file::SceneFile;
+use crate::session::{self, IntegrandOverrides};
 use anyhow::{bail, Context, Result};
+use indicatif::ProgressBar;
 use std::collections::BTreeMap;
 use std::path::Path;
 
@@ -144,7 +147,7 @@ pub fn compare(gpu: &Gpu, spec: &CompareSpec) -> Result<Report> {
 
 /// [`compare`] with the compared renders' `[integrand]` overridden
 /// (`mdas compare --sampler`); the reference keeps the scene's own table
-/// (`app::reference`).
+/// (`session::reference`).
 pub fn compare_with(
     gpu: &Gpu,
     spec: &CompareSpec,
@@ -212,9 +215,10 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
         eprintln!("warning: {w}");
     }
     let staged = StagedDir::new(&spec.setup.out)?;
-    let reference_sampler = app::light_sampler(&scene.integrand);
-    let prepared = app::prepare_loaded(gpu, scene, &spec.setup.scene, spec.setup.scale, overrides)?;
-    let sampler = app::light_sampler(&prepared.scene.integrand);
+    let reference_sampler = session::light_sampler(&scene.integrand);
+    let prepared =
+        session::prepare_loaded(gpu, scene, &spec.setup.scene, spec.setup.scale, overrides)?;
+    let sampler = session::light_sampler(&prepared.scene.integrand);
     let integrand = prepared.integrand.as_ref();
     let params = (spec.setup.mdas_params)(prepared.scene.mdas);
     let name = spec.setup.scene.display().to_string();
@@ -234,7 +238,8 @@ fn run_compare(gpu: &Gpu, spec: &CompareSpec, overrides: IntegrandOverrides) -> 
 }
 
 /// Steps 3–5 of the module docs on a subject that passed
-/// [`check_inputs`], writing into `staged`.
+/// [`check_inputs`], writing into `staged`: the searches, the interleaved
+/// timing, the seeds, the density map, then the files and the report.
 fn compare_subject(
     gpu: &Gpu,
     spec: &CompareSpec,
@@ -242,15 +247,36 @@ fn compare_subject(
     checked: Checked,
     staged: StagedDir,
 ) -> Result<Report> {
-    let (integrand, reference, params) = (subject.integrand, subject.reference, subject.mdas);
-    let film = integrand.film();
-    let Checked {
-        min_spp,
-        mdas_seeds,
-        halton_seeds,
-    } = checked;
+    let searched = search(gpu, spec, subject, checked.min_spp)?;
+    let mut timed = time_interleaved(gpu, spec, subject, &searched)?;
+    let seeded = over_seeds(gpu, spec, subject, &checked, &searched, &mut timed)?;
+    // 4. Sample density of the MDAS run (untimed; same seed, same image).
+    timed.status.set_message("mdas sample density");
+    let (_, density) = Mdas::new(MdasParams {
+        spp: searched.mdas_spp as f32,
+        ..subject.mdas
+    })?
+    .render_with_density(gpu, subject.integrand)?;
+    timed.status.inc(1);
+    timed.status.finish_and_clear();
+    report(
+        gpu, spec, subject, &checked, &searched, timed, seeded, &density, staged,
+    )
+}
 
-    // 3. Timing and the equal-time searches.
+/// Step 3: MDAS's run (or its search under a time budget) and Halton's
+/// search for MDAS's time.
+struct Searched {
+    mdas_main: HaltonRun,
+    mdas_spp: f64,
+    mdas_search: Option<EqualTime>,
+    halton_eq: EqualTime,
+    /// The bracketing Halton run nearer to the target: its images are
+    /// written.
+    halton_main: HaltonRun,
+}
+
+fn search(gpu: &Gpu, spec: &CompareSpec, subject: &Subject, min_spp: u32) -> Result<Searched> {
     let status = spinner(spec.setup.progress);
     let MdasTiming {
         run: mdas_main,
@@ -259,10 +285,10 @@ fn compare_subject(
         target_ms,
     } = time_mdas(
         gpu,
-        params,
+        subject.mdas,
         min_spp,
-        integrand,
-        reference,
+        subject.integrand,
+        subject.reference,
         &spec.setup,
         spec.budget,
         spec.max_spp,
@@ -271,8 +297,8 @@ fn compare_subject(
     )?;
     let halton_eq = halton_search(
         gpu,
-        integrand,
-        reference,
+        subject.integrand,
+        subject.reference,
         target_ms,
         &spec.setup,
         spec.max_spp,
@@ -280,13 +306,42 @@ fn compare_subject(
         "halton",
     )?;
     let halton_main = nearer(&halton_eq).clone();
-
-    // 3b. Interleaved timing around the bracket (module docs of
-    // `intervals`): the target and Halton's time fit. From here on the
-    // number of renders is known: a bar with an ETA replaces the spinner
-    // (its length grows once the seeds' budgets are known).
     status.finish_and_clear();
-    let budgets = intervals::budgets_around(halton_eq.hi.spp, spec.max_spp);
+    Ok(Searched {
+        mdas_main,
+        mdas_spp,
+        mdas_search,
+        halton_eq,
+        halton_main,
+    })
+}
+
+/// Step 3b: interleaved timing around the bracket (module docs of
+/// `intervals`), and the integrators the seeds reuse.
+struct Timed {
+    timing: intervals::Interleaved,
+    halton_fit: Option<TimeFit>,
+    target_ms: f64,
+    target_times: Vec<f64>,
+    /// Halton's spp at the target time.
+    halton_spp: f64,
+    flags: Vec<String>,
+    /// One MDAS and one Halton for the rounds and the seeds, so their
+    /// pipelines compile once.
+    mdas: Mdas,
+    halton: Halton,
+    /// From here on the number of renders is known: a bar with an ETA
+    /// (its length grows once the seeds' budgets are known).
+    status: ProgressBar,
+}
+
+fn time_interleaved(
+    gpu: &Gpu,
+    spec: &CompareSpec,
+    subject: &Subject,
+    searched: &Searched,
+) -> Result<Timed> {
+    let budgets = intervals::budgets_around(searched.halton_eq.hi.spp, spec.max_spp);
     let rounds = spec.setup.repeats.max(intervals::MIN_ROUNDS);
     let mdas_rounds = matches!(spec.budget, Budget::MdasSpp) as u64;
     let status = bar(
@@ -295,24 +350,21 @@ fn compare_subject(
         "compare {bar:30} {pos}/{len} renders: {msg} [{elapsed_precise} < {eta}]",
     );
     status.set_message("interleaved timing");
-    let mdas_at_spp = MdasParams {
-        spp: mdas_spp as f32,
-        ..params
-    };
-    // One MDAS and one Halton for the rounds and the seeds, so their
-    // pipelines compile once.
-    let mut mdas_k = Mdas::new(mdas_at_spp)?;
-    let mut halton_k = Halton::new(1, spec.setup.halton_seed);
+    let mut mdas = Mdas::new(MdasParams {
+        spp: searched.mdas_spp as f32,
+        ..subject.mdas
+    })?;
+    let mut halton = Halton::new(1, spec.setup.halton_seed);
     let timing = intervals::interleaved(
         gpu,
         match spec.budget {
-            Budget::MdasSpp => Some(&mut mdas_k),
+            Budget::MdasSpp => Some(&mut mdas),
             Budget::TimeMs(_) => None,
         },
-        &mut halton_k,
+        &mut halton,
         &budgets,
         rounds,
-        integrand,
+        subject.integrand,
         &status,
     )?;
     let halton_fit = timing.fit();
@@ -321,17 +373,68 @@ fn compare_subject(
         Budget::TimeMs(t) => (t, vec![t]),
     };
     let mut flags = Vec::new();
-    let halton_spp =
-        intervals::spp_at_target(&halton_eq, halton_fit.as_ref(), target_ms, &mut flags);
+    let halton_spp = intervals::spp_at_target(
+        &searched.halton_eq,
+        halton_fit.as_ref(),
+        target_ms,
+        &mut flags,
+    );
     flags.extend(halton_fit.iter().flat_map(|f| f.flags.clone()));
+    if let Budget::MdasSpp = spec.budget {
+        let s = timing.mdas_spread();
+        if s > super::equal_time::MAX_SPREAD {
+            flags.push(format!(
+                "MDAS's timed rounds spread {:.0}% of their median (limit {:.0}%)",
+                100.0 * s,
+                100.0 * super::equal_time::MAX_SPREAD
+            ));
+        }
+    }
+    Ok(Timed {
+        timing,
+        halton_fit,
+        target_ms,
+        target_times,
+        halton_spp,
+        flags,
+        mdas,
+        halton,
+        status,
+    })
+}
 
-    // 3c. Seeds: MDAS at its run's budget, Halton at the written run's
-    // budget, at the whole spp either side of the target's and at MDAS's
-    // spp (equal samples), each over `spec.seeds` seeds.
-    let n0 = halton_spp.floor().max(1.0) as u32;
-    let equal_spp = (mdas_spp.round() as u32).max(1);
+/// Step 3c: each method over the seeds, the equal-time and equal-samples
+/// ratios with their intervals, and the reference's own error.
+struct Seeded {
+    mdas: SeedStats,
+    /// Halton at the written run's budget.
+    halton_main: SeedStats,
+    /// Halton interpolated at the target's spp.
+    halton_relmse: f64,
+    ratio_ci95: [f64; 2],
+    uniform: Option<(HaltonRun, SeedStats)>,
+    equal_samples: EqualSamplesReport,
+    ref_estimate: Option<f64>,
+    ref_flag: Option<String>,
+}
+
+fn over_seeds(
+    gpu: &Gpu,
+    spec: &CompareSpec,
+    subject: &Subject,
+    checked: &Checked,
+    searched: &Searched,
+    timed: &mut Timed,
+) -> Result<Seeded> {
+    let (integrand, reference) = (subject.integrand, subject.reference);
+    let status = &timed.status;
+    // MDAS at its run's budget, Halton at the written run's budget, at the
+    // whole spp either side of the target's and at MDAS's spp (equal
+    // samples), each over `spec.seeds` seeds.
+    let n0 = timed.halton_spp.floor().max(1.0) as u32;
+    let equal_spp = (searched.mdas_spp.round() as u32).max(1);
     let halton_budgets: std::collections::BTreeSet<u32> =
-        [halton_main.spp, n0, n0 + 1, equal_spp].into();
+        [searched.halton_main.spp, n0, n0 + 1, equal_spp].into();
     let k = spec.seeds as u64;
     // MDAS's and the written Halton run's first seeds are rendered.
     status.inc_length((k - 1) * 2 + k * (halton_budgets.len() as u64 - 1) + 1);
@@ -341,39 +444,42 @@ fn compare_subject(
     status.set_message(format!("seeds ({} per method)", spec.seeds));
     let mdas_stats = intervals::mdas_over_seeds(
         gpu,
-        &mut mdas_k,
-        &mdas_main.measured.render.image,
-        &mdas_seeds,
+        &mut timed.mdas,
+        &searched.mdas_main.measured.render.image,
+        &checked.mdas_seeds,
         integrand,
         reference,
-        &status,
+        status,
     )?;
-    let mut cache: BTreeMap<u32, super::seeds::SeedStats> = BTreeMap::new();
-    let mut halton_stats =
-        |spp: u32, first: Option<&[[f32; 3]]>| -> Result<super::seeds::SeedStats> {
-            if let Some(s) = cache.get(&spp) {
-                return Ok(s.clone());
-            }
-            let s = intervals::halton_over_seeds(
-                gpu,
-                &mut halton_k,
-                spp,
-                first,
-                &halton_seeds,
-                integrand,
-                reference,
-                &status,
-            )?;
-            cache.insert(spp, s.clone());
-            Ok(s)
-        };
-    let main_stats = halton_stats(halton_main.spp, Some(&halton_main.measured.render.image))?;
+    let mut cache: BTreeMap<u32, SeedStats> = BTreeMap::new();
+    let halton = &mut timed.halton;
+    let mut halton_stats = |spp: u32, first: Option<&[[f32; 3]]>| -> Result<SeedStats> {
+        if let Some(s) = cache.get(&spp) {
+            return Ok(s.clone());
+        }
+        let s = intervals::halton_over_seeds(
+            gpu,
+            halton,
+            spp,
+            first,
+            &checked.halton_seeds,
+            integrand,
+            reference,
+            status,
+        )?;
+        cache.insert(spp, s.clone());
+        Ok(s)
+    };
+    let main_stats = halton_stats(
+        searched.halton_main.spp,
+        Some(&searched.halton_main.measured.render.image),
+    )?;
     let (n0_stats, n1_stats) = (halton_stats(n0, None)?, halton_stats(n0 + 1, None)?);
-    let halton_relmse = intervals::halton_at_target(halton_spp, &n0_stats, &n1_stats);
+    let halton_relmse = intervals::halton_at_target(timed.halton_spp, &n0_stats, &n1_stats);
     let ratio_ci95 = intervals::ratio_ci95(
-        halton_fit.as_ref(),
-        halton_spp,
-        &target_times,
+        timed.halton_fit.as_ref(),
+        timed.halton_spp,
+        &timed.target_times,
         &mdas_stats,
         &n0_stats,
         &n1_stats,
@@ -383,34 +489,34 @@ fn compare_subject(
         status.set_message("mdas-uniform");
         Some(intervals::uniform_over_seeds(
             gpu,
-            mdas_at_spp,
-            &mdas_seeds,
+            MdasParams {
+                spp: searched.mdas_spp as f32,
+                ..subject.mdas
+            },
+            &checked.mdas_seeds,
             spec.setup.repeats,
             integrand,
             reference,
-            &status,
+            status,
         )?)
     } else {
         None
     };
-    let adaptivity_ratio_ci95 = uniform.as_ref().map(|(_, u)| {
-        super::seeds::bootstrap_ci95(&[&mdas_stats.relmse_per_seed, &u.relmse_per_seed], |r| {
+    let ratio = |a: &SeedStats, b: &SeedStats| {
+        super::seeds::bootstrap_ci95(&[&a.relmse_per_seed, &b.relmse_per_seed], |r| {
             super::seeds::mean(&r[0]) / super::seeds::mean(&r[1])
         })
-    });
+    };
     let equal_samples = EqualSamplesReport {
         adaptivity_ratio: uniform.as_ref().map(|(_, u)| mdas_stats.relmse / u.relmse),
-        adaptivity_ratio_ci95,
+        adaptivity_ratio_ci95: uniform.as_ref().map(|(_, u)| ratio(&mdas_stats, u)),
         spp: equal_spp,
         mdas_relmse: mdas_stats.relmse,
         mdas_relmse_ci95: mdas_stats.relmse_ci95,
         halton_relmse: equal_stats.relmse,
         halton_relmse_ci95: equal_stats.relmse_ci95,
         relmse_ratio: mdas_stats.relmse / equal_stats.relmse,
-        relmse_ratio_ci95: super::seeds::bootstrap_ci95(
-            &[&mdas_stats.relmse_per_seed, &equal_stats.relmse_per_seed],
-            |r| super::seeds::mean(&r[0]) / super::seeds::mean(&r[1]),
-        ),
+        relmse_ratio_ci95: ratio(&mdas_stats, &equal_stats),
     };
     let (ref_estimate, ref_flag) = match &subject.reference_source {
         ReferenceSource::Halton { spp, .. } => {
@@ -424,35 +530,40 @@ fn compare_subject(
         }
         ReferenceSource::Exact(_) => (None, None),
     };
-    let target_spread = match spec.budget {
-        Budget::MdasSpp => {
-            let s = timing.mdas_spread();
-            if s > super::equal_time::MAX_SPREAD {
-                flags.push(format!(
-                    "MDAS's timed rounds spread {:.0}% of their median (limit {:.0}%)",
-                    100.0 * s,
-                    100.0 * super::equal_time::MAX_SPREAD
-                ));
-            }
-            Some(s)
-        }
-        Budget::TimeMs(_) => None,
-    };
-    flags.extend(ref_flag.clone());
+    timed.flags.extend(ref_flag.clone());
+    Ok(Seeded {
+        mdas: mdas_stats,
+        halton_main: main_stats,
+        halton_relmse,
+        ratio_ci95,
+        uniform,
+        equal_samples,
+        ref_estimate,
+        ref_flag,
+    })
+}
 
-    // 4. Sample density of the MDAS run (untimed; same seed, same image).
-    status.set_message("mdas sample density");
-    let (_, density) = Mdas::new(MdasParams {
-        spp: mdas_spp as f32,
-        ..params
-    })?
-    .render_with_density(gpu, integrand)?;
-    status.inc(1);
-    status.finish_and_clear();
-
-    // 5. Files, report last.
-    let (w, h) = (film.width, film.height);
-    let initial_samples = mdas_k.config(integrand)?.initial_samples as u64;
+/// Step 5: the files, then the report, written last.
+#[allow(clippy::too_many_arguments)]
+fn report(
+    gpu: &Gpu,
+    spec: &CompareSpec,
+    subject: &Subject,
+    checked: &Checked,
+    searched: &Searched,
+    timed: Timed,
+    seeded: Seeded,
+    density: &[f32],
+    staged: StagedDir,
+) -> Result<Report> {
+    let (integrand, params) = (subject.integrand, subject.mdas);
+    let film = integrand.film();
+    let (mdas_main, mdas_spp, halton_main) = (
+        &searched.mdas_main,
+        searched.mdas_spp,
+        &searched.halton_main,
+    );
+    let initial_samples = timed.mdas.config(integrand)?.initial_samples as u64;
     let Written {
         mut files,
         flips,
@@ -465,32 +576,33 @@ fn compare_subject(
         mdas: &mdas_main.measured.render,
         mdas_seed: params.seed,
         mdas_spp,
-        mdas_stats: &mdas_stats,
+        mdas_stats: &seeded.mdas,
         initial_samples,
         halton: &halton_main.measured.render,
         halton_spp: halton_main.spp,
-        halton_stats: &main_stats,
-        uniform: uniform.as_ref().map(|(run, _)| &run.measured.render),
-        density: &density,
-        target_ms,
-        ratio: mdas_stats.relmse / halton_relmse,
-        ratio_ci95,
+        halton_stats: &seeded.halton_main,
+        uniform: seeded.uniform.as_ref().map(|(run, _)| &run.measured.render),
+        density,
+        target_ms: timed.target_ms,
+        ratio: seeded.mdas.relmse / seeded.halton_relmse,
+        ratio_ci95: seeded.ratio_ci95,
     })?;
     files.insert("report".into(), "report.json".into());
-
-    let halton_report = SearchReport::new(&halton_eq);
-    let mdas_report = mdas_search.as_ref().map(SearchReport::new);
+    let target_spread = match spec.budget {
+        Budget::MdasSpp => Some(timed.timing.mdas_spread()),
+        Budget::TimeMs(_) => None,
+    };
     // MDAS at the target: the seed mean (its own run's budget in mode
     // "mdas"; the nearer bracketing run's under a time budget).
-    let mdas_relmse = mdas_stats.relmse;
+    let mdas_relmse = seeded.mdas.relmse;
     let report = Report {
         scene: subject.name.clone(),
         scale: spec.setup.scale,
         sampler: subject.sampler.clone(),
         visibility: subject.visibility.clone(),
         film: FilmReport {
-            width: w,
-            height: h,
+            width: film.width,
+            height: film.height,
         },
         seed: Seeds {
             halton: spec.setup.halton_seed,
@@ -505,8 +617,8 @@ fn compare_subject(
         reference: match &subject.reference_source {
             ReferenceSource::Halton { spp, path, cached } => ReferenceReport {
                 spp: *spp,
-                relmse_estimate: ref_estimate,
-                flag: ref_flag,
+                relmse_estimate: seeded.ref_estimate,
+                flag: seeded.ref_flag,
                 path: path.display().to_string(),
                 cached: *cached,
                 sampler: subject.reference_sampler.clone(),
@@ -523,17 +635,17 @@ fn compare_subject(
             },
         },
         methods: vec![
-            MethodReport::new("mdas", mdas_spp, &mdas_main, "mdas.exr")
-                .with_seeds(&mdas_seeds, &mdas_stats)
+            MethodReport::new("mdas", mdas_spp, mdas_main, "mdas.exr")
+                .with_seeds(&checked.mdas_seeds, &seeded.mdas)
                 .with_flip(flips[0]),
-            MethodReport::new("halton", halton_main.spp as f64, &halton_main, "halton.exr")
-                .with_seeds(&halton_seeds, &main_stats)
+            MethodReport::new("halton", halton_main.spp as f64, halton_main, "halton.exr")
+                .with_seeds(&checked.halton_seeds, &seeded.halton_main)
                 .with_flip(flips[1]),
         ]
         .into_iter()
-        .chain(uniform.as_ref().map(|(run, stats)| {
+        .chain(seeded.uniform.as_ref().map(|(run, stats)| {
             MethodReport::new("mdas-uniform", mdas_spp, run, "mdas-uniform.exr")
-                .with_seeds(&mdas_seeds, stats)
+                .with_seeds(&checked.mdas_seeds, stats)
         }))
         .collect(),
         equal_time: EqualTimeReport {
@@ -542,21 +654,21 @@ fn compare_subject(
                 Budget::TimeMs(_) => "budget",
             }
             .into(),
-            target_ms,
+            target_ms: timed.target_ms,
             mdas_relmse,
-            halton_relmse,
-            relmse_ratio: mdas_relmse / halton_relmse,
-            halton: halton_report,
-            mdas: mdas_report,
+            halton_relmse: seeded.halton_relmse,
+            relmse_ratio: mdas_relmse / seeded.halton_relmse,
+            halton: SearchReport::new(&searched.halton_eq),
+            mdas: searched.mdas_search.as_ref().map(SearchReport::new),
             baseline: None,
             samplers: None,
-            relmse_ratio_ci95: Some(ratio_ci95),
-            halton_fit,
-            halton_spp: Some(halton_spp),
-            interleaved: Some(timing),
+            relmse_ratio_ci95: Some(seeded.ratio_ci95),
+            halton_fit: timed.halton_fit,
+            halton_spp: Some(timed.halton_spp),
+            interleaved: Some(timed.timing),
             target_spread,
-            flags,
-            equal_samples: Some(equal_samples),
+            flags: timed.flags,
+            equal_samples: Some(seeded.equal_samples),
         },
         maps: MapsReport {
             colormap: "viridis, log scale (FLIP maps: linear)",

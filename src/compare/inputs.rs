@@ -4,10 +4,10 @@
 //! need no render.
 
 use super::progress::bar;
-use crate::app::{self, IntegrandOverrides, ReferenceSpec};
 use crate::gpu::Gpu;
 use crate::integrand::Integrand;
 use crate::integrator::mdas::MdasParams;
+use crate::session::{self, IntegrandOverrides, ReferenceSpec};
 use anyhow::{bail, Result};
 use std::path::{Path, PathBuf};
 
@@ -247,7 +247,7 @@ pub(crate) fn load_reference(
         "reference {bar:40} {pos}/{len} spp [{elapsed_precise} < {eta}]",
     );
     let b2 = b.clone();
-    let reference = app::reference_with(
+    let reference = session::reference_with(
         gpu,
         scene,
         spec,
@@ -259,7 +259,7 @@ pub(crate) fn load_reference(
     for note in &reference.notes {
         eprintln!("note: {note}");
     }
-    if let app::CacheUse::Rebuilt(why) = &reference.cache {
+    if let session::CacheUse::Rebuilt(why) = &reference.cache {
         eprintln!(
             "warning: the cached reference {} was unusable ({why}); rendered it again",
             reference.path.display()

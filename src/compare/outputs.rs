@@ -11,11 +11,11 @@ use super::heatmap;
 use super::inputs::{ReferenceSource, Subject};
 use super::seeds::SeedStats;
 use super::CompareSpec;
-use crate::app;
 use crate::film::Film;
 use crate::image_io;
 use crate::integrator::Render;
 use crate::metrics;
+use crate::session;
 use anyhow::Result;
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -83,20 +83,20 @@ pub(crate) fn write_outputs(o: &CompareOutputs) -> Result<Written> {
         "mdas",
         "mdas",
         &mdas_render.image,
-        &app::render_attributes("mdas", o.mdas_seed, mdas_render, scene_path),
+        &session::render_attributes("mdas", o.mdas_seed, mdas_render, scene_path),
     )?;
     files.image(
         "halton",
         "halton",
         &halton_render.image,
-        &app::render_attributes("halton", spec.setup.halton_seed, halton_render, scene_path),
+        &session::render_attributes("halton", spec.setup.halton_seed, halton_render, scene_path),
     )?;
     if let Some(u) = o.uniform {
         files.image(
             "mdas_uniform",
             "mdas-uniform",
             &u.image,
-            &app::render_attributes("mdas-uniform", o.mdas_seed, u, scene_path),
+            &session::render_attributes("mdas-uniform", o.mdas_seed, u, scene_path),
         )?;
         files.relmse_map("mdas_uniform", "mdas-uniform", &u.image, reference)?;
     }
@@ -249,7 +249,7 @@ impl<'a> Files<'a> {
         attributes: &[(&str, image_io::ExrAttribute)],
     ) -> Result<()> {
         let exr = self.out.join(format!("{name}.exr"));
-        app::write_outputs_with(&exr, self.film, pixels, attributes)?;
+        session::write_outputs_with(&exr, self.film, pixels, attributes)?;
         self.insert(key, name);
         Ok(())
     }

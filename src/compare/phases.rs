@@ -8,13 +8,13 @@
 //! time per phase (`Render::times`) and the wall-clock time of the whole
 //! `render` call (submissions, read-backs and host waits included). Both
 //! methods take N = spp × pixels samples: MDAS with the scene's `[mdas]`
-//! parameters (at `--scale`, [`crate::app::mdas_params_at_scale`]), Halton
+//! parameters (at `--scale`, [`crate::session::mdas_params_at_scale`]), Halton
 //! with the same whole spp.
 
 use super::equal_time::median;
-use crate::app;
 use crate::gpu::Gpu;
 use crate::integrator::{Halton, Integrator, Mdas, Render};
+use crate::session;
 use anyhow::{bail, Result};
 use serde::Serialize;
 use std::path::Path;
@@ -130,8 +130,8 @@ pub fn bench_scene(
     if repeats == 0 {
         bail!("--repeats must be at least 1");
     }
-    let prepared = app::prepare(gpu, scene, scale)?;
-    let mut params = app::mdas_params_at_scale(prepared.scene.mdas, scale);
+    let prepared = session::prepare(gpu, scene, scale)?;
+    let mut params = session::mdas_params_at_scale(prepared.scene.mdas, scale);
     let spp = match spp {
         Some(s) => s,
         None if params.spp.fract() == 0.0 && params.spp >= 1.0 => params.spp as u32,

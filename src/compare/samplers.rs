@@ -8,7 +8,7 @@
 //!    one uploaded scene), MDAS's parameters against the `tree` integrand,
 //!    then the output directory.
 //! 2. The reference: Halton at `ref_spp` with the scene's own sampler
-//!    (`app::reference`, cached; every unbiased sampler estimates the same
+//!    (`session::reference`, cached; every unbiased sampler estimates the same
 //!    image, and a biased scene sampler, `sst` or `lgh`, is replaced by `tree`).
 //! 3. The target time: MDAS with `tree` at its spp ([`Budget::MdasSpp`]),
 //!    or `--time-ms` for all, MDAS+tree searched too ([`Budget::TimeMs`]).
@@ -40,7 +40,6 @@ use super::report::*;
 use super::seeds::{bootstrap_ci95, mean};
 use super::timing::{halton_search, nearer, time_mdas, MdasTiming};
 use crate::accel::GpuScene;
-use crate::app;
 use crate::atomic::StagedDir;
 use crate::gpu::Gpu;
 use crate::integrand::Integrand;
@@ -48,6 +47,7 @@ use crate::integrand::IntegrandSpec;
 use crate::integrator::mdas::MdasParams;
 use crate::lights::sampler::SamplerKind;
 use crate::scene_file::SceneFile;
+use crate::session;
 use anyhow::{bail, Result};
 use std::sync::Arc;
 
@@ -116,7 +116,7 @@ fn run(gpu: &Gpu, spec: &SamplersSpec) -> Result<Report> {
             other.type_name()
         ),
     };
-    let film = app::scaled_film(scene.scene.film, setup.scale)?;
+    let film = session::scaled_film(scene.scene.film, setup.scale)?;
     let staged = StagedDir::new(&setup.out)?;
     let gpu_scene = Arc::new(GpuScene::with_visibility(
         gpu,
@@ -133,14 +133,14 @@ fn run(gpu: &Gpu, spec: &SamplersSpec) -> Result<Report> {
     let original = scene.integrand.clone();
     let mut integrands: Vec<(SamplerKind, Box<dyn Integrand>)> = Vec::new();
     for &kind in &kinds {
-        let overrides = app::IntegrandOverrides {
+        let overrides = session::IntegrandOverrides {
             frame: setup.frame,
-            ..app::IntegrandOverrides::sampler(kind)
+            ..session::IntegrandOverrides::sampler(kind)
         };
         scene.integrand = overrides.apply(&original, &setup.scene)?;
         integrands.push((
             kind,
-            app::integrand_on(gpu, &scene, gpu_scene.clone(), film)?,
+            session::integrand_on(gpu, &scene, gpu_scene.clone(), film)?,
         ));
     }
     scene.integrand = original;
@@ -237,7 +237,7 @@ fn run(gpu: &Gpu, spec: &SamplersSpec) -> Result<Report> {
         "mdas_tree",
         "mdas-tree",
         mdas_image,
-        &app::render_attributes(
+        &session::render_attributes(
             "mdas+tree",
             params.seed,
             &mdas_main.measured.render,
@@ -259,7 +259,7 @@ fn run(gpu: &Gpu, spec: &SamplersSpec) -> Result<Report> {
             &key,
             &name,
             &run.measured.render.image,
-            &app::render_attributes(
+            &session::render_attributes(
                 &format!("halton+{kind}"),
                 setup.halton_seed,
                 &run.measured.render,

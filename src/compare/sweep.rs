@@ -15,13 +15,13 @@ use super::inputs::{check_reference, ReferenceSource, Setup, Subject};
 use super::intervals::seed_plan;
 use super::plot::{loglog_svg, svg_to_png, Series};
 use super::seeds::mean_ci95;
-use crate::app;
 use crate::atomic::StagedDir;
 use crate::gpu::Gpu;
 use crate::image_io;
 use crate::integrator::mdas::MdasParams;
 use crate::integrator::{Halton, Integrator, Mdas};
 use crate::metrics;
+use crate::session;
 use anyhow::{bail, Result};
 
 /// Inputs of [`sweep`].
@@ -92,7 +92,7 @@ pub fn csv(rows: &[SweepRow]) -> String {
 pub fn sweep(gpu: &Gpu, spec: &SweepSpec) -> Result<SweepResult> {
     check_spps(spec)?;
     let staged = StagedDir::new(&spec.setup.out)?;
-    let prepared = app::prepare(gpu, &spec.setup.scene, spec.setup.scale)?;
+    let prepared = session::prepare(gpu, &spec.setup.scene, spec.setup.scale)?;
     let integrand = prepared.integrand.as_ref();
     let params = (spec.setup.mdas_params)(prepared.scene.mdas);
     let plan = plan(spec, params, integrand)?;

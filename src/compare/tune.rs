@@ -32,7 +32,6 @@ use super::inputs::{check_reference, ReferenceSource, Setup, Subject};
 use super::intervals::seed_plan;
 use super::progress::bar;
 use super::seeds::SeedStats;
-use crate::app;
 use crate::atomic::StagedDir;
 use crate::gpu::Gpu;
 use crate::image_io;
@@ -40,6 +39,7 @@ use crate::integrand::Integrand;
 use crate::integrator::mdas::params::{Kind, Param};
 use crate::integrator::mdas::{MdasParams, PARAMS};
 use crate::integrator::{Halton, Integrator, Mdas};
+use crate::session;
 use anyhow::{bail, Context, Result};
 use indicatif::ProgressBar;
 use serde::Serialize;
@@ -242,7 +242,7 @@ pub fn tune(gpu: &Gpu, spec: &TuneSpec) -> Result<TuneReport> {
     let setup = &spec.setup;
     setup.check()?;
     let staged = StagedDir::new(&setup.out)?;
-    let prepared = app::prepare(gpu, &setup.scene, setup.scale)?;
+    let prepared = session::prepare(gpu, &setup.scene, setup.scale)?;
     let integrand = prepared.integrand.as_ref();
     // An automatic grid resolved at this film and budget, so that a grid
     // key of it (`extra_image_bits`, …) starts from the render's own choice.

@@ -1,5 +1,5 @@
 //! What a scene file's `[integrand]` table asks for: the integrand and its
-//! parameters, before any GPU work ([`crate::app::integrand_for`] builds
+//! parameters, before any GPU work ([`crate::session::integrand_for`] builds
 //! it). The table is parsed by [`crate::scene_file`]; the limits it checks
 //! come from the integrand modules (e.g. [`super::path::max_bounces_limit`]).
 

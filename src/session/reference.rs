@@ -1,0 +1,352 @@
+//! High-spp Halton references and their cache: keys from what changes
+//! the image (the scene's bytes, film, spp, seed, shading), entries
+//! checked on read and rebuilt when unusable.
+
+use super::outputs::*;
+use super::prepare::*;
+use crate::accel::voxel::VisibilityKind;
+use crate::film::Film;
+use crate::gpu::Gpu;
+use crate::image_io;
+use crate::integrand::IntegrandSpec;
+use crate::integrator::{Halton, Integrator, Render};
+use crate::lights::sampler::SamplerKind;
+use crate::scene_file::SceneFile;
+use anyhow::{bail, Context, Result};
+use sha2::{Digest, Sha256};
+use std::path::{Path, PathBuf};
+
+/// Parameters that identify a reference render.
+#[derive(Clone, Copy, Debug)]
+pub struct ReferenceSpec {
+    pub spp: u32,
+    pub scale: f32,
+    pub seed: u32,
+}
+
+/// Cache file of a reference: a hash of the scene file's content less its
+/// `[mdas]` table and comments ([`reference_key_text`]), the bytes of every
+/// mesh it loads, the parameters and the crate version (an edited
+/// OBJ makes a new entry, never a stale hit).
+pub fn reference_cache_path(
+    cache_dir: &Path,
+    scene_path: &Path,
+    spec: ReferenceSpec,
+) -> Result<PathBuf> {
+    let scene = SceneFile::load(scene_path)?;
+    reference_cache_path_keyed(
+        cache_dir,
+        scene_path,
+        &scene.inputs,
+        spec,
+        shading_key(&scene),
+    )
+}
+
+/// What a scene's shading adds to its references' cache key: references
+/// cached before OBJ vertex normals shaded (same crate version) were
+/// rendered without them, so a scene with any gets keys of its own and its
+/// older entries are never hit.
+fn shading_key(scene: &SceneFile) -> &'static str {
+    if scene.scene.meshes.iter().any(|m| !m.normals.is_empty()) {
+        "|vertex-normals"
+    } else {
+        ""
+    }
+}
+
+/// The part of a scene file a reference depends on, for its cache key: the
+/// parsed document without its `[mdas]` table (MDAS's parameters never
+/// change a Halton reference) and without comments or layout, written back
+/// in TOML's canonical form — so tuning a scene's `[mdas]` table or editing
+/// its comments keeps its cached references. A file that does not parse
+/// (the caller reports that) is keyed by its bytes.
+pub(super) fn reference_key_text(bytes: &[u8]) -> Vec<u8> {
+    let parsed = std::str::from_utf8(bytes)
+        .ok()
+        .and_then(|text| text.parse::<toml::Table>().ok());
+    match parsed {
+        Some(mut table) => {
+            table.remove("mdas");
+            toml::to_string(&table).map_or_else(|_| bytes.to_vec(), String::into_bytes)
+        }
+        None => bytes.to_vec(),
+    }
+}
+
+/// [`reference_cache_path`] with `extra` (e.g.
+/// [`IntegrandOverrides::cache_key`]) hashed in too.
+pub(super) fn reference_cache_path_keyed(
+    cache_dir: &Path,
+    scene_path: &Path,
+    inputs: &[PathBuf],
+    spec: ReferenceSpec,
+    extra: &str,
+) -> Result<PathBuf> {
+    let bytes = std::fs::read(scene_path)
+        .with_context(|| format!("cannot read {}", scene_path.display()))?;
+    let mut h = Sha256::new();
+    h.update(reference_key_text(&bytes));
+    for input in inputs {
+        let bytes =
+            std::fs::read(input).with_context(|| format!("cannot read {}", input.display()))?;
+        h.update(format!("|input {} bytes|", bytes.len()));
+        h.update(&bytes);
+    }
+    h.update(format!(
+        "|spp={}|scale={}|seed={}|halton{extra}|v{}",
+        spec.spp,
+        spec.scale,
+        spec.seed,
+        env!("CARGO_PKG_VERSION")
+    ));
+    let digest = h.finalize();
+    let hex: String = digest.iter().take(12).map(|b| format!("{b:02x}")).collect();
+    let stem = scene_path
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or("scene");
+    Ok(cache_dir.join(format!("{stem}-{hex}.exr")))
+}
+
+/// A reference image and where it came from.
+#[derive(Clone, Debug)]
+pub struct Reference {
+    pub film: Film,
+    pub image: Vec<[f32; 3]>,
+    /// The cache entry (EXR); its record is [`reference_record_path`].
+    pub path: PathBuf,
+    pub cache: CacheUse,
+    /// The scene file's warnings ([`SceneFile::warnings`]) and its
+    /// [`IntegrandSpec::light_warnings`] (an integrand that sees no light
+    /// renders a black reference).
+    pub warnings: Vec<String>,
+    /// What the reference used instead of the scene's own choices: `tree`
+    /// for a biased light sampler, the BVH for voxel visibility
+    /// ([`reference`]).
+    pub notes: Vec<String>,
+}
+
+/// How a reference was obtained.
+#[derive(Clone, Debug, PartialEq)]
+pub enum CacheUse {
+    /// Read from a valid cache entry.
+    Hit,
+    /// Rendered: there was no entry.
+    Rendered,
+    /// Rendered again: the entry was unusable, for this reason.
+    Rebuilt(String),
+}
+
+impl Reference {
+    /// Whether the image came from the cache.
+    pub fn cached(&self) -> bool {
+        self.cache == CacheUse::Hit
+    }
+}
+
+/// SHA-256 of an image's pixels (f32 little-endian bytes, row-major),
+/// stored in a cache entry's record and checked on every hit.
+pub fn pixels_sha256(image: &[[f32; 3]]) -> String {
+    let digest = Sha256::digest(bytemuck::cast_slice::<[f32; 3], u8>(image));
+    digest.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// A cache entry, if it is whole: its EXR reads, has the film's size, is
+/// finite, and its pixels hash to the record's `pixels_sha256` (a
+/// truncated, garbled, zeroed or half-written entry fails one of these).
+fn read_cache_entry(path: &Path, film: Film) -> Result<Vec<[f32; 3]>> {
+    let record: serde_json::Value = {
+        let record_path = reference_record_path(path);
+        let text = std::fs::read_to_string(&record_path)
+            .with_context(|| format!("its record {} is missing", record_path.display()))?;
+        serde_json::from_str(&text).context("its record is not valid JSON")?
+    };
+    let (w, h, image) = image_io::read_exr(path)?;
+    if (w, h) != (film.width, film.height) {
+        bail!("it is {w}×{h}, the film {}×{}", film.width, film.height);
+    }
+    if image.iter().any(|p| !p.iter().all(|c| c.is_finite())) {
+        bail!("it has non-finite pixels");
+    }
+    let stored = record["pixels_sha256"].as_str().unwrap_or("");
+    if stored != pixels_sha256(&image) {
+        bail!("its pixels do not match the checksum in its record");
+    }
+    Ok(image)
+}
+
+/// The reference image (Halton at `spec.spp`), from the cache or rendered
+/// and cached. A cache entry is used only if it is whole
+/// ([`CacheUse::Hit`]); an unusable one is rendered again and replaced
+/// ([`CacheUse::Rebuilt`] says why).
+/// References use the scene file's own `[integrand]` table (`mdas compare`
+/// always does, whatever `--sampler` its compared renders use: every
+/// unbiased light sampler estimates the same image) — except a biased
+/// light sampler (`sst`, `lgh`: [`SamplerKind::is_biased`]), which would
+/// hide its own bias: without a `--sampler` override such a scene's
+/// reference uses `tree`, and without a `--visibility` override a scene
+/// with voxel visibility (approximate) gets a BVH reference
+/// ([`Reference::notes`] says so).
+pub fn reference(
+    gpu: &Gpu,
+    scene_path: &Path,
+    spec: ReferenceSpec,
+    cache_dir: &Path,
+    progress: Option<crate::integrator::halton::Progress>,
+) -> Result<Reference> {
+    reference_with(
+        gpu,
+        scene_path,
+        spec,
+        IntegrandOverrides::default(),
+        cache_dir,
+        progress,
+    )
+}
+
+/// The overrides a reference of an integrand `spec` renders with: the
+/// given ones, or, when they leave the sampler alone and the scene's own
+/// light sampler is biased, `tree`, with the note that says so.
+pub fn reference_overrides(
+    spec: &IntegrandSpec,
+    overrides: IntegrandOverrides,
+) -> (IntegrandOverrides, Option<String>) {
+    match (overrides.sampler, spec) {
+        (None, IntegrandSpec::ManyLight(m)) if m.sampler.is_biased() => (
+            IntegrandOverrides {
+                sampler: Some(SamplerKind::Tree),
+                ..overrides
+            },
+            Some(format!(
+                "the scene's light sampler '{}' is biased: its reference uses 'tree'",
+                m.sampler
+            )),
+        ),
+        _ => (overrides, None),
+    }
+}
+
+/// [`reference`] rendered with `[integrand]` overrides (`mdas reference
+/// --sampler`). An override that changes the scene's table is part of the
+/// cache key, so such a reference never replaces (or is mistaken for) the
+/// scene's own; one that changes nothing shares the scene's cache entry.
+pub fn reference_with(
+    gpu: &Gpu,
+    scene_path: &Path,
+    spec: ReferenceSpec,
+    overrides: IntegrandOverrides,
+    cache_dir: &Path,
+    progress: Option<crate::integrator::halton::Progress>,
+) -> Result<Reference> {
+    let scene = SceneFile::load(scene_path)?;
+    let (mut overrides, sampler_note) = reference_overrides(&scene.integrand, overrides);
+    let mut notes: Vec<String> = sampler_note.into_iter().collect();
+    if overrides.visibility.is_none() && scene.visibility.is_voxel() {
+        overrides.visibility = Some(VisibilityKind::Bvh);
+        notes
+            .push("the scene's voxel visibility is approximate: its reference uses the BVH".into());
+    }
+    // An override the scene cannot take fails here, cached entry or not.
+    let applied = overrides.apply(&scene.integrand, scene_path)?;
+    let mut warnings = scene.warnings.clone();
+    warnings.extend(applied.light_warnings(&scene.scene));
+    let extra = overrides.cache_key(&scene.integrand)?
+        + &overrides.visibility_key(&scene)
+        + shading_key(&scene);
+    let path = reference_cache_path_keyed(cache_dir, scene_path, &scene.inputs, spec, &extra)?;
+    if path.is_dir() {
+        bail!(
+            "the reference cache entry {} is a directory; remove it",
+            path.display()
+        );
+    }
+    let film = scaled_film(scene.scene.film, spec.scale)?;
+    let mut cache = CacheUse::Rendered;
+    if path.exists() {
+        match read_cache_entry(&path, film) {
+            Ok(image) => {
+                return Ok(Reference {
+                    film,
+                    image,
+                    path,
+                    cache: CacheUse::Hit,
+                    warnings,
+                    notes,
+                })
+            }
+            Err(e) => cache = CacheUse::Rebuilt(format!("{e:#}")),
+        }
+    }
+    std::fs::create_dir_all(cache_dir)
+        .with_context(|| format!("cannot create cache directory {}", cache_dir.display()))?;
+    let prepared = prepare_loaded(gpu, scene, scene_path, spec.scale, overrides)?;
+    let mut halton = Halton::new(spec.spp, spec.seed);
+    if let Some(p) = progress {
+        halton = halton.with_progress(p);
+    }
+    let render = halton.render(gpu, prepared.integrand.as_ref())?;
+    check_finite(&render)?;
+    let attributes = render_attributes("halton", spec.seed, &render, scene_path);
+    // The record of how it was made, with the pixels' checksum, lands with
+    // the images as one unit: an entry is never seen without its record.
+    let record = serde_json::json!({
+        "pixels_sha256": pixels_sha256(&render.image),
+        "width": render.film.width,
+        "height": render.film.height,
+        "spp": spec.spp,
+        "seed": spec.seed,
+        "scale": spec.scale,
+        "cache_key_extra": extra,
+        "time_ms": render.times.total(),
+        "provenance": crate::provenance::Provenance::new(
+            gpu,
+            scene_path,
+            prepared.integrand.as_ref(),
+            None,
+        )?,
+    });
+    let text = serde_json::to_string_pretty(&record)?;
+    let (w, h) = (render.film.width, render.film.height);
+    let mut writes = crate::atomic::AtomicWrites::new();
+    // A damaged entry read above is this cache's to replace.
+    crate::atomic::release_input(&path);
+    image_io::stage_exr(&mut writes, &path, w, h, &render.image, &attributes)?;
+    image_io::stage_png(
+        &mut writes,
+        &path.with_extension("png"),
+        w,
+        h,
+        &render.image,
+    )?;
+    writes.stage(&reference_record_path(&path), |t| {
+        std::fs::write(t, text.as_bytes()).map_err(Into::into)
+    })?;
+    writes.commit()?;
+    Ok(Reference {
+        film: render.film,
+        image: render.image,
+        path,
+        cache,
+        warnings,
+        notes,
+    })
+}
+
+/// The JSON record written beside a cached reference EXR (its provenance:
+/// command line, scene hash, adapter, version, time).
+pub fn reference_record_path(exr: &Path) -> PathBuf {
+    exr.with_extension("json")
+}
+
+/// References must be finite everywhere.
+fn check_finite(render: &Render) -> Result<()> {
+    let bad = render.nonfinite_pixels();
+    if bad > 0 {
+        bail!(
+            "reference has {bad} non-finite pixels ({} non-finite samples)",
+            render.nonfinite
+        );
+    }
+    Ok(())
+}
