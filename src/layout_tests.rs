@@ -357,3 +357,26 @@ fn paths_resolve_against_the_file() {
         "a \n"
     );
 }
+
+/// Most lines a file of `src/` may hold (issue 50): beyond it a file holds
+/// more than one concern and is split by concern, tests beside it.
+const MAX_FILE_LINES: usize = 800;
+
+#[test]
+fn no_file_over_the_line_limit() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut files = Vec::new();
+    rust_files(&src, &mut files);
+    let long: Vec<String> = files
+        .iter()
+        .filter_map(|f| {
+            let lines = std::fs::read_to_string(f).unwrap().lines().count();
+            (lines > MAX_FILE_LINES).then(|| format!("{} ({lines} lines)", f.display()))
+        })
+        .collect();
+    assert!(
+        long.is_empty(),
+        "files over {MAX_FILE_LINES} lines: {long:#?}"
+    );
+    assert!(files.len() > 100, "src/ was read ({} files)", files.len());
+}
