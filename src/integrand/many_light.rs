@@ -145,7 +145,7 @@ pub fn source_for_cuts(triangles: bool, kind: SamplerKind, capacity: u32) -> Wgs
     scene_wgsl()
         .include(&GpuSamplerData::wgsl_for_cuts(capacity))
         .constant("ML_TRIANGLES", triangles as u32)
-        .constant("ML_SUBSTITUTES", (kind == SamplerKind::Sst) as u32)
+        .constant("ML_SUBSTITUTES", kind.stops_at_substitutes() as u32)
         .constant("ML_LGH", (kind == SamplerKind::Lgh) as u32)
         .part(wgsl_file!("many_light.wgsl"))
 }
@@ -584,7 +584,7 @@ impl Integrand for ManyLight {
             } else {
                 6
             }
-        } else if self.kind == SamplerKind::Sst {
+        } else if self.kind.stops_at_substitutes() {
             6
         } else if self.triangles {
             5

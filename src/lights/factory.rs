@@ -99,7 +99,7 @@ pub fn new_sampler(
         ),
         SamplerKind::Sst | SamplerKind::SstNoSub => Box::new(SstSampler {
             tree: substitute::build(prims).unwrap(),
-            params: (kind == SamplerKind::Sst).then(SubstituteParams::default),
+            params: kind.stops_at_substitutes().then(SubstituteParams::default),
         }),
         SamplerKind::Lgh => unreachable!("asserted above"),
     }

@@ -493,15 +493,50 @@ impl GpuSamplerData {
             .constant("LIGHT_NEAR_CLAMP_BITS", NEAR_CLAMP.to_bits())
             .constant("LIGHT_SUBSTITUTE_BIT", substitute::SUBSTITUTE_BIT);
         for k in SamplerKind::ALL {
-            let name = format!("LIGHT_KIND_{}", k.name().to_uppercase());
-            w = w.constant(&name, k.index());
+            w = w.constant(&kind_constant(k), k.index());
         }
         w.constant("LGH_MAX_SHADOWS", lgh::MAX_SHADOW_SAMPLES)
             .part(wgsl_file!("lights/lgh_light.wgsl"))
             .part(wgsl_file!("lights/bindings.wgsl"))
+            .part(("lights/kinds.wgsl (generated)", kinds_wgsl()))
             .part(wgsl_file!("lights/sample.wgsl"))
             .part(wgsl_file!("lights/lgh.wgsl"))
     }
+}
+
+/// The WGSL constant of kind `k`'s index: `LIGHT_KIND_` and its name.
+fn kind_constant(k: SamplerKind) -> String {
+    format!("LIGHT_KIND_{}", k.name().to_uppercase())
+}
+
+/// The kind predicates of `sample.wgsl`, generated from [`SamplerKind`]'s
+/// (one list of which kind does what): each a test of
+/// `light_params.kind` against the kinds for which the Rust predicate
+/// holds.
+pub fn kinds_wgsl() -> String {
+    let predicates: [(&str, fn(SamplerKind) -> bool); 4] = [
+        ("light_uses_bvh", SamplerKind::uses_bvh),
+        ("light_uses_cut", SamplerKind::uses_cut),
+        ("light_uses_cones", SamplerKind::uses_cones),
+        ("light_substitutes_on", SamplerKind::stops_at_substitutes),
+    ];
+    let mut out = String::new();
+    for (name, holds) in predicates {
+        let kinds: Vec<String> = SamplerKind::ALL
+            .into_iter()
+            .filter(|&k| holds(k))
+            .map(|k| format!("k == {}", kind_constant(k)))
+            .collect();
+        let test = if kinds.is_empty() {
+            "false".to_string()
+        } else {
+            kinds.join(" || ")
+        };
+        out += &format!(
+            "fn {name}() -> bool {{\n    let k = light_params.kind;\n    return {test};\n}}\n\n"
+        );
+    }
+    out
 }
 
 /// The cut capacity of the shaders for cuts of `cut_size` nodes: the next

@@ -173,6 +173,12 @@ impl SamplerKind {
         matches!(self, SamplerKind::Sst | SamplerKind::SstNoSub)
     }
 
+    /// Whether a descent stops at a suitable node's substitute (`sst`;
+    /// `sst_nosub` descends to a light like the perfect tree).
+    pub fn stops_at_substitutes(self) -> bool {
+        self == SamplerKind::Sst
+    }
+
     /// Whether the kind's estimate is biased: `sst` (a sample may be a
     /// substitute instead of a light; its [`LightSampler`] view returns only
     /// the samples that stop at a light, so its light pmfs sum to less than

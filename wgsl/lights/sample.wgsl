@@ -52,28 +52,10 @@ fn light_no_pick() -> LightPick {
     return LightPick(NO_LIGHT, 0.0, 0);
 }
 
-fn light_uses_bvh() -> bool {
-    let k = light_params.kind;
-    return k == LIGHT_KIND_UNBALANCED || k == LIGHT_KIND_UNBALANCED_NOCUT || k == LIGHT_KIND_UNBALANCED_NOCONE
-        || k == LIGHT_KIND_TREE2;
-}
-
-fn light_uses_cut() -> bool {
-    let k = light_params.kind;
-    return k == LIGHT_KIND_TREE || k == LIGHT_KIND_TREE_CONE || k == LIGHT_KIND_UNBALANCED || k == LIGHT_KIND_UNBALANCED_NOCONE
-        || k == LIGHT_KIND_TREE2;
-}
-
-fn light_uses_cones() -> bool {
-    let k = light_params.kind;
-    return k == LIGHT_KIND_TREE_CONE || k == LIGHT_KIND_UNBALANCED || k == LIGHT_KIND_UNBALANCED_NOCUT || k == LIGHT_KIND_TREE2
-        || k == LIGHT_KIND_SST || k == LIGHT_KIND_SST_NOSUB;
-}
-
-// sst: the descent stops at suitable nodes (sst_nosub: only at leaves).
-fn light_substitutes_on() -> bool {
-    return light_params.kind == LIGHT_KIND_SST;
-}
+// light_uses_bvh(), light_uses_cut(), light_uses_cones() and
+// light_substitutes_on() are generated from SamplerKind's predicates
+// (lights/kinds.wgsl, gpu_sampler.rs kinds_wgsl): one list of which kind
+// does what.
 
 // Eq. 3 of the substitute-tree paper for internal node `node` (substitute.rs
 // SubstituteParams::suitable).
