@@ -514,7 +514,8 @@ fn kind_constant(k: SamplerKind) -> String {
 /// `light_params.kind` against the kinds for which the Rust predicate
 /// holds.
 pub fn kinds_wgsl() -> String {
-    let predicates: [(&str, fn(SamplerKind) -> bool); 4] = [
+    type Predicate = (&'static str, fn(SamplerKind) -> bool);
+    let predicates: [Predicate; 4] = [
         ("light_uses_bvh", SamplerKind::uses_bvh),
         ("light_uses_cut", SamplerKind::uses_cut),
         ("light_uses_cones", SamplerKind::uses_cones),
