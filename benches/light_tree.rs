@@ -115,13 +115,13 @@ fn bench(c: &mut Criterion) {
     }
 }
 
-/// The lighting grid hierarchy's GPU build (`lights::gpu_lgh`; the LGH
+/// The lighting grid hierarchy's GPU build (`lights::lgh::gpu`; the LGH
 /// paper's Table 2 row "Hierarchy Construction": 7.0 / 9.2 / 12.1 / 32.0 ms
 /// for 1K / 10K / 100K / 1M VPLs on an RTX 2080) with the default level
 /// count. Lights: half points, half VPLs (random normals), uniform in a
 /// cube.
 fn bench_lgh(c: &mut Criterion) {
-    use mdas::lights::gpu_lgh::{GpuLgh, PHASES};
+    use mdas::lights::lgh::gpu::{GpuLgh, PHASES};
     use mdas::lights::lgh::LghParams;
     let gpu = Gpu::shared().expect("benches need a wgpu adapter");
     let mut rows = Vec::new();

@@ -26,9 +26,9 @@
 
 use mdas::gpu::buffer::STORAGE;
 use mdas::gpu::{Gpu, Profiler};
-use mdas::lights::gpu_two_level::{GpuTwoLevel, PHASES};
 use mdas::lights::scene_lights::{self, light_groups, light_prims};
 use mdas::lights::two_level;
+use mdas::lights::two_level::gpu::{GpuTwoLevel, PHASES};
 use mdas::lights::LightPrim;
 use mdas::scene_file;
 use std::path::Path;

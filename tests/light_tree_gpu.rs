@@ -510,7 +510,7 @@ fn per_light_arithmetic_is_exact() {
 
 // ------------------------------------------------ lighting grid hierarchy
 
-/// The GPU build of the lighting grid hierarchy (`lights::gpu_lgh`)
+/// The GPU build of the lighting grid hierarchy (`lights::lgh::gpu`)
 /// against its CPU oracle (`lights::lgh::build`): the sorted light ids and
 /// cell ranges exactly, the same vertices holding grid lights, and every
 /// grid light's sums within 1e-4 of the oracle's (relative to its own
@@ -519,7 +519,7 @@ fn per_light_arithmetic_is_exact() {
 /// with WGSL's 2.5-ulp division: measured differences ~1e-6).
 mod lgh_gpu {
     use super::*;
-    use mdas::lights::gpu_lgh::GpuLgh;
+    use mdas::lights::lgh::gpu::GpuLgh;
     use mdas::lights::lgh::{self, LghParams};
 
     fn check(prims: &[LightPrim], levels: u32, what: &str) {
@@ -538,7 +538,7 @@ mod lgh_gpu {
         let mut profiler = Profiler::new(gpu);
         h.build(gpu, &buffer, &mut profiler).unwrap();
         let times = profiler.finish().unwrap();
-        for phase in mdas::lights::gpu_lgh::PHASES {
+        for phase in mdas::lights::lgh::gpu::PHASES {
             assert!(times.get(phase).is_some(), "{what}: no time for {phase}");
         }
         let (got, count) = h.read(gpu).unwrap();
@@ -625,8 +625,8 @@ mod lgh_gpu {
 // ---- the two-level tree's bottom levels (tree2) ----
 
 use mdas::lights::bvh::{LightBvh, INTERNAL_BIT};
-use mdas::lights::gpu_two_level::GpuTwoLevel;
 use mdas::lights::scene_lights;
+use mdas::lights::two_level::gpu::GpuTwoLevel;
 use mdas::lights::two_level::BottomLevels;
 use mdas::scene_file;
 
@@ -640,7 +640,7 @@ fn gpu_two_level(
     let mut profiler = Profiler::new(gpu);
     t.build(gpu, prims, &mut profiler).unwrap();
     let times = profiler.finish().unwrap();
-    for phase in mdas::lights::gpu_two_level::PHASES {
+    for phase in mdas::lights::two_level::gpu::PHASES {
         assert!(
             times.get(phase).is_some_and(f64::is_finite),
             "{phase}: {times:?}"

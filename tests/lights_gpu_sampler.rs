@@ -24,12 +24,12 @@ use mdas::lights::bvh;
 use mdas::lights::cut::{Importance, LightTree, MAX_CUT};
 use mdas::lights::gpu_build::GpuLightTree;
 use mdas::lights::gpu_sampler::{cut_capacity, CutLayout, GpuSamplerData, TreeSource};
-use mdas::lights::gpu_two_level::GpuTwoLevel;
 use mdas::lights::perfect;
 use mdas::lights::substitute::{
     self, SstSampler, Substitute, SubstituteParams, SubstituteTree, SUBSTITUTE_BIT,
 };
 use mdas::lights::two_level;
+use mdas::lights::two_level::gpu::GpuTwoLevel;
 use mdas::lights::{
     select_cut, LightSampler, PowerSampler, SamplerKind, Shading, TreeSampler, UniformSampler,
 };

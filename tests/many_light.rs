@@ -508,7 +508,7 @@ fn tree2_sequences_gather_on_the_gpu_where_groups_keep_their_shape() {
         ml.setup_times()
             .0
             .iter()
-            .any(|(n, _)| n == mdas::lights::gpu_two_level::PHASES[0])
+            .any(|(n, _)| n == mdas::lights::two_level::gpu::PHASES[0])
     };
     for (text, on_gpu) in [(still, true), (text, false)] {
         let scene = mdas::scene_file::parse(&text, Path::new("moving_lights.toml")).unwrap();

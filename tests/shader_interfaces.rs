@@ -48,11 +48,11 @@ use mdas::integrator::mdas::{
     adapt, config::Config, error, evaluate, gpu_params, initial, plan, reconstruct, scan, stats,
 };
 use mdas::lights::gpu_build::{BuildParams, GpuLightTree};
-use mdas::lights::gpu_lgh::{GpuLgh, LghBuildParams};
 use mdas::lights::gpu_sampler::{BatchSampler, GpuSamplerData, SampleAnswer, SampleQuery};
-use mdas::lights::gpu_two_level::{GpuTwoLevel, Tree2Params};
+use mdas::lights::lgh::gpu::{GpuLgh, LghBuildParams};
 use mdas::lights::lgh::GridLight;
 use mdas::lights::sampler::SamplerKind;
+use mdas::lights::two_level::gpu::{GpuTwoLevel, Tree2Params};
 use mdas::lights::vpl::{VplGenerator, VplParams};
 use mdas::lights::{alias::AliasEntry, gpu_sampler::LightParams, LightPrim, TreeNode};
 use mdas::wgsl_file;

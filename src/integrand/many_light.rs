@@ -70,13 +70,13 @@ use crate::gpu::shader::{storage_entry, Wgsl};
 use crate::gpu::{Gpu, Profiler};
 use crate::lights::cut::MAX_CUT;
 use crate::lights::gpu_build::GpuLightTree;
-use crate::lights::gpu_lgh::GpuLgh;
 use crate::lights::gpu_sampler::{
     cut_capacity, CutLayout, GpuSamplerData, TreeSource, FIRST_BINDING,
 };
-use crate::lights::gpu_two_level::GpuTwoLevel;
+use crate::lights::lgh::gpu::GpuLgh;
 use crate::lights::sampler::SamplerKind;
 use crate::lights::scene_lights::{self, light_prims};
+use crate::lights::two_level::gpu::GpuTwoLevel;
 use crate::lights::two_level::BottomLevels;
 use crate::lights::vpl::{self, VplGenerator};
 use crate::lights::{LightPrim, KIND_TRIANGLE};

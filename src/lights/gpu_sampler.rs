@@ -21,15 +21,15 @@
 use super::alias::{AliasEntry, PowerSampler};
 use super::bvh::{self, LightBvh, INTERNAL_BIT};
 use super::cut::MAX_CUT;
-use super::gpu_lgh::GpuLgh;
-use super::gpu_two_level::GpuTwoLevel;
 use super::importance::NEAR_CLAMP;
+use super::lgh::gpu::GpuLgh;
 use super::lgh::{self, GridLight};
 pub use super::light_params::LightParams;
 use super::perfect::{self, PerfectTree};
 use super::sampler::SamplerKind;
 use super::substitute::{self, Substitute, SubstituteParams, SubstituteTree};
 use super::two_level;
+use super::two_level::gpu::GpuTwoLevel;
 use super::{gpu_build, LightCone, LightPrim, TreeNode, NO_LIGHT};
 use crate::gpu::buffer::STORAGE;
 use crate::gpu::shader::{storage_entry, uniform_entry, Wgsl};

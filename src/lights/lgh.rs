@@ -3,7 +3,7 @@
 //! 2017): many point lights and VPLs replaced by grid lights at doubling
 //! cell sizes, the levels blended by distance, shadows estimated with a
 //! few stochastic shadow rays. This module is the CPU oracle of the GPU
-//! build ([`super::gpu_lgh`], `wgsl/lights/lgh_build.wgsl`) and of the
+//! build ([`gpu`], `wgsl/lights/lgh_build.wgsl`) and of the
 //! shading (`wgsl/lights/lgh.wgsl`, sampler `lgh` of the `many_light`
 //! integrand): the same rules, the same f32 operations in the same order.
 //!
@@ -92,6 +92,9 @@ use super::{luminance, LightPrim, KIND_TRIANGLE, KIND_VPL};
 use anyhow::{bail, Result};
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
+
+/// The GPU build of the grid hierarchy.
+pub mod gpu;
 
 /// Most levels `lgh_levels` may ask for.
 pub const MAX_LEVELS: u32 = 10;

@@ -44,6 +44,8 @@ use glam::Vec3;
 use std::collections::HashMap;
 use std::ops::Range;
 
+/// The GPU build of `tree2` from the plan.
+pub mod gpu;
 mod plan;
 pub use plan::*;
 

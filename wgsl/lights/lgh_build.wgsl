@@ -1,4 +1,4 @@
-// Lighting grid hierarchy construction (src/lights/gpu_lgh.rs runs the
+// Lighting grid hierarchy construction (src/lights/lgh/gpu.rs runs the
 // kernels; src/lights/lgh.rs `build` is the CPU oracle and documents the
 // rules). Per frame: cell keys → stable radix sort of (key, id) → clear →
 // cell ranges → level 1 gathered from the lights of its 8 cells → each

@@ -1,5 +1,5 @@
 // The two-level tree's bottom levels gathered on the GPU every frame
-// (src/lights/gpu_two_level.rs; the plan is two_level::GpuPlan): `leaves`
+// (src/lights/two_level/gpu.rs; the plan is two_level::GpuPlan): `leaves`
 // writes every bottom level's leaves from the frame's lights, `joins` the
 // nodes of one height from their children (one dispatch per height,
 // lowest first). A destination with T2_ROOT_BIT is a group's root and goes

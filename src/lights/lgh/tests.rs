@@ -548,7 +548,7 @@ fn candidates_equal_a_visit_of_everything() {
 /// (s·‖f‖/F) gets that many picks for every ξ, and a lone one every
 /// pick; no candidate or F = 0 gives no pick; a target that rounding
 /// puts at F goes to the last candidate. (Moved here from
-/// `tests/lights_cpu.rs`, whose cases it keeps.)
+/// `tests/lights_cpu/`, whose cases it keeps.)
 #[test]
 fn picks_follow_the_running_sum() {
     let c = |lum: f32| Candidate {

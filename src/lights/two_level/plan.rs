@@ -19,7 +19,7 @@ pub struct PlanGroup {
 }
 
 /// The fixed part of a sequence's two-level tree, for a GPU to gather
-/// every frame ([`super::gpu_two_level`]): [`flatten`] puts every bottom
+/// every frame ([`super::gpu`]): [`flatten`] puts every bottom
 /// level below its root at slots that depend only on the group sizes, and
 /// a group whose leaf order is fixed ([`BottomLevels`]) has a fixed shape,
 /// so for a frame's lights a GPU can write those nodes with no sort and no

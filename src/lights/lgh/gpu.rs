@@ -15,13 +15,13 @@
 //!   order varies from run to run, their values and the index's meaning do
 //!   not: shading reads them through the index only).
 
-use super::lgh::{self, GridLight, LghGrid, LghParams};
-use super::light_params::LightParams;
-use super::{gpu_build, LightPrim, KIND_TRIANGLE};
+use super::{self as lgh, GridLight, LghGrid, LghParams};
 use crate::gpu::buffer::STORAGE;
 use crate::gpu::radix_sort::RadixSort;
 use crate::gpu::shader::{bind_buffers, storage_entry, uniform_entry, Wgsl};
 use crate::gpu::{Gpu, Profiler};
+use crate::lights::light_params::LightParams;
+use crate::lights::{gpu_build, LightPrim, KIND_TRIANGLE};
 use crate::wgsl_file;
 use anyhow::{bail, Context, Result};
 use bytemuck::{Pod, Zeroable};

@@ -28,13 +28,13 @@
 //! [`super::bvh`]) and `index` (`leaf_of_light`, then the parent of every
 //! node), bound by the sampler as the CPU-built tree's would be.
 
-use super::two_level::{GpuPlan, ROOT_BIT};
-use super::{LightCone, LightPrim, TreeNode};
+use super::{GpuPlan, ROOT_BIT};
 use crate::gpu::buffer::{Readback, STORAGE};
 use crate::gpu::shader::{storage_entry, uniform_entry};
 use crate::gpu::{Gpu, Profiler};
 use crate::lights::bvh::INTERNAL_BIT;
 use crate::lights::gpu_build::prim_wgsl;
+use crate::lights::{LightCone, LightPrim, TreeNode};
 use crate::wgsl_file;
 use anyhow::{bail, Result};
 use bytemuck::{Pod, Zeroable};
