@@ -1330,6 +1330,23 @@ fn hostile_inputs_fail_cleanly() {
             expect: vec!["mesh.png: it is an input of this run".into()],
         },
         Hostile {
+            what: "reference -o naming the scene's mesh (read as mesh.png)",
+            args: [
+                "reference",
+                &s(&inputs.join("mesh_scene.toml")),
+                "--spp",
+                "1",
+                "--cache",
+                &s(&out.join("ref-cache")),
+                "-o",
+                &s(&inputs.join("mesh.exr")),
+            ]
+            .map(String::from)
+            .to_vec(),
+            env: None,
+            expect: vec!["mesh.png: it is an input of this run".into()],
+        },
+        Hostile {
             what: "render -o x.exr/ (a trailing slash)",
             args: render(&[&plane, "-o", &format!("{}/", s(&out.join("slash.exr")))]),
             env: None,
@@ -1415,6 +1432,9 @@ fn hostile_inputs_fail_cleanly() {
         );
         times.push((secs, case.what));
     }
+    // `reference -o` naming an input was refused before rendering: no
+    // reference was cached.
+    assert!(!out.join("ref-cache").exists());
     // The inputs the outputs were refused over, and the special files,
     // are as they were.
     assert_eq!(

@@ -11,6 +11,7 @@
 
 use super::render::{check_sampling, integrator_for, warn_image, RenderArgs};
 use super::*;
+use anyhow::Context;
 use mdas::gpu::profiler::PhaseTimes;
 
 /// The output of frame `f` for `-o X.ext`: `X.NNNN.ext` (at least four
@@ -261,7 +262,12 @@ pub(crate) fn run(args: RenderArgs, ui: Ui) -> Result<()> {
         attributes.push(("frameTime", image_io::ExrAttribute::F64(f64::from(time))));
         attributes.push(("setupMs", image_io::ExrAttribute::F64(setup.total())));
         let path = numbered(&output, f);
-        let files = session::write_outputs_with(&path, film, &render.image, &attributes)?;
+        // The frame's images and the times table that lists them, as one
+        // unit: a failed write (a full disk) leaves the frames before it
+        // and their table, and names the frame.
+        let mut writes = mdas::atomic::AtomicWrites::new();
+        let files = session::stage_outputs(&mut writes, &path, film, &render.image, &attributes)
+            .with_context(|| format!("frame {f}: its images were not written"))?;
         let record = FrameRecord {
             frame: f,
             time,
@@ -289,7 +295,15 @@ pub(crate) fn run(args: RenderArgs, ui: Ui) -> Result<()> {
         ));
         records.push(record);
         let text = times_csv(&records);
-        mdas::atomic::write_atomic(&csv, |p| Ok(std::fs::write(p, text.as_bytes())?))?;
+        writes
+            .stage(&csv, |p| Ok(std::fs::write(p, text.as_bytes())?))
+            .and_then(|()| writes.commit())
+            .with_context(|| {
+                format!(
+                    "frame {f}: its images and {} were not written",
+                    csv.display()
+                )
+            })?;
         bar.advance(i as u64 + 1);
     }
     bar.finish();

@@ -66,6 +66,12 @@ pub(crate) fn run(args: ReferenceArgs, ui: Ui) -> Result<()> {
         check_output(out)?;
         check_not_input(out, &[&scene])?;
     }
+    let loaded = SceneFile::load(&scene)?;
+    if let Some(out) = &output {
+        // Again, now that the scene's meshes and material libraries have
+        // been read: -o must not name any of them either (issue 54 item 1).
+        check_output(out)?;
+    }
     let gpu = Gpu::shared()?;
     let bar = if ui.progress() {
         ProgressBar::new(spp as u64)
@@ -87,8 +93,9 @@ pub(crate) fn run(args: ReferenceArgs, ui: Ui) -> Result<()> {
         cache: cache_use,
         warnings,
         notes,
-    } = session::reference_with(
+    } = session::reference_of_loaded(
         gpu,
+        loaded,
         &scene,
         spec,
         IntegrandOverrides {

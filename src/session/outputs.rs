@@ -40,17 +40,32 @@ pub fn write_outputs_with(
     image: &[[f32; 3]],
     attributes: &[(&str, image_io::ExrAttribute)],
 ) -> Result<Vec<PathBuf>> {
+    let mut writes = crate::atomic::AtomicWrites::new();
+    let written = stage_outputs(&mut writes, path, render_film, image, attributes)?;
+    writes.commit()?;
+    Ok(written)
+}
+
+/// Stages the files [`output_files`] names into `writes`, a unit the
+/// caller may add to (a frame sequence adds its times table, so that a
+/// frame's images and the table listing them appear together or not at
+/// all) and commits; returns their paths, EXR first.
+pub fn stage_outputs(
+    writes: &mut crate::atomic::AtomicWrites,
+    path: &Path,
+    render_film: Film,
+    image: &[[f32; 3]],
+    attributes: &[(&str, image_io::ExrAttribute)],
+) -> Result<Vec<PathBuf>> {
     let (exr, png) = output_files(path)?;
     let (w, h) = (render_film.width, render_film.height);
-    let mut writes = crate::atomic::AtomicWrites::new();
     let mut written = Vec::new();
     if let Some(exr) = exr {
-        image_io::stage_exr(&mut writes, &exr, w, h, image, attributes)?;
+        image_io::stage_exr(writes, &exr, w, h, image, attributes)?;
         written.push(exr);
     }
-    image_io::stage_png(&mut writes, &png, w, h, image)?;
+    image_io::stage_png(writes, &png, w, h, image)?;
     written.push(png);
-    writes.commit()?;
     Ok(written)
 }
 

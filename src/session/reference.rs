@@ -240,6 +240,21 @@ pub fn reference_with(
     progress: Option<crate::integrator::halton::Progress>,
 ) -> Result<Reference> {
     let scene = SceneFile::load(scene_path)?;
+    reference_of_loaded(gpu, scene, scene_path, spec, overrides, cache_dir, progress)
+}
+
+/// [`reference_with`] on a scene file already loaded from `scene_path`
+/// (`mdas reference -o` loads it first, to check its output against the
+/// meshes and material libraries the scene reads before any GPU work).
+pub fn reference_of_loaded(
+    gpu: &Gpu,
+    scene: SceneFile,
+    scene_path: &Path,
+    spec: ReferenceSpec,
+    overrides: IntegrandOverrides,
+    cache_dir: &Path,
+    progress: Option<crate::integrator::halton::Progress>,
+) -> Result<Reference> {
     let (mut overrides, sampler_note) = reference_overrides(&scene.integrand, overrides);
     let mut notes: Vec<String> = sampler_note.into_iter().collect();
     if overrides.visibility.is_none() && scene.visibility.is_voxel() {
