@@ -124,6 +124,7 @@ fn bench(c: &mut Criterion) {
             reconstruction: mdas::integrator::mdas::Reconstruction::Box,
             pixel_prior: mdas::integrator::mdas::params::PIXEL_PRIOR,
             pace: 0.0,
+            initial_offsets: mdas::integrator::mdas::InitialOffsets::Random,
             spp: 8.0,
             seed: 1,
             auto_grid: false,

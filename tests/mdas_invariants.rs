@@ -745,3 +745,92 @@ fn loop_unrolling_changes_nothing() {
         assert_eq!(common::image_bits(&a), common::image_bits(&b), "{name}");
     }
 }
+
+/// With `initial_offsets = "kronecker"` the initial samples follow
+/// `initial.wgsl`'s rule exactly (a CPU oracle of the kernel): in each
+/// cell, along every axis, the l samples take the l strata once each (a
+/// Latin hypercube); on the film axes at independent offsets (their
+/// offsets differ), on every axis past them all at one offset inside
+/// their stratum, the cell's point of the Kronecker sequence
+/// frac(c·α_a + s_a): with J_c = ⌊(c·A_a + S_a)/2^16⌋ (A_a, S_a in 0.32
+/// fixed point), J_c = ⌊c·A_a/2^16⌋ + J_0 + (0 or 1) mod 2^16, and each
+/// sample's coordinate is ⌊(rank·2^16 + J_c)/l⌋.
+#[test]
+fn initial_samples_are_latin_hypercubes_at_kronecker_offsets() {
+    use mdas::integrator::mdas::initial::lattice_steps;
+    use mdas::integrator::mdas::InitialOffsets;
+    let steps = lattice_steps();
+    for (dims, l, extra, bits) in [(3u32, 5u32, 3u32, 0u32), (4, 3, 2, 1), (8, 7, 1, 0)] {
+        let film = Film {
+            width: 8,
+            height: 8,
+        };
+        let p = MdasParams {
+            max_samples_per_leaf: l.max(4),
+            initial_offsets: InitialOffsets::Kronecker,
+            ..params(bits, extra, l, 40.0, 11)
+        };
+        let (_, snaps) = render_observed(0, dims, film, p);
+        let s = &snaps[0];
+        let cells = 1u32 << (dims * bits + 2 * extra);
+        assert_eq!(s.sample_count, cells * l, "{dims}D: the initial samples");
+        let words = dims.div_ceil(2) as usize;
+        let coord = |sample: u32, axis: u32| {
+            (s.samples[sample as usize * words + axis as usize / 2] >> (16 * (axis % 2))) & 0xffff
+        };
+        // The strata of cell c's samples on `axis` if they sit at offset
+        // J: each coordinate is ⌊(rank·2^16 + J)/l⌋ for one rank < l.
+        let ranks_at = |c: u32, axis: u32, j: u32| -> Option<Vec<u32>> {
+            (0..l)
+                .map(|k| {
+                    let q = coord(c * l + k, axis);
+                    (0..l).find(|&rank| (rank * 65536 + j) / l == q)
+                })
+                .collect()
+        };
+        // The film axes: a Latin hypercube per cell, offsets not shared
+        // (l samples at one offset in every cell would be chance).
+        for axis in 0..2 {
+            let mut shared = 0;
+            for c in 0..cells {
+                let mut strata: Vec<u32> =
+                    (0..l).map(|k| coord(c * l + k, axis) * l >> 16).collect();
+                let offsets: Vec<u32> = (0..l)
+                    .map(|k| coord(c * l + k, axis) * l & 0xffff)
+                    .collect();
+                strata.sort_unstable();
+                // ⌊q·l⌋ can fall one short of a stratum's start: allow it.
+                assert!(
+                    strata.windows(2).all(|w| w[0] != w[1])
+                        || offsets.iter().any(|&o| o > 65536 - l),
+                    "{dims}D cell {c} film axis {axis}: two samples in one stratum"
+                );
+                shared +=
+                    (offsets.iter().max().unwrap() - offsets.iter().min().unwrap() < l) as u32;
+            }
+            assert!(
+                shared < cells / 4,
+                "{dims}D film axis {axis}: {shared} of {cells} cells share an offset"
+            );
+        }
+        for axis in 2..dims {
+            let j0 = (0..65536)
+                .find(|&j| ranks_at(0, axis, j).is_some())
+                .unwrap_or_else(|| panic!("{dims}D axis {axis}: cell 0 has no common offset"));
+            for c in 0..cells {
+                let base = (c.wrapping_mul(steps[axis as usize]) >> 16) + j0;
+                let mut ranks = (0..2)
+                    .find_map(|carry| ranks_at(c, axis, (base + carry) & 0xffff))
+                    .unwrap_or_else(|| {
+                        panic!("{dims}D cell {c} axis {axis}: not at its Kronecker offset")
+                    });
+                ranks.sort_unstable();
+                assert_eq!(
+                    ranks,
+                    (0..l).collect::<Vec<_>>(),
+                    "{dims}D cell {c} axis {axis}: one sample per stratum"
+                );
+            }
+        }
+    }
+}

@@ -21,6 +21,7 @@ pub fn params(bits: u32, extra: u32, l: u32, spp: f32, seed: u32) -> MdasParams 
         reconstruction: mdas::integrator::mdas::Reconstruction::Box,
         pixel_prior: mdas::integrator::mdas::params::PIXEL_PRIOR,
         pace: 0.0,
+        initial_offsets: mdas::integrator::mdas::InitialOffsets::Random,
         spp,
         seed,
         auto_grid: false,

@@ -2,8 +2,10 @@
 // becomes leaf `cell` (full box, error DIRTY) holding SAMPLES_PER_CELL
 // samples at indices cell·l .. cell·l + l − 1 in slots 0 … l − 1, Latin-hypercube stratified
 // inside the cell: along every axis sample j takes stratum rank_a(j) of l
-// equal strata, rank_a a random permutation (ranks of hashed keys), and a
-// uniform quantum inside it. Random numbers: draw(leaf_key(cell, 0), …).
+// equal strata, rank_a a random permutation (ranks of hashed keys), at an
+// offset inside it that is uniform per sample or, with INITIAL_KRONECKER,
+// the cell's point of a Kronecker sequence. Random numbers:
+// draw(leaf_key(cell, 0), …).
 
 @compute @workgroup_size(WG)
 fn initial(@builtin(global_invocation_id) gid: vec3<u32>,
@@ -29,7 +31,17 @@ fn initial(@builtin(global_invocation_id) gid: vec3<u32>,
                     rank += 1u;
                 }
             }
-            let jitter = draw(cell_key, 2u * (axis * 16u + j) + 1u) >> 16u;
+            // The offset inside the stratum (initial_offsets): uniform
+            // per sample, or on the axes past the film the cell's point of
+            // a Kronecker sequence, frac(cell·α_axis + s_axis) in 0.32
+            // fixed point with s_axis random per render — uniform for each
+            // cell (so the estimate stays unbiased) and spread evenly over
+            // the cells of a pixel, which are neighbours in Morton order.
+            var jitter = draw(cell_key, 2u * (axis * 16u + j) + 1u) >> 16u;
+            if (INITIAL_KRONECKER == 1u && axis >= 2u) {
+                let shift = draw(leaf_key(0xffffffffu, 0xffffffffu), axis);
+                jitter = (cell * LATTICE_STEPS[axis] + shift) >> 16u;
+            }
             let q = (rank * 65536u + jitter) / SAMPLES_PER_CELL;
             words[axis / 2u] |= q << (16u * (axis % 2u));
         }

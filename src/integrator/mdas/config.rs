@@ -20,7 +20,9 @@
 
 use super::gpu_params::{STATS_PER_INVOCATION, WG};
 use super::pages::{Pages, BASE_STORAGE_BINDINGS, PAGED_ARRAYS};
-use super::params::{validate, MdasParams, Reconstruction, SplitRule, MORTON_BITS_MAX};
+use super::params::{
+    validate, InitialOffsets, MdasParams, Reconstruction, SplitRule, MORTON_BITS_MAX,
+};
 use super::MAX_ITERATIONS_DEFAULT;
 use crate::film::Film;
 use crate::gpu::shader::Wgsl;
@@ -267,6 +269,10 @@ impl Config {
                 (self.params.reconstruction == Reconstruction::Sampled) as u32,
             )
             .constant_f32("UNSAMPLED_WEIGHT", UNSAMPLED_WEIGHT)
+            .constant(
+                "INITIAL_KRONECKER",
+                (self.params.initial_offsets == InitialOffsets::Kronecker) as u32,
+            )
             .constant("EVAL_PER_INVOCATION", self.eval_per_invocation)
             .constant("UNROLL_LOOPS", self.unroll_loops as u32)
             .constant("COORD_WORDS", self.coord_words)

@@ -173,7 +173,9 @@ use anyhow::Result;
 use config::Config;
 use debug::Snapshot;
 use gpu_params::{GpuParams, Grid};
-pub use params::{validate, MdasParams, ParamError, Reconstruction, SplitRule, PARAMS};
+pub use params::{
+    validate, InitialOffsets, MdasParams, ParamError, Reconstruction, SplitRule, PARAMS,
+};
 pub(crate) use words::{counter, state};
 
 /// Iterations after which a render stops even below its budget.

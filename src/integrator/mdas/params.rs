@@ -37,6 +37,9 @@ pub struct MdasParams {
     /// The paced selection: the share of the samples left that each
     /// iteration aims to place (0: the paper's rule, [`AUTO_PACE`]).
     pub pace: f32,
+    /// Where the initial samples sit inside their strata
+    /// ([`InitialOffsets`]).
+    pub initial_offsets: InitialOffsets,
     pub spp: f32,
     pub seed: u32,
     /// Whether the initial grid (b, e, l) is chosen when the render starts,
@@ -63,6 +66,7 @@ impl Default for MdasParams {
             reconstruction: Reconstruction::Pixel,
             pixel_prior: PIXEL_PRIOR,
             pace: 0.0,
+            initial_offsets: InitialOffsets::Random,
             spp: 8.0,
             seed: 0,
             auto_grid: false,
@@ -194,6 +198,54 @@ impl std::str::FromStr for Reconstruction {
 }
 
 impl std::fmt::Display for Reconstruction {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// Where each initial sample sits inside its stratum. A cell's l initial
+/// samples are a Latin hypercube: along every axis they take the l equal
+/// strata of the cell once each, in a random order (`initial.wgsl`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum InitialOffsets {
+    /// A uniform offset per sample and axis, independent across samples
+    /// and cells.
+    #[default]
+    Random,
+    /// On every axis past the film, one offset per cell and axis, shared
+    /// by the cell's samples: the cell's point frac(c·α_a + s_a) of a
+    /// Kronecker sequence over the cell index c (α_a = frac(√p_a) for the
+    /// a-th prime, s_a uniform per render), so that the cells of a pixel,
+    /// neighbours in Morton order, spread their strata over the time,
+    /// lens and light axes instead of placing them independently: a
+    /// randomized quasi-Monte Carlo placement, uniform for each cell and
+    /// so unbiased. The film axes keep independent offsets (the cells
+    /// already stratify them; shared film offsets gave one seed of a
+    /// path-traced scene a 10× RelMSE at a light's edge). Not in the paper
+    /// or its code. BENCHMARKS.md, "Kronecker offsets for the initial samples".
+    Kronecker,
+}
+
+impl InitialOffsets {
+    pub const ALL: [InitialOffsets; 2] = [InitialOffsets::Random, InitialOffsets::Kronecker];
+    /// The names, in the order of [`InitialOffsets::ALL`].
+    pub const NAMES: [&'static str; 2] = ["random", "kronecker"];
+
+    pub fn name(self) -> &'static str {
+        Self::NAMES[self as usize]
+    }
+}
+
+impl std::str::FromStr for InitialOffsets {
+    type Err = String;
+    fn from_str(s: &str) -> Result<InitialOffsets, String> {
+        let key = param("initial_offsets").expect("a registry row");
+        key.parse(s).map(|i| InitialOffsets::ALL[i as usize])
+    }
+}
+
+impl std::fmt::Display for InitialOffsets {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(self.name())
     }
@@ -445,7 +497,7 @@ macro_rules! param {
 use End::{Closed, Open, Unbounded};
 
 /// Every `[mdas]` key, in the order of the docs' table.
-pub const PARAMS: [Param; 14] = [
+pub const PARAMS: [Param; 15] = [
     param!(bits_per_dim: u32, Kind::Int, [Closed(0.0), Closed((MORTON_BITS_MAX / 2) as f64)], None, tunable true, grid true,
         "Morton bits per dimension of the initial grid (b); 2·(b + e) ≤ 27"),
     param!(extra_image_bits: u32, Kind::Int, [Closed(0.0), Closed((MORTON_BITS_MAX / 2) as f64)], None, tunable true, grid true,
@@ -470,6 +522,8 @@ pub const PARAMS: [Param; 14] = [
         "How leaves become pixels: box (the paper's eq. 7), pixel (each pixel from the leaf's samples in it, blended with the leaf mean by pixel_prior) or sampled (pixel, a leaf's unsampled part of a pixel counting only where no leaf sampled it)"),
     param!(pixel_prior: f32, Kind::Number, [Closed(0.0), Closed(MAX_PIXEL_PRIOR as f64)], Some(0.0), tunable true, grid false,
         "The κ of the pixel and sampled reconstructions: the leaf mean's weight in samples (larger is closer to box)"),
+    param!(initial_offsets: InitialOffsets, Kind::Rule(&InitialOffsets::NAMES), [Unbounded, Unbounded], Some(1.0), tunable true, grid false,
+        "Where the initial samples sit in their strata: random (independently) or kronecker (past the film axes, one offset per cell from a Kronecker sequence over the cells; not in the paper)"),
     param!(spp: f32, Kind::Number, [Open(0.0), Unbounded], Some(8.0), tunable false, grid false,
         "Budget, samples per pixel on average (may be fractional)"),
     param!(seed: u32, Kind::Int, [Closed(0.0), Closed(u32::MAX as f64)], Some(0.0), tunable false, grid false,
