@@ -794,9 +794,9 @@ fn initial_samples_are_latin_hypercubes_at_kronecker_offsets() {
             let mut shared = 0;
             for c in 0..cells {
                 let mut strata: Vec<u32> =
-                    (0..l).map(|k| coord(c * l + k, axis) * l >> 16).collect();
+                    (0..l).map(|k| (coord(c * l + k, axis) * l) >> 16).collect();
                 let offsets: Vec<u32> = (0..l)
-                    .map(|k| coord(c * l + k, axis) * l & 0xffff)
+                    .map(|k| (coord(c * l + k, axis) * l) & 0xffff)
                     .collect();
                 strata.sort_unstable();
                 // ⌊q·l⌋ can fall one short of a stratum's start: allow it.
