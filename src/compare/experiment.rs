@@ -325,6 +325,8 @@ struct Timed {
     target_times: Vec<f64>,
     /// Halton's spp at the target time.
     halton_spp: f64,
+    /// The spread of MDAS's timed rounds (`Budget::MdasSpp` only).
+    target_spread: Option<f64>,
     flags: Vec<String>,
     /// One MDAS and one Halton for the rounds and the seeds, so their
     /// pipelines compile once.
@@ -380,8 +382,8 @@ fn time_interleaved(
         &mut flags,
     );
     flags.extend(halton_fit.iter().flat_map(|f| f.flags.clone()));
-    if let Budget::MdasSpp = spec.budget {
-        let s = timing.mdas_spread();
+    let target_spread = matches!(spec.budget, Budget::MdasSpp).then(|| timing.mdas_spread());
+    if let Some(s) = target_spread {
         if s > super::equal_time::MAX_SPREAD {
             flags.push(format!(
                 "MDAS's timed rounds spread {:.0}% of their median (limit {:.0}%)",
@@ -396,6 +398,7 @@ fn time_interleaved(
         target_ms,
         target_times,
         halton_spp,
+        target_spread,
         flags,
         mdas,
         halton,
@@ -588,10 +591,6 @@ fn report(
         ratio_ci95: seeded.ratio_ci95,
     })?;
     files.insert("report".into(), "report.json".into());
-    let target_spread = match spec.budget {
-        Budget::MdasSpp => Some(timed.timing.mdas_spread()),
-        Budget::TimeMs(_) => None,
-    };
     // MDAS at the target: the seed mean (its own run's budget in mode
     // "mdas"; the nearer bracketing run's under a time budget).
     let mdas_relmse = seeded.mdas.relmse;
@@ -666,7 +665,7 @@ fn report(
             halton_fit: timed.halton_fit,
             halton_spp: Some(timed.halton_spp),
             interleaved: Some(timed.timing),
-            target_spread,
+            target_spread: timed.target_spread,
             flags: timed.flags,
             equal_samples: Some(seeded.equal_samples),
         },

@@ -36,7 +36,7 @@ use crate::atomic::StagedDir;
 use crate::gpu::Gpu;
 use crate::image_io;
 use crate::integrand::Integrand;
-use crate::integrator::mdas::params::{Kind, Param};
+use crate::integrator::mdas::params::Param;
 use crate::integrator::mdas::{MdasParams, PARAMS};
 use crate::integrator::{Halton, Integrator, Mdas};
 use crate::session;
@@ -97,8 +97,8 @@ pub fn parse_grid_entry(s: &str) -> Result<(String, Vec<f64>)> {
     Ok((key.to_string(), values))
 }
 
-/// `p` with `key` set to `v`: an integer must be whole and fit a u32, a
-/// rule's index name a rule (the ranges are `validate`'s, checked against
+/// `p` with `key` set to `v`, a value of the key's kind
+/// ([`Param::check_kind`]; the ranges are `validate`'s, checked against
 /// the integrand before any render). A key of the initial grid fixes the
 /// grid: every key of it takes the (resolved) value the render would have
 /// chosen.
@@ -106,15 +106,9 @@ fn with_value(p: MdasParams, key: &str, v: f64) -> Result<MdasParams> {
     let param = grid_keys()
         .find(|p| p.key == key)
         .with_context(|| format!("unknown grid key '{key}'"))?;
-    match param.kind {
-        Kind::Int if v.fract() != 0.0 || !(0.0..=f64::from(u32::MAX)).contains(&v) => {
-            bail!("{key} = {v}: must be a whole number ≥ 0")
-        }
-        Kind::Rule(_) => param
-            .check(v)
-            .map_err(|why| anyhow::anyhow!("{key} = {v}: {why}"))?,
-        _ => {}
-    }
+    param
+        .check_kind(v)
+        .map_err(|why| anyhow::anyhow!("{key} = {v}: {why}"))?;
     let mut p = p;
     param.set(&mut p, v);
     Ok(p)

@@ -12,7 +12,7 @@
 
 use super::ctx::{Ctx, Result};
 use super::raw::*;
-use super::values::{Loose, S};
+use super::values::{Loose, Num, S};
 use super::*;
 use crate::film::Film;
 use crate::integrator::mdas::params::{self, Kind, Param};
@@ -101,21 +101,9 @@ impl Ctx<'_> {
             }
             (Kind::Int, _) => Err(wrong("an integer")),
             (Kind::Number, &Loose::Int(i)) => Ok(f64::from(i as f32)),
-            (Kind::Number, &Loose::Float(x)) => {
-                if !x.is_finite() {
-                    Err(self.error(
-                        value.span(),
-                        format!(
-                            "expected a finite number, found {}",
-                            x.to_string().to_lowercase()
-                        ),
-                    ))
-                } else if !(x as f32).is_finite() {
-                    Err(self.error(value.span(), format!("number {x:e} is out of range")))
-                } else {
-                    Ok(f64::from(x as f32))
-                }
-            }
+            (Kind::Number, &Loose::Float(x)) => Num::checked(x)
+                .map(|n| f64::from(n.0))
+                .map_err(|e| self.error(value.span(), e)),
             (Kind::Number, _) => Err(wrong("a number")),
             (Kind::Rule(_), Loose::Str(s)) => {
                 param.parse(s).map_err(|e| self.error(value.span(), e))

@@ -17,15 +17,20 @@ pub(super) struct Num(pub(super) f32);
 
 impl Num {
     fn finite<E: de::Error>(v: f64) -> Result<Num, E> {
+        Num::checked(v).map_err(E::custom)
+    }
+
+    /// `v` as a finite f32, or why not (the message of every number key).
+    pub(super) fn checked(v: f64) -> Result<Num, String> {
         let x = v as f32;
         if !v.is_finite() {
             // TOML spells them nan, inf, -inf.
-            Err(E::custom(format!(
+            Err(format!(
                 "expected a finite number, found {}",
                 v.to_string().to_lowercase()
-            )))
+            ))
         } else if !x.is_finite() {
-            Err(E::custom(format!("number {v:e} is out of range")))
+            Err(format!("number {v:e} is out of range"))
         } else {
             Ok(Num(x))
         }

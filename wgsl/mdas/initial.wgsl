@@ -16,6 +16,9 @@ fn initial(@builtin(global_invocation_id) gid: vec3<u32>,
     }
     let first = cell * SAMPLES_PER_CELL;
     let cell_key = leaf_key(cell, 0u);
+    // The Kronecker shifts' key: one per render (no leaf or iteration
+    // takes these indices).
+    let render_key = leaf_key(0xffffffffu, 0xffffffffu);
     for (var j = 0u; j < SAMPLES_PER_CELL; j++) {
         let s = first + j;
         var words: array<u32, COORD_WORDS>;
@@ -37,10 +40,12 @@ fn initial(@builtin(global_invocation_id) gid: vec3<u32>,
             // fixed point with s_axis random per render — uniform for each
             // cell (so the estimate stays unbiased) and spread evenly over
             // the cells of a pixel, which are neighbours in Morton order.
-            var jitter = draw(cell_key, 2u * (axis * 16u + j) + 1u) >> 16u;
+            var jitter: u32;
             if (INITIAL_KRONECKER == 1u && axis >= 2u) {
-                let shift = draw(leaf_key(0xffffffffu, 0xffffffffu), axis);
+                let shift = draw(render_key, axis);
                 jitter = (cell * LATTICE_STEPS[axis] + shift) >> 16u;
+            } else {
+                jitter = draw(cell_key, 2u * (axis * 16u + j) + 1u) >> 16u;
             }
             let q = (rank * 65536u + jitter) / SAMPLES_PER_CELL;
             words[axis / 2u] |= q << (16u * (axis % 2u));

@@ -639,6 +639,27 @@ impl Param {
         })
     }
 
+    /// Whether `v` is a value of this kind at all, its range aside: a
+    /// whole number that fits a u32, a rule's index, or a finite number.
+    /// The readers of flags and `tune` grids check it before [`Param::set`]
+    /// (which casts); the range is [`validate`]'s.
+    pub fn check_kind(&self, v: f64) -> Result<(), String> {
+        let ok = match self.kind {
+            Kind::Int => v.fract() == 0.0 && (0.0..=f64::from(u32::MAX)).contains(&v),
+            Kind::Rule(names) => v.fract() == 0.0 && v >= 0.0 && (v as usize) < names.len(),
+            Kind::Number => v.is_finite(),
+        };
+        if ok {
+            Ok(())
+        } else {
+            Err(match self.kind {
+                Kind::Int => "must be a whole number ≥ 0".to_string(),
+                Kind::Rule(_) => format!("must be one of {}", self.range_text()),
+                Kind::Number => "must be a finite number".to_string(),
+            })
+        }
+    }
+
     /// `s` as a value of this parameter: a rule's name (as its index) or a
     /// finite number.
     pub fn parse(&self, s: &str) -> Result<f64, String> {
