@@ -58,6 +58,7 @@ fn spec<'a>(
         max_spp: 1 << 12,
         samplers,
         seeds: 1,
+        overrides: Default::default(),
     }
 }
 
@@ -426,8 +427,7 @@ fn reference_sampler_override_is_part_of_the_cache_key() {
             spec,
             mdas::session::IntegrandOverrides {
                 sampler: k,
-                visibility: None,
-                frame: None,
+                ..Default::default()
             },
             &cache,
             None,
@@ -524,6 +524,9 @@ fn compare_samplers_over_seeds_matches_renders_with_each_seed() {
     let eq = &json["equal_time"];
     let target = eq["target_ms"].as_f64().unwrap();
     let reference = out.join("reference.exr");
+    let (_, _, reference_image) = read_exr(&reference).unwrap();
+    // The MSE of the render of `sampler` at `spp` with `seed`; its image
+    // stays in `seed-<seed>.exr`.
     let mse_of = |sampler: &str, spp: u64, seed: u32| -> f64 {
         let o = mdas_bin(&[
             "--json",
@@ -540,7 +543,7 @@ fn compare_samplers_over_seeds_matches_renders_with_each_seed() {
             "--reference",
             reference.to_str().unwrap(),
             "-o",
-            out.join("seed-render.exr").to_str().unwrap(),
+            out.join(format!("seed-{seed}.exr")).to_str().unwrap(),
         ]);
         assert!(o.status.success(), "{}", stderr(&o));
         let v: Value = serde_json::from_slice(&o.stdout).unwrap();
@@ -557,6 +560,40 @@ fn compare_samplers_over_seeds_matches_renders_with_each_seed() {
             [0, 2, 3].iter().map(|&k| mse_of(name, spp, k)).sum::<f64>() / 3.0
         };
         let (m_lo, m_hi) = (mean_at(lo), mean_at(hi));
+        // The bias and the MSE split at the budget nearer the target: the
+        // seed statistics of the three renders at that spp.
+        let bias_spp = seeds["bias_spp"].as_u64().unwrap();
+        let m_near = if bias_spp == lo["spp"].as_u64().unwrap() {
+            m_lo
+        } else {
+            assert_eq!(bias_spp, hi["spp"].as_u64().unwrap(), "{name}");
+            m_hi
+        };
+        let images: Vec<Vec<[f32; 3]>> = [0, 2, 3]
+            .iter()
+            .map(|&k| {
+                mse_of(name, bias_spp, k);
+                read_exr(&out.join(format!("seed-{k}.exr"))).unwrap().2
+            })
+            .collect();
+        let views: Vec<&[[f32; 3]]> = images.iter().map(Vec::as_slice).collect();
+        let want = mdas::compare::seeds::SeedStats::new(&views, &reference_image).unwrap();
+        for c in 0..3 {
+            let b = seeds["relative_bias"][c].as_f64().unwrap();
+            assert!(
+                close(b, want.relative_bias[c], 1e-9),
+                "{name}: bias {b} against {}",
+                want.relative_bias[c]
+            );
+            let ci = &seeds["relative_bias_ci95"][c];
+            let (a, z) = (ci[0].as_f64().unwrap(), ci[1].as_f64().unwrap());
+            assert!(a <= b && b <= z, "{name}: bias {b} outside [{a}, {z}]");
+        }
+        let split = seeds["mse_bias2"].as_f64().unwrap() + seeds["mse_variance"].as_f64().unwrap();
+        assert!(
+            close(split, m_near, 1e-6),
+            "{name}: bias² + variance {split} against MSE {m_near}"
+        );
         let want = mdas::compare::equal_time::interpolate_log_log(
             target,
             (lo["time_ms"].as_f64().unwrap(), m_lo),
@@ -583,5 +620,6 @@ fn compare_samplers_over_seeds_matches_renders_with_each_seed() {
     assert!(a <= vs && vs <= b, "MSE/uniform {vs} outside [{a}, {b}]");
     let table = mdas::compare::report::table(&report);
     assert!(table.contains("over 3 seeds"), "{table}");
+    assert!(table.contains("bias over 3 seeds"), "{table}");
     std::fs::remove_dir_all(&out).ok();
 }

@@ -31,7 +31,8 @@ use mdas::lights::substitute::{
 use mdas::lights::two_level;
 use mdas::lights::two_level::gpu::GpuTwoLevel;
 use mdas::lights::{
-    select_cut, LightSampler, PowerSampler, SamplerKind, Shading, TreeSampler, UniformSampler,
+    select_cut, CutSampling, LightSampler, PowerSampler, SamplerKind, Shading, TreeSampler,
+    UniformSampler,
 };
 use mdas::lights::{LightCone, LightPrim, LightSample, TreeNode, NO_LIGHT};
 use rand::rngs::StdRng;
@@ -49,8 +50,14 @@ struct Query {
     n: [f32; 3],
     cut_base: u32,
     probe: u32,
-    _pad: [u32; 3],
+    /// The subtree of the cut to draw from (`light_sample_subtree`), or
+    /// `MIXTURE` for `light_sample`.
+    subtree: u32,
+    _pad: [u32; 2],
 }
+
+/// `Query::subtree` of the one-pick probes.
+const MIXTURE: u32 = u32::MAX;
 
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
@@ -178,7 +185,8 @@ fn setup_prims(mut rng: StdRng, prims: Vec<LightPrim>) -> Setup {
                 n: nrm.into(),
                 cut_base: b * CUT_SIZE,
                 probe: rng.random_range(0..n as u32),
-                _pad: [0; 3],
+                subtree: MIXTURE,
+                _pad: [0; 2],
             }
         })
         .collect();
@@ -305,7 +313,7 @@ fn shading(q: &Query) -> Shading {
     }
 }
 
-/// Compares GPU answers with the CPU samplers (one per block).
+/// Compares GPU answers with the CPU samplers (`cpu` of the query's index).
 fn compare<'a>(
     name: &str,
     answers: &[Answer],
@@ -314,7 +322,7 @@ fn compare<'a>(
 ) {
     let (mut boundary, mut picks) = (0, 0);
     for (i, (q, a)) in s.queries.iter().zip(answers).enumerate() {
-        let sampler = cpu(i as u32 % BLOCKS);
+        let sampler = cpu(i as u32);
         let sh = shading(q);
         let want = sampler.sample(&sh, q.u);
         let got_light = (a.light != NO_LIGHT).then_some(a.light);
@@ -379,6 +387,7 @@ fn cut_layout() -> CutLayout {
         block_rows: 1,
         interleave: 1,
         frame: 0,
+        sampling: CutSampling::Subtrees,
     }
 }
 
@@ -433,6 +442,68 @@ fn tree_samplers<T: LightTree + Clone + 'static>(
         .collect()
 }
 
+/// Subtree `j` of a cut sampler, the paper's estimator's draw
+/// ([`TreeSampler::sample_subtree`], the GPU's `light_sample_subtree`); the
+/// pmf of a light is its probability within its own subtree, whichever
+/// that is (`subtree_pmf`, `light_pmf_subtree`).
+struct Subtree<'a, T: LightTree> {
+    sampler: &'a TreeSampler<T>,
+    j: usize,
+}
+
+impl<T: LightTree> LightSampler for Subtree<'_, T> {
+    fn sample(&self, s: &Shading, u: f32) -> Option<LightSample> {
+        (self.j < self.sampler.cut.len())
+            .then(|| self.sampler.sample_subtree(s, self.j, u))
+            .flatten()
+    }
+
+    fn pmf(&self, s: &Shading, light: u32) -> f64 {
+        self.sampler.subtree_pmf(s, light).map_or(0.0, |(_, p)| p)
+    }
+}
+
+/// The paper's cut estimator on the GPU against the CPU: query i draws
+/// from subtree `(i / BLOCKS) mod CUT_SIZE` of its block's cut (the CPU
+/// cuts, uploaded), and queries the pmfs within subtrees.
+fn check_subtrees<T: LightTree + Clone + 'static>(
+    gpu: &Gpu,
+    h: &Harness,
+    name: &str,
+    data: &GpuSamplerData,
+    tree: &T,
+    s: &Setup,
+) {
+    let imp = data.kind.importance();
+    let cuts = upload_cpu_cuts(gpu, data, tree, imp, s);
+    let samplers: Vec<_> = cuts
+        .into_iter()
+        .map(|c| TreeSampler::with_cut(tree.clone(), imp, c))
+        .collect();
+    let views: Vec<Subtree<T>> = (0..QUERIES as u32)
+        .map(|i| Subtree {
+            sampler: &samplers[(i % BLOCKS) as usize],
+            j: (i / BLOCKS % CUT_SIZE) as usize,
+        })
+        .collect();
+    let mut subtrees = Setup {
+        prims: s.prims.clone(),
+        reps: s.reps.clone(),
+        queries: s.queries.clone(),
+    };
+    for (i, q) in subtrees.queries.iter_mut().enumerate() {
+        q.subtree = i as u32 / BLOCKS % CUT_SIZE;
+    }
+    let (answers, _) = h.run(gpu, data, &subtrees);
+    let cpu = |i: u32| -> &dyn LightSampler { &views[i as usize] };
+    compare(
+        &format!("{name}, one light per subtree"),
+        &answers,
+        &subtrees,
+        &cpu,
+    );
+}
+
 /// Runs the probes of `data` and compares them with the CPU over `tree`:
 /// samples, pmfs and (kinds with cuts) the GPU's own cut selection.
 fn check_kind<T: LightTree + Clone + 'static>(
@@ -445,8 +516,12 @@ fn check_kind<T: LightTree + Clone + 'static>(
 ) {
     let samplers = tree_samplers(gpu, data, tree, s);
     let (answers, gpu_cuts) = h.run(gpu, data, s);
-    let cpu = |b: u32| -> &dyn LightSampler { samplers[b as usize % samplers.len()].as_ref() };
+    let cpu =
+        |i: u32| -> &dyn LightSampler { samplers[(i % BLOCKS) as usize % samplers.len()].as_ref() };
     compare(name, &answers, s, &cpu);
+    if data.kind.uses_cut() && s.prims.len() >= 4 * CUT_SIZE as usize {
+        check_subtrees(gpu, h, name, data, tree, s);
+    }
     if data.kind.uses_cut() {
         let imp = data.kind.importance();
         let want: Vec<_> = s

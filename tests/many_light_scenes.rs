@@ -8,7 +8,7 @@ use glam::{Quat, Vec3};
 use mdas::integrand::IntegrandSpec;
 use mdas::integrand::ManyLightSpec;
 use mdas::lights::lgh::LghParams;
-use mdas::lights::sampler::SamplerKind;
+use mdas::lights::sampler::{CutSampling, SamplerKind};
 use mdas::lights::scene_lights::{
     bottom_levels, light_count, light_counts, light_groups, light_prims, LightCounts,
 };
@@ -490,6 +490,7 @@ fn many_light_integrand_parses_with_defaults() {
         ManyLightSpec {
             sampler: SamplerKind::Tree,
             cut_size: 8,
+            cut_sampling: CutSampling::Subtrees,
             block: 8,
             interleave: 1,
             time: 0.0,
@@ -517,13 +518,14 @@ fn many_light_integrand_parses_with_defaults() {
     for sampler in SamplerKind::ALL {
         let s = ok(
             &format!("ml-{sampler}"),
-            &format!("{BASE}[integrand]\ntype = \"many_light\"\nsampler = \"{sampler}\"\ncut_size = 64\nblock = 4\ninterleave = 2\ntime = 2.5\nframe = 7\nframe_duration = 0.125\n"),
+            &format!("{BASE}[integrand]\ntype = \"many_light\"\nsampler = \"{sampler}\"\ncut_size = 64\ncut_sampling = \"mixture\"\nblock = 4\ninterleave = 2\ntime = 2.5\nframe = 7\nframe_duration = 0.125\n"),
         );
         assert_eq!(
             s.integrand,
             IntegrandSpec::ManyLight(ManyLightSpec {
                 sampler,
                 cut_size: 64,
+                cut_sampling: CutSampling::Mixture,
                 block: 4,
                 interleave: 2,
                 time: 2.5,
@@ -668,6 +670,16 @@ fn bad_many_light_input_is_an_error_at_its_position() {
     assert!(m.contains("cut_size must be at least 1, found 0"), "{m}");
     let m = error_at("cut65", &integrand("cut_size = 65\n"), 14, 12);
     assert!(m.contains("cut_size must be at most 64, found 65"), "{m}");
+    let m = error_at(
+        "cutsampling",
+        &integrand("cut_sampling = \"stratified\"\n"),
+        14,
+        16,
+    );
+    assert!(
+        m.contains("unknown cut_sampling 'stratified', expected one of 'subtrees', 'mixture'"),
+        "{m}"
+    );
     let m = error_at("block0", &integrand("block = 0\n"), 14, 9);
     assert!(m.contains("block must be at least 1, found 0"), "{m}");
     let m = error_at("interleave0", &integrand("interleave = 0\n"), 14, 14);

@@ -486,8 +486,8 @@ fn mirrors() -> BTreeMap<(&'static str, &'static str), Layout> {
         ((lights, "AliasEntry"), host!(AliasEntry { q, alias })),
         ((lights, "LightParams"), host!(LightParams {
             count, kind, levels, leaf_count, node_count, cut_size, block_size, blocks_per_row,
-            alias_count, interleave, frame, time, vpl_clamp2, sst_nu_min, sst_sigma_max2, _pad,
-            lgh_lo, lgh_levels, lgh_h1, lgh_inv_h1, lgh_alpha, lgh_level0, lgh_shadows,
+            alias_count, interleave, frame, time, vpl_clamp2, sst_nu_min, sst_sigma_max2,
+            cut_mixture, lgh_lo, lgh_levels, lgh_h1, lgh_inv_h1, lgh_alpha, lgh_level0, lgh_shadows,
             lgh_cells_offset, lgh_sorted_offset, lgh_triangles, lgh_soft2, _pad1,
             _pad2, _pad3,
         })),

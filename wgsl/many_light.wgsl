@@ -4,6 +4,9 @@
 // ML_TRIANGLES = 1), u[1..4] the Gaussian position of a selected substitute
 // (sst only, ML_SUBSTITUTES = 1). One shadow ray; the estimate is
 //   L_e(x) + ρ(x)/π · C(y) · cosθ_x · V(x, y) / pmf(light),
+// or, for the kinds with cuts under the paper's estimator, the sum of that
+// term over one light per subtree of the pixel's share of the cut (pmf
+// within its subtree; subtree j's numbers shifted by j·ML_SUBTREE_STEP),
 // C = I/d² (point), L_e·cosθ_y·area/d² (one-sided triangle) or
 // I·cosθ_v/max(d², clamp²) (VPL, a cosine lobe about its normal; a
 // substitute is a VPL at a drawn position with its node's summed intensity
@@ -29,12 +32,36 @@ fn ml_pixel(film: vec2<f32>) -> vec2<u32> {
     return min(px, size - vec2<u32>(1u));
 }
 
-// Radiance reflected at s from the light picked with u (one shadow ray).
+// Kronecker steps (R4, powers of 1/φ₄ with φ₄⁵ = φ₄ + 1; Roberts 2018) that
+// shift the random numbers of subtree j by j·step mod 1: each subtree's
+// numbers stay uniform, so each term stays unbiased.
+const ML_SUBTREE_STEP: vec4<f32> = vec4<f32>(0.8566749, 0.7338919, 0.6287067, 0.5385973);
+
+// Radiance reflected at s from the sampler's lights. The kinds with cuts
+// under the paper's estimator (light_per_subtree): one light from each
+// subtree of the pixel's share of the cut, one shadow ray each, summed;
+// otherwise one light picked with u (one shadow ray).
 fn ml_direct(s: Surface, px: vec2<u32>, u: vec4<f32>, time: f32) -> vec3<f32> {
     if (all(s.rho == vec3<f32>(0.0))) {
         return vec3<f32>(0.0);
     }
-    let pick = light_sample(s.x, s.ns, light_cut_base(px), u.x);
+    let base = light_cut_base(px);
+    var sum = vec3<f32>(0.0);
+    if (light_per_subtree()) {
+        let len = light_cut_len(base);
+        for (var j = 0u; j < len; j++) {
+            let uj = fract(u + f32(j) * ML_SUBTREE_STEP);
+            sum += ml_pick(s, light_sample_subtree(s.x, s.ns, base, j, uj.x), uj.yzw, time);
+        }
+    } else {
+        sum = ml_pick(s, light_sample(s.x, s.ns, base, u.x), u.yzw, time);
+    }
+    return s.rho * INV_PI * sum * light_interleave_scale();
+}
+
+// C(y)·cosθ_x·V(x, y) / pmf of a picked light (u3: the point on a triangle
+// or the substitute's position).
+fn ml_pick(s: Surface, pick: LightPick, u3: vec3<f32>, time: f32) -> vec3<f32> {
     if (pick.light == NO_LIGHT || !(pick.pmf_m > 0.0)) {
         return vec3<f32>(0.0);
     }
@@ -44,14 +71,14 @@ fn ml_direct(s: Surface, px: vec2<u32>, u: vec4<f32>, time: f32) -> vec3<f32> {
         let node = pick.light & ~LIGHT_SUBSTITUTE_BIT;
         let sub = light_substitutes[node];
         let b = light_nodes[node];
-        let y = substitute_position(sub, u.yzw, b.bmin, b.bmax);
+        let y = substitute_position(sub, u3, b.bmin, b.bmax);
         l = LightPrim(y, KIND_VPL, sub.normal, 0u, y, 0u, sub.emission, 0u);
     } else {
         l = light_prims[pick.light];
     }
-    let c = ml_light(s, l, u.yz, time);
+    let c = ml_light(s, l, u3.xy, time);
     // c / pmf with pmf = m·2^e: divide by the mantissa, then scale.
-    return s.rho * INV_PI * ldexp(c / pick.pmf_m, vec3<i32>(-pick.pmf_e)) * light_interleave_scale();
+    return ldexp(c / pick.pmf_m, vec3<i32>(-pick.pmf_e));
 }
 
 // C(y)·cosθ_x·V(x, y) of light l at s (a triangle sampled uniformly with

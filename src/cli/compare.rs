@@ -26,6 +26,10 @@ pub(crate) struct CompareArgs {
     /// bias then shows against the reference, which always uses the BVH).
     #[arg(long, value_name = "BACKEND", conflicts_with = "samplers")]
     pub(crate) visibility: Option<VisibilityKind>,
+    /// (With --samplers too: every compared sampler; the reference keeps
+    /// the scene's own table, which every unbiased sampler converges to.)
+    #[command(flatten)]
+    pub(crate) cuts: CutArgs,
     /// Compare these light samplers (comma-separated: uniform, power,
     /// tree_nocut, tree, tree_cone, unbalanced, unbalanced_nocut,
     /// unbalanced_nocone, tree2, sst, sst_nosub, lgh) under Halton at
@@ -72,6 +76,7 @@ pub(crate) fn run(args: CompareArgs, ui: Ui) -> Result<()> {
         time_ms,
         sampler,
         visibility,
+        cuts,
         samplers,
         seeds,
         crop,
@@ -106,6 +111,11 @@ pub(crate) fn run(args: CompareArgs, ui: Ui) -> Result<()> {
                     max_spp: common.max_spp,
                     samplers: samplers.clone(),
                     seeds: seeds.unwrap_or(1),
+                    overrides: IntegrandOverrides {
+                        cut_size: cuts.cut_size,
+                        cut_sampling: cuts.cut_sampling,
+                        ..IntegrandOverrides::default()
+                    },
                 },
             ),
             None => mdas::compare::compare_with(
@@ -122,6 +132,8 @@ pub(crate) fn run(args: CompareArgs, ui: Ui) -> Result<()> {
                     sampler,
                     visibility,
                     frame: None,
+                    cut_size: cuts.cut_size,
+                    cut_sampling: cuts.cut_sampling,
                 },
             ),
         }

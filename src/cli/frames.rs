@@ -171,6 +171,7 @@ pub(crate) fn run(args: RenderArgs, ui: Ui) -> Result<()> {
         reference,
         sampler,
         visibility,
+        cuts,
         warmup,
         frames,
         frame_duration,
@@ -211,6 +212,8 @@ pub(crate) fn run(args: RenderArgs, ui: Ui) -> Result<()> {
         sampler,
         visibility,
         frame: None,
+        cut_size: cuts.cut_size,
+        cut_sampling: cuts.cut_sampling,
     };
     // The first frame's set-up is inside the scene upload: timed with it.
     let start = std::time::Instant::now();

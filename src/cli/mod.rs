@@ -20,7 +20,7 @@ use mdas::integrator::mdas::params::{Kind, Param};
 pub(crate) use mdas::integrator::mdas::MdasParams;
 use mdas::integrator::mdas::PARAMS;
 pub(crate) use mdas::integrator::{Halton, Integrator, Mdas, Render};
-pub(crate) use mdas::lights::sampler::SamplerKind;
+pub(crate) use mdas::lights::sampler::{CutSampling, SamplerKind};
 pub(crate) use mdas::scene_file::SceneFile;
 pub(crate) use mdas::session::{self, IntegrandOverrides, ReferenceSpec};
 pub(crate) use mdas::{image_io, metrics};
@@ -528,4 +528,22 @@ pub(crate) fn ensure_parent(path: &Path) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// Light-cut overrides of a many_light scene's [integrand] (`render`,
+/// `compare`).
+#[derive(clap::Args, Clone, Copy, Debug, Default)]
+pub(crate) struct CutArgs {
+    /// Light-cut size n of a many_light scene (1..=64), overriding its
+    /// [integrand] cut_size; the kinds with cuts (tree, tree_cone,
+    /// unbalanced, unbalanced_nocone, tree2) under --cut-sampling subtrees
+    /// draw n light samples per evaluation.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=64))]
+    pub(crate) cut_size: Option<u32>,
+    /// How the kinds with cuts sample the cut, overriding the scene's
+    /// cut_sampling: subtrees (one light from each subtree of the cut,
+    /// summed: real-time stochastic lightcuts) or mixture (one light per
+    /// evaluation from the cut's mixture: an ablation).
+    #[arg(long, value_name = "RULE")]
+    pub(crate) cut_sampling: Option<CutSampling>,
 }

@@ -101,7 +101,7 @@ pub(crate) fn run(args: ReferenceArgs, ui: Ui) -> Result<()> {
         IntegrandOverrides {
             sampler,
             visibility,
-            frame: None,
+            ..IntegrandOverrides::default()
         },
         &cache,
         Some(Box::new(move |done, _| b.set_position(done as u64))),

@@ -50,6 +50,8 @@ pub(crate) struct RenderArgs {
     /// the scene's voxel_directions, voxel_resolution and voxel_skip).
     #[arg(long, value_name = "BACKEND")]
     pub(crate) visibility: Option<VisibilityKind>,
+    #[command(flatten)]
+    pub(crate) cuts: CutArgs,
     /// Render once untimed first, so that the printed times are warm:
     /// CPU drivers (lavapipe) compile a pipeline at its first dispatch,
     /// inside the GPU timestamps of a cold render.
@@ -123,6 +125,7 @@ pub(crate) fn run(args: RenderArgs, ui: Ui) -> Result<()> {
         reference,
         sampler,
         visibility,
+        cuts,
         warmup,
         frames: _,
         frame_duration: _,
@@ -149,6 +152,8 @@ pub(crate) fn run(args: RenderArgs, ui: Ui) -> Result<()> {
         sampler,
         visibility,
         frame: None,
+        cut_size: cuts.cut_size,
+        cut_sampling: cuts.cut_sampling,
     };
     if let mdas::accel::Visibility::Voxel(p) = overrides.visibility(&loaded) {
         // The array is built with the scene upload: seconds to minutes on

@@ -345,6 +345,10 @@ pub struct SamplerReport {
     pub sampler: String,
     /// Its entry in `methods`: `halton+<sampler>`.
     pub method: String,
+    /// Light samples (shadow rays toward lights) per evaluation
+    /// ([`crate::integrand::ManyLightSpec::light_samples_per_eval`]): light
+    /// samples per pixel are this times the spp.
+    pub light_samples_per_eval: f64,
     /// RelMSE at exactly the target time (= `search.relmse`: log–log
     /// interpolation between the bracketing runs).
     pub relmse: f64,
@@ -384,6 +388,20 @@ pub struct SamplerSeeds {
     pub mse_vs_uniform: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub mse_vs_uniform_ci95: Option<[f64; 2]>,
+    /// The bracketing budget nearer the target (spp), at which the K seeds'
+    /// images give the bias and the MSE split below.
+    pub bias_spp: u32,
+    /// Per channel: the mean image's sum over the reference's, minus 1, and
+    /// its 95 % interval over the seeds ([`super::seeds::SeedStats`]). An
+    /// unbiased sampler's interval holds 0, up to the reference's own
+    /// noise; a biased one's (`sst`, `lgh`) need not.
+    pub relative_bias: [f64; 3],
+    pub relative_bias_ci95: [[f64; 2]; 3],
+    /// The MSE at that budget, mean over seeds, split into the squared
+    /// error of the mean image (bias², which still holds the mean's own
+    /// variance/K and the reference's noise) and the variance over seeds.
+    pub mse_bias2: f64,
+    pub mse_variance: f64,
 }
 
 /// The table `mdas compare` prints.
@@ -501,20 +519,30 @@ pub fn table(report: &Report) -> String {
             .unwrap_or(0)
             .max(8);
         out += &format!(
-            "{:<sw$} {:>11} {:>11} {:>11}  {}\n",
-            "at equal time", "RelMSE", "MSE", "MSE/uniform", "Halton brackets: spp (ms)"
+            "{:<sw$} {:>11} {:>11} {:>11} {:>11}  {}\n",
+            "at equal time",
+            "RelMSE",
+            "MSE",
+            "MSE/uniform",
+            "lights/eval",
+            "Halton brackets: spp, light samples/px (ms)"
         );
         for s in samplers {
             let vs = s
                 .mse_vs_uniform
                 .map_or_else(|| "–".to_string(), |v| format!("{v:.4}"));
-            let brackets = format!(
-                "{} ({:.3}) – {} ({:.3})",
-                s.search.lo.spp, s.search.lo.time_ms, s.search.hi.spp, s.search.hi.time_ms
-            );
+            let bracket = |r: &BracketRun| {
+                format!(
+                    "{}, {} ({:.3})",
+                    r.spp,
+                    (r.spp as f64 * s.light_samples_per_eval).round(),
+                    r.time_ms
+                )
+            };
+            let brackets = format!("{} – {}", bracket(&s.search.lo), bracket(&s.search.hi));
             out += &format!(
-                "{:<sw$} {:>11.4e} {:>11.4e} {:>11}  {}\n",
-                s.method, s.relmse, s.mse, vs, brackets
+                "{:<sw$} {:>11.4e} {:>11.4e} {:>11} {:>11}  {}\n",
+                s.method, s.relmse, s.mse, vs, s.light_samples_per_eval, brackets
             );
         }
         if let Some(k) = samplers
@@ -547,6 +575,39 @@ pub fn table(report: &Report) -> String {
                         ci(o.relmse, o.relmse_ci95, true),
                         ci(o.mse, o.mse_ci95, true),
                         vs
+                    );
+                }
+            }
+            out += &format!(
+                "{:<sw$} {:>8}  {:<62} {:>9}\n",
+                format!("bias over {k} seeds"),
+                "at spp",
+                "relative bias R / G / B [95%]",
+                "bias²/MSE"
+            );
+            let pct = |v: f64, c: [f64; 2]| {
+                format!(
+                    "{:+.2}% [{:+.2}, {:+.2}]",
+                    100.0 * v,
+                    100.0 * c[0],
+                    100.0 * c[1]
+                )
+            };
+            for s in samplers {
+                if let Some(o) = &s.seeds {
+                    let b = (0..3)
+                        .map(|c| pct(o.relative_bias[c], o.relative_bias_ci95[c]))
+                        .collect::<Vec<_>>()
+                        .join(" / ");
+                    let total = o.mse_bias2 + o.mse_variance;
+                    let share = if total > 0.0 {
+                        format!("{:.1}%", 100.0 * o.mse_bias2 / total)
+                    } else {
+                        "–".to_string()
+                    };
+                    out += &format!(
+                        "{:<sw$} {:>8}  {:<62} {:>9}\n",
+                        s.method, o.bias_spp, b, share
                     );
                 }
             }

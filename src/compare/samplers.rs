@@ -16,7 +16,9 @@
 //!    ([`super::timing::halton_search`], one Halton integrator per
 //!    search).
 //!    With `seeds` K ≥ 2, each search's two bracketing budgets are then
-//!    rendered with Halton's other K − 1 seeds ([`SamplerSeeds`]).
+//!    rendered with Halton's other K − 1 seeds ([`SamplerSeeds`]): means
+//!    at the target, and at the budget nearer it the relative bias per
+//!    channel and the MSE's bias²/variance split over the K images.
 //! 5. Files, each atomically, `report.json` last: `reference`, `mdas-tree`
 //!    and `halton-<sampler>` images (EXR + PNG) with their RelMSE heat maps
 //!    `relmse-mdas-tree`, `relmse-halton-<sampler>` (no density map).
@@ -25,9 +27,12 @@
 //! sampler (the bracketing run nearer in time, as in `mdas compare`);
 //! `equal_time.relmse_ratio` is MDAS+tree over `halton+tree` when `tree`
 //! is listed, else over the first listed sampler (`equal_time.baseline`
-//! names it); `equal_time.samplers` gives each sampler's RelMSE and MSE
-//! interpolated log–log at exactly the target time, its search brackets
-//! and its MSE relative to `uniform`'s (when listed).
+//! names it); `equal_time.samplers` gives each sampler's light samples per
+//! evaluation (a cut kind under `cut_sampling = "subtrees"` traces one
+//! shadow ray per cut node; the table prints light samples per pixel beside
+//! each bracket's spp), its RelMSE and MSE interpolated log–log at exactly
+//! the target time, its search brackets and its MSE relative to
+//! `uniform`'s (when listed).
 
 use super::equal_time::{interpolate_log_log, EqualTime};
 use super::experiment::{check_budget, check_mdas, write_report};
@@ -37,7 +42,7 @@ use super::intervals;
 use super::outputs::{reference_attributes, Files};
 use super::progress::spinner;
 use super::report::*;
-use super::seeds::{bootstrap_ci95, mean};
+use super::seeds::{bootstrap_ci95, mean, SeedStats};
 use super::timing::{halton_search, nearer, time_mdas, MdasTiming};
 use crate::accel::GpuScene;
 use crate::atomic::StagedDir;
@@ -66,6 +71,10 @@ pub struct SamplersSpec<'a> {
     /// Seeds per sampler (1: the search's run alone; K ≥ 2: each
     /// sampler's two bracketing budgets over K seeds, [`SamplerSeeds`]).
     pub seeds: u32,
+    /// `[integrand]` overrides of every compared render (`--cut-size`,
+    /// `--cut-sampling`; the sampler is each listed one, the frame the
+    /// setup's); the reference keeps the scene's own table.
+    pub overrides: session::IntegrandOverrides,
 }
 
 /// Checks a sampler list: not empty, no sampler twice.
@@ -132,12 +141,17 @@ fn run(gpu: &Gpu, spec: &SamplersSpec) -> Result<Report> {
     }
     let original = scene.integrand.clone();
     let mut integrands: Vec<(SamplerKind, Box<dyn Integrand>)> = Vec::new();
+    let mut light_samples: Vec<(SamplerKind, f64)> = Vec::new();
     for &kind in &kinds {
         let overrides = session::IntegrandOverrides {
             frame: setup.frame,
-            ..session::IntegrandOverrides::sampler(kind)
+            sampler: Some(kind),
+            ..spec.overrides
         };
         scene.integrand = overrides.apply(&original, &setup.scene)?;
+        if let IntegrandSpec::ManyLight(m) = &scene.integrand {
+            light_samples.push((kind, m.light_samples_per_eval(kind)));
+        }
         integrands.push((
             kind,
             session::integrand_on(gpu, &scene, gpu_scene.clone(), film)?,
@@ -295,6 +309,10 @@ fn run(gpu: &Gpu, spec: &SamplersSpec) -> Result<Report> {
         .map(|((k, r), b)| SamplerReport {
             sampler: k.to_string(),
             method: format!("halton+{k}"),
+            light_samples_per_eval: light_samples
+                .iter()
+                .find(|(s, _)| s == k)
+                .map_or(1.0, |&(_, n)| n),
             relmse: r.relmse,
             mse: r.mse,
             mse_vs_uniform: uniform_mse.map(|u| r.mse / u),
@@ -387,13 +405,16 @@ fn run(gpu: &Gpu, spec: &SamplersSpec) -> Result<Report> {
 }
 
 /// One sampler's two bracketing budgets over seeds: per seed, RelMSE and
-/// MSE at each, and the times and target to interpolate at.
+/// MSE at each, and the times and target to interpolate at; and the bias
+/// and MSE split over the seeds at the budget nearer the target.
 #[derive(Clone)]
 struct BracketSeeds {
     target_ms: f64,
     times: [f64; 2],
     relmse: [Vec<f64>; 2],
     mse: [Vec<f64>; 2],
+    nearer_spp: u32,
+    nearer: SeedStats,
 }
 
 /// Halton at `eq`'s lo and hi budgets over `seeds` (the search's own runs,
@@ -409,6 +430,8 @@ fn bracket_seeds(
     let mut halton = crate::integrator::Halton::new(1, seeds[0]);
     let mut relmse: [Vec<f64>; 2] = Default::default();
     let mut mse: [Vec<f64>; 2] = Default::default();
+    let near = nearer(eq);
+    let mut near_images = vec![near.measured.render.image.clone()];
     for (i, run) in [&eq.lo, &eq.hi].into_iter().enumerate() {
         relmse[i].push(run.error.relmse);
         mse[i].push(run.error.mse);
@@ -419,14 +442,20 @@ fn bracket_seeds(
             let e = crate::metrics::compare(&image, reference)?;
             relmse[i].push(e.relmse);
             mse[i].push(e.mse);
+            if std::ptr::eq(run, near) {
+                near_images.push(image);
+            }
             status.inc(1);
         }
     }
+    let images: Vec<&[[f32; 3]]> = near_images.iter().map(Vec::as_slice).collect();
     Ok(BracketSeeds {
         target_ms: eq.target_ms,
         times: [eq.lo.measured.total_ms(), eq.hi.measured.total_ms()],
         relmse,
         mse,
+        nearer_spp: near.spp,
+        nearer: SeedStats::new(&images, reference)?,
     })
 }
 
@@ -461,6 +490,11 @@ impl BracketSeeds {
             mse_ci95: ci(&self.mse),
             mse_vs_uniform: vs.map(|v| v.0),
             mse_vs_uniform_ci95: vs.map(|v| v.1),
+            bias_spp: self.nearer_spp,
+            relative_bias: self.nearer.relative_bias,
+            relative_bias_ci95: self.nearer.relative_bias_ci95,
+            mse_bias2: self.nearer.mse_bias2,
+            mse_variance: self.nearer.mse_variance,
         }
     }
 }

@@ -1,6 +1,11 @@
-//! Many-light direct lighting: one light sample per evaluation, chosen by
-//! a many-light sampler ([`crate::lights`]; real-time stochastic lightcuts
-//! and its baselines).
+//! Many-light direct lighting: light samples chosen by a many-light
+//! sampler ([`crate::lights`]; real-time stochastic lightcuts and its
+//! baselines) — one per evaluation, or, for the kinds with cuts under
+//! `cut_sampling = "subtrees"` (the default, the paper's estimator), one
+//! from each subtree of the pixel's share of its block's cut, each divided
+//! by its probability within its subtree and summed (n shadow rays for a
+//! cut of n nodes; subtree j's random numbers are the evaluation's shifted
+//! by j times an R4 step, mod 1, so every term stays unbiased).
 //!
 //! Dimensions: 0–1 film point (raster units); 2 selects the light through
 //! the sampler (`light_sample`, so MDAS adapts over the selection too);
@@ -68,13 +73,15 @@ use crate::gpu::buffer::STORAGE;
 use crate::gpu::profiler::PhaseTimes;
 use crate::gpu::shader::{storage_entry, Wgsl};
 use crate::gpu::{Gpu, Profiler};
+use crate::kernel_base::RAY_ITERATIONS;
+use crate::lights::bvh;
 use crate::lights::cut::MAX_CUT;
 use crate::lights::gpu_build::GpuLightTree;
 use crate::lights::gpu_sampler::{
     cut_capacity, CutLayout, GpuSamplerData, TreeSource, FIRST_BINDING,
 };
 use crate::lights::lgh::gpu::GpuLgh;
-use crate::lights::sampler::SamplerKind;
+use crate::lights::sampler::{CutSampling, SamplerKind};
 use crate::lights::scene_lights::{self, light_prims};
 use crate::lights::two_level::gpu::GpuTwoLevel;
 use crate::lights::two_level::BottomLevels;
@@ -84,6 +91,21 @@ use crate::scene::Scene;
 use crate::wgsl_file;
 use anyhow::{bail, Context, Result};
 use std::sync::Arc;
+
+/// An upper bound on the loop iterations of one evaluation that draws one
+/// light per subtree of its share of the cut (the kinds with cuts under
+/// [`CutSampling::Subtrees`]; 0 otherwise): a typical ray's traversal for
+/// the camera ray and each shadow ray, and per subtree a descent and the
+/// cut lookups. A pixel's share holds at most ⌈n/m²⌉ of the n nodes.
+fn subtree_loop_iterations(spec: &ManyLightSpec) -> u32 {
+    if !spec.sampler.uses_cut() || spec.cut_sampling != CutSampling::Subtrees {
+        return 0;
+    }
+    let m2 = spec.interleave.max(1).pow(2) as u64;
+    let rays = (spec.cut_size as u64).div_ceil(m2);
+    let per_subtree = bvh::MAX_DEPTH as u64 + 2 * MAX_CUT as u64;
+    (RAY_ITERATIONS * (rays + 1) + rays * per_subtree).min(u32::MAX as u64) as u32
+}
 
 /// Workgroup size of the cut pre-pass.
 const CUT_WG: u32 = 64;
@@ -340,7 +362,8 @@ impl ManyLight {
                 );
             }
             let cuts =
-                CutLayout::for_film(self.film.width, self.film.height, spec.block, spec.cut_size);
+                CutLayout::for_film(self.film.width, self.film.height, spec.block, spec.cut_size)
+                    .sampled(spec.cut_sampling);
             self.select_cuts(gpu, cuts, &mut profiler)?;
         }
         self.setup = profiler.finish()?;
@@ -364,7 +387,8 @@ impl ManyLight {
         let kind = spec.sampler;
         let n = u32::try_from(prims.len()).context("more than 2^32 lights")?;
         let cuts = CutLayout::for_film(film.width, film.height, spec.block, spec.cut_size)
-            .interleaved(spec.interleave, spec.frame);
+            .interleaved(spec.interleave, spec.frame)
+            .sampled(spec.cut_sampling);
         gpu.scoped("many_light set-up", || {
             if kind == SamplerKind::Lgh {
                 // The hierarchy is sized on the host and built on the GPU
@@ -599,6 +623,7 @@ impl Integrand for ManyLight {
 
     fn loop_iterations(&self) -> u32 {
         self.loop_iterations
+            .max(subtree_loop_iterations(&self.spec))
     }
 
     fn wgsl(&self) -> Wgsl {

@@ -4,7 +4,7 @@
 //! come from the integrand modules (e.g. [`super::path::max_bounces_limit`]).
 
 use crate::lights::lgh::LghParams;
-use crate::lights::sampler::SamplerKind;
+use crate::lights::sampler::{CutSampling, SamplerKind};
 use crate::lights::substitute::SubstituteParams;
 use crate::lights::vpl::VplSpec;
 
@@ -154,8 +154,12 @@ impl IntegrandSpec {
 pub struct ManyLightSpec {
     /// The light sampler (its names: [`SamplerKind::ALL`]).
     pub sampler: SamplerKind,
-    /// Light-cut size, 1..=64.
+    /// Light-cut size, 1..=64: under `cut_sampling = "subtrees"` the
+    /// light samples (shadow rays) of one evaluation of the kinds with cuts.
     pub cut_size: u32,
+    /// How the kinds with cuts estimate from the cut: one light per subtree
+    /// (the paper's, the default) or one pick from the cut's mixture.
+    pub cut_sampling: CutSampling,
     /// Cut-sharing block size k: k × k pixels share one cut; ≥ 1.
     pub block: u32,
     /// Interleaved sampling (stochastic lightcuts §3.4): each pixel of an
@@ -187,6 +191,22 @@ pub struct ManyLightSpec {
 pub const DEFAULT_FRAME_DURATION: f32 = 1.0 / 30.0;
 
 impl ManyLightSpec {
+    /// Light samples (shadow rays toward lights) of one evaluation with
+    /// sampler `kind`: under `cut_sampling = "subtrees"` the kinds with
+    /// cuts draw one per node of the pixel's share of the cut, n/m² on
+    /// average over a sub-block (at most: a cut holds fewer nodes when
+    /// lights run out); `lgh` traces its shadow samples (plus one toward an
+    /// emissive triangle when the scene has them); the others one.
+    pub fn light_samples_per_eval(&self, kind: SamplerKind) -> f64 {
+        if kind == SamplerKind::Lgh {
+            self.lgh.shadow_samples as f64
+        } else if kind.uses_cut() && self.cut_sampling == CutSampling::Subtrees {
+            self.cut_size as f64 / (self.interleave.max(1) as f64).powi(2)
+        } else {
+            1.0
+        }
+    }
+
     /// Frame `f` of a sequence that starts at this spec's frame: time
     /// `time + f · frame_duration`, frame number `frame + f` (wrapping).
     /// `at_frame(0)` is the spec itself.
@@ -204,6 +224,7 @@ impl Default for ManyLightSpec {
         ManyLightSpec {
             sampler: SamplerKind::Tree,
             cut_size: 8,
+            cut_sampling: CutSampling::Subtrees,
             block: 8,
             interleave: 1,
             time: 0.0,

@@ -1,9 +1,15 @@
 //! Stochastic lightcuts over a binary light tree (real-time stochastic
 //! lightcuts §3.2–3.3; Yuksel 2019): a *cut* is a set of nodes that covers
-//! every light exactly once; a sample picks one cut node with the cut
-//! probabilities (eq. 2 generalized to n nodes) and descends from it to a
-//! leaf with hierarchical importance sampling (eq. 1–2 at every internal
-//! node), using one random number throughout.
+//! every light exactly once. The paper's estimator draws one light from
+//! each subtree of the cut, by hierarchical importance sampling (eq. 1–2
+//! at every internal node) from the cut node down to a leaf, and sums
+//! each light's contribution divided by its probability within its
+//! subtree ([`TreeSampler::sample_subtree`]): n cut nodes, n light
+//! samples, the lights stratified by the cut. The one-pick view
+//! ([`LightSampler`] for [`TreeSampler`], the `mixture` ablation) instead
+//! picks one cut node with the cut probabilities (eq. 2 generalized to n
+//! nodes, not in the paper) and descends from it, one random number
+//! throughout.
 //!
 //! The cut is chosen greedily for a *representative* shading point (one
 //! per k×k pixel block on the GPU, "cut sharing" §3.3): starting from the
@@ -191,6 +197,58 @@ impl<T: LightTree> TreeSampler<T> {
     }
 }
 
+impl<T: LightTree> TreeSampler<T> {
+    /// The paper's estimator ([`CutSampling::Subtrees`](super::sampler::CutSampling::Subtrees)): the light drawn
+    /// from subtree `j` of the cut with `u` (a descent from `cut[j]`), its
+    /// pmf the probability within that subtree (the product of the child
+    /// probabilities below the cut node). `None` on a dead subtree.
+    ///
+    /// Σ_j f(l_j)/pmf_j over the cut estimates Σ_l f(l) without bias: every
+    /// light lies below exactly one cut node.
+    pub fn sample_subtree(&self, s: &Shading, j: usize, u: f32) -> Option<LightSample> {
+        descend(&self.tree, self.importance, self.cut[j] as usize, s, u, 1.0)
+    }
+
+    /// The cut node above `light` (its index in the cut) and the
+    /// probability that [`Self::sample_subtree`] of that node returns
+    /// `light`; `None` for an unknown light or one below no cut node.
+    pub fn subtree_pmf(&self, s: &Shading, light: u32) -> Option<(usize, f64)> {
+        let (j, path) = self.path_to_cut(light)?;
+        Some((j, self.path_pmf(s, &path, 1.0)))
+    }
+
+    /// The path from the leaf of `light` up to the cut node above it, and
+    /// that node's index in the cut.
+    fn path_to_cut(&self, light: u32) -> Option<(usize, Vec<usize>)> {
+        let mut path = vec![self.tree.leaf_of_light(light)?];
+        loop {
+            let top = *path.last().unwrap();
+            if let Some(j) = self.cut.iter().position(|&c| c as usize == top) {
+                return Some((j, path));
+            }
+            // No parent: not below the cut, so not a valid cut.
+            path.push(self.tree.parent(top)?);
+        }
+    }
+
+    /// `pmf` times the child probabilities along `path` (leaf first),
+    /// multiplied top-down as sampling multiplies them.
+    fn path_pmf(&self, s: &Shading, path: &[usize], mut pmf: f64) -> f64 {
+        for step in path.windows(2).rev() {
+            let (child, node) = (step[0], step[1]);
+            let (l, r) = self.tree.children(node).expect("path nodes are internal");
+            let imp = |n| self.importance.of(&self.tree, n, s);
+            let Some(p) = p_left(&imp(l), &imp(r)) else {
+                return 0.0;
+            };
+            pmf *= if child == l { p } else { 1.0 - p } as f64;
+        }
+        pmf
+    }
+}
+
+/// The one-pick view ([`CutSampling::Mixture`](super::sampler::CutSampling::Mixture)): a cut node drawn with the
+/// cut probabilities, then a descent below it.
 impl<T: LightTree> LightSampler for TreeSampler<T> {
     fn sample(&self, s: &Shading, u: f32) -> Option<LightSample> {
         let probs = cut_probabilities(&self.cut_importance(s))?;
@@ -206,35 +264,13 @@ impl<T: LightTree> LightSampler for TreeSampler<T> {
     }
 
     fn pmf(&self, s: &Shading, light: u32) -> f64 {
-        let Some(leaf) = self.tree.leaf_of_light(light) else {
+        let Some((j, path)) = self.path_to_cut(light) else {
             return 0.0;
-        };
-        // The path from the leaf up to the cut node above it.
-        let mut path = vec![leaf];
-        let j = loop {
-            let top = *path.last().unwrap();
-            if let Some(j) = self.cut.iter().position(|&c| c as usize == top) {
-                break j;
-            }
-            match self.tree.parent(top) {
-                Some(p) => path.push(p),
-                None => return 0.0, // not below the cut: not a valid cut
-            }
         };
         let Some(probs) = cut_probabilities(&self.cut_importance(s)) else {
             return 0.0;
         };
-        let mut pmf = probs[j] as f64;
-        for step in path.windows(2).rev() {
-            let (child, node) = (step[0], step[1]);
-            let (l, r) = self.tree.children(node).expect("path nodes are internal");
-            let imp = |n| self.importance.of(&self.tree, n, s);
-            let Some(p) = p_left(&imp(l), &imp(r)) else {
-                return 0.0;
-            };
-            pmf *= if child == l { p } else { 1.0 - p } as f64;
-        }
-        pmf
+        self.path_pmf(s, &path, probs[j] as f64)
     }
 }
 

@@ -26,7 +26,7 @@ use super::lgh::gpu::GpuLgh;
 use super::lgh::{self, GridLight};
 pub use super::light_params::LightParams;
 use super::perfect::{self, PerfectTree};
-use super::sampler::SamplerKind;
+use super::sampler::{CutSampling, SamplerKind};
 use super::substitute::{self, Substitute, SubstituteParams, SubstituteTree};
 use super::two_level;
 use super::two_level::gpu::GpuTwoLevel;
@@ -62,6 +62,8 @@ pub struct CutLayout {
     pub interleave: u32,
     /// Frame number rotating the interleaved assignment.
     pub frame: u32,
+    /// The estimator of the kinds with cuts.
+    pub sampling: CutSampling,
 }
 
 impl CutLayout {
@@ -75,7 +77,13 @@ impl CutLayout {
             block_rows: height.div_ceil(block_size),
             interleave: 1,
             frame: 0,
+            sampling: CutSampling::Subtrees,
         }
+    }
+
+    /// With the estimator `sampling` for the kinds with cuts.
+    pub fn sampled(self, sampling: CutSampling) -> Self {
+        CutLayout { sampling, ..self }
     }
 
     /// With interleaved sampling over `m`×`m` sub-blocks at `frame`.
@@ -161,6 +169,7 @@ impl GpuSamplerData {
                 1
             },
             frame: cuts.frame,
+            cut_mixture: (kind.uses_cut() && cuts.sampling == CutSampling::Mixture) as u32,
             ..Default::default()
         };
         params.set_substitute_params(&SubstituteParams::default());

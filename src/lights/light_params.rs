@@ -38,7 +38,10 @@ pub struct LightParams {
     /// `sst`: ν_min and σ_max² of the suitability test (eq. 3).
     pub sst_nu_min: f32,
     pub sst_sigma_max2: f32,
-    pub _pad: u32,
+    /// The kinds with cuts: 0 = one light per cut subtree (the paper's
+    /// estimator), 1 = one pick from the cut's mixture
+    /// ([`super::sampler::CutSampling`]).
+    pub cut_mixture: u32,
     /// `lgh` ([`super::lgh`]): the grid's `lo`, L, h_1, 1/h_1, α, whether
     /// level 0 is used, the shadow samples S, and where the level-1 cell
     /// ranges and the sorted light ids start in `light_index` (after the

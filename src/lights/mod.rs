@@ -64,7 +64,7 @@ pub use cone::LightCone;
 pub use cut::{select_cut, LightTree, TreeSampler};
 pub use factory::{new_sampler, UniformSampler};
 pub use importance::Shading;
-pub use sampler::{LightSample, LightSampler, SamplerKind};
+pub use sampler::{CutSampling, LightSample, LightSampler, SamplerKind};
 
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;

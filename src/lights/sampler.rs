@@ -9,7 +9,7 @@
 //! | `uniform` | [`UniformSampler`](super::factory::UniformSampler) | "random sampling" baseline (§4) |
 //! | `power` | [`PowerSampler`](super::alias::PowerSampler) (alias table, `I_i/ΣI`) | pbrt-v4 |
 //! | `tree_nocut` | [`TreeSampler`](super::cut::TreeSampler) over a [`PerfectTree`](super::perfect::PerfectTree), cut = root | §3.2 |
-//! | `tree` | same, with a greedy cut per pixel block | §3.2–3.3 |
+//! | `tree` | same, with a greedy cut per pixel block: under [`CutSampling::Subtrees`] (the default) one light from each cut subtree per evaluation, under `Mixture` one pick from the cut | §3.2–3.3, §4 |
 //! | `tree_cone` | `tree` with orientation cones ([`Importance::Cones`]) | §3.1 + Conty & Kulla 2018 |
 //! | `unbalanced_nocut` | [`TreeSampler`](super::cut::TreeSampler) with cones over a SAOH [`LightBvh`](super::bvh::LightBvh), cut = root | §4, pbrt-v4 |
 //! | `unbalanced` | same, with a greedy cut | §4, pbrt-v4 |
@@ -234,6 +234,52 @@ impl SamplerKind {
 impl fmt::Display for SamplerKind {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(self.name())
+    }
+}
+
+/// How the kinds with cuts ([`SamplerKind::uses_cut`]) estimate from a
+/// pixel's cut: the scene key `cut_sampling`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum CutSampling {
+    /// One light from each subtree of the pixel's share of the cut, each
+    /// divided by its own probability within its subtree, summed: the
+    /// cut stratifies the lights (real-time stochastic lightcuts §2.2 and
+    /// §4, "we pick a cut with n subtrees"; Yuksel 2019). An evaluation
+    /// traces one shadow ray per subtree, so a cut of n nodes costs n light
+    /// samples.
+    #[default]
+    Subtrees,
+    /// One light per evaluation: a cut node drawn with the cut
+    /// probabilities (eq. 2 generalized to the cut's nodes), then a descent
+    /// below it. Unbiased, but not the paper's estimator: it keeps no
+    /// stratification. An ablation.
+    Mixture,
+}
+
+impl CutSampling {
+    pub const ALL: [CutSampling; 2] = [CutSampling::Subtrees, CutSampling::Mixture];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            CutSampling::Subtrees => "subtrees",
+            CutSampling::Mixture => "mixture",
+        }
+    }
+}
+
+impl fmt::Display for CutSampling {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for CutSampling {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        Self::ALL
+            .into_iter()
+            .find(|k| k.name() == s)
+            .ok_or_else(|| format!("unknown cut_sampling '{s}': expected one of subtrees, mixture"))
     }
 }
 

@@ -9,7 +9,7 @@ use super::*;
 use crate::accel::voxel::{self, Visibility, VoxelParams};
 use crate::integrand::ManyLightSpec;
 use crate::lights::lgh::{self, LghParams};
-use crate::lights::sampler::SamplerKind;
+use crate::lights::sampler::{CutSampling, SamplerKind};
 use crate::lights::substitute::SubstituteParams;
 use crate::lights::vpl::{self, VplSpec};
 
@@ -66,6 +66,20 @@ impl Ctx<'_> {
                         )
                     })?,
                 };
+                let cut_sampling = match &r.cut_sampling {
+                    None => d.cut_sampling,
+                    Some(v) => v.get_ref().parse::<CutSampling>().map_err(|_| {
+                        let names = CutSampling::ALL.map(CutSampling::name);
+                        self.error(
+                            v.span(),
+                            format!(
+                                "unknown cut_sampling '{}', expected one of {}",
+                                v.get_ref(),
+                                quoted_list(&names)
+                            ),
+                        )
+                    })?,
+                };
                 let block = self.u32(&r.block, "block", 1, d.block)?;
                 let interleave = self.u32(&r.interleave, "interleave", 1, d.interleave)?;
                 if block % interleave != 0 {
@@ -83,6 +97,7 @@ impl Ctx<'_> {
                         1..=MAX_CUT_SIZE as i64,
                         d.cut_size as i64,
                     )? as u32,
+                    cut_sampling,
                     block,
                     interleave,
                     time: r

@@ -11,7 +11,8 @@ use crate::integrand::{
 };
 use crate::integrand::{IntegrandSpec, ManyLightSpec};
 use crate::integrator::mdas::MdasParams;
-use crate::lights::sampler::SamplerKind;
+use crate::lights::cut::MAX_CUT;
+use crate::lights::sampler::{CutSampling, SamplerKind};
 use crate::scene_file::SceneFile;
 use anyhow::{bail, Result};
 use std::path::Path;
@@ -104,6 +105,10 @@ pub struct IntegrandOverrides {
     /// `--frames`: frame f of the sequence a `many_light` integrand's table
     /// starts ([`ManyLightSpec::at_frame`]).
     pub frame: Option<u32>,
+    /// `--cut-size`: the light-cut size of a `many_light` integrand.
+    pub cut_size: Option<u32>,
+    /// `--cut-sampling`: how its kinds with cuts sample the cut.
+    pub cut_sampling: Option<CutSampling>,
 }
 
 impl IntegrandOverrides {
@@ -143,15 +148,31 @@ impl IntegrandOverrides {
     /// The sampler and frame overrides only;
     /// [`IntegrandOverrides::visibility`] gives the visibility.
     pub fn apply(&self, spec: &IntegrandSpec, scene: &Path) -> Result<IntegrandSpec> {
-        if self.sampler.is_none() && self.frame.is_none() {
+        if self.sampler.is_none()
+            && self.frame.is_none()
+            && self.cut_size.is_none()
+            && self.cut_sampling.is_none()
+        {
             return Ok(spec.clone());
+        }
+        if let Some(size) = self.cut_size {
+            if !(1..=MAX_CUT).contains(&size) {
+                bail!("--cut-size must be in 1..={MAX_CUT}, got {size}");
+            }
         }
         match spec {
             IntegrandSpec::ManyLight(m) => {
                 let mut m = m.at_frame(self.frame.unwrap_or(0));
                 m.sampler = self.sampler.unwrap_or(m.sampler);
+                m.cut_size = self.cut_size.unwrap_or(m.cut_size);
+                m.cut_sampling = self.cut_sampling.unwrap_or(m.cut_sampling);
                 Ok(IntegrandSpec::ManyLight(m))
             }
+            other if self.cut_size.is_some() || self.cut_sampling.is_some() => bail!(
+                "--cut-size and --cut-sampling apply only to the many_light integrand, but {} uses '{}'",
+                scene.display(),
+                other.type_name()
+            ),
             other => match self.sampler {
                 Some(kind) => bail!(
                     "--sampler {kind} applies only to the many_light integrand, but {} uses '{}' (light samplers: {})",
@@ -176,9 +197,15 @@ impl IntegrandOverrides {
             (Some(kind), Some(own)) if kind != own => format!("|sampler={kind}"),
             _ => String::new(),
         };
-        if let (Some(f), IntegrandSpec::ManyLight(m)) = (self.frame, spec) {
-            if m.at_frame(f) != *m {
+        if let IntegrandSpec::ManyLight(m) = spec {
+            if let Some(f) = self.frame.filter(|&f| m.at_frame(f) != *m) {
                 key += &format!("|frame={f}");
+            }
+            if let Some(n) = self.cut_size.filter(|&n| n != m.cut_size) {
+                key += &format!("|cut_size={n}");
+            }
+            if let Some(c) = self.cut_sampling.filter(|&c| c != m.cut_sampling) {
+                key += &format!("|cut_sampling={c}");
             }
         }
         Ok(key)

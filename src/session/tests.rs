@@ -57,6 +57,50 @@ fn frame_overrides_move_the_table_and_key_the_reference() {
 }
 
 #[test]
+fn cut_overrides_change_the_table_and_key_the_reference() {
+    use crate::integrand::ManyLightSpec;
+    use crate::lights::sampler::CutSampling;
+    let m = ManyLightSpec::default();
+    let spec = IntegrandSpec::ManyLight(m.clone());
+    let path = Path::new("s.toml");
+    let o = IntegrandOverrides {
+        cut_size: Some(32),
+        cut_sampling: Some(CutSampling::Mixture),
+        ..IntegrandOverrides::default()
+    };
+    assert_eq!(
+        o.apply(&spec, path).unwrap(),
+        IntegrandSpec::ManyLight(ManyLightSpec {
+            cut_size: 32,
+            cut_sampling: CutSampling::Mixture,
+            ..m.clone()
+        })
+    );
+    assert_eq!(
+        o.cache_key(&spec).unwrap(),
+        "|cut_size=32|cut_sampling=mixture"
+    );
+    // The scene's own values: the same cache entry.
+    let same = IntegrandOverrides {
+        cut_size: Some(m.cut_size),
+        cut_sampling: Some(m.cut_sampling),
+        ..IntegrandOverrides::default()
+    };
+    assert_eq!(same.cache_key(&spec).unwrap(), "");
+    let e = IntegrandOverrides {
+        cut_size: Some(65),
+        ..IntegrandOverrides::default()
+    }
+    .apply(&spec, path)
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("--cut-size must be in 1..=64, got 65"), "{e}");
+    let other = IntegrandSpec::PathTracing { max_bounces: 1 };
+    let e = o.apply(&other, path).unwrap_err().to_string();
+    assert!(e.contains("apply only to the many_light integrand"), "{e}");
+}
+
+#[test]
 fn references_of_biased_samplers_use_tree() {
     use crate::integrand::ManyLightSpec;
     let ml = |sampler| {

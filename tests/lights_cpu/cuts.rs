@@ -162,3 +162,185 @@ fn cut_is_the_greedy_cut_with_ties_to_the_smaller_node() {
     c.sort_unstable();
     assert_eq!(c, vec![2, 3, 4]);
 }
+
+/// The cut samplers of every kind with cuts (the paper's estimator draws
+/// one light per cut node): the perfect tree with plain importance and
+/// with cones, the SAOH BVH with cones, the SAH BVH without, and the
+/// two-level tree over three groups; each with a greedy cut of `size` at
+/// `rep`.
+fn cut_estimators(
+    prims: &[LightPrim],
+    rep: &Shading,
+    size: u32,
+) -> Vec<(String, Box<dyn Subtrees>)> {
+    let perfect = perfect::build(prims).unwrap();
+    let two = two_level::build(prims, &chunks(prims.len(), 3)).unwrap();
+    vec![
+        (
+            "tree".into(),
+            Box::new(TreeSampler::with_cut_at(
+                perfect.clone(),
+                Importance::Plain,
+                rep,
+                size,
+            )),
+        ),
+        (
+            "tree_cone".into(),
+            Box::new(TreeSampler::with_cut_at(
+                perfect,
+                Importance::Cones,
+                rep,
+                size,
+            )),
+        ),
+        (
+            "unbalanced".into(),
+            Box::new(TreeSampler::with_cut_at(
+                bvh::build(prims, Cost::Saoh).unwrap(),
+                Importance::Cones,
+                rep,
+                size,
+            )),
+        ),
+        (
+            "unbalanced_nocone".into(),
+            Box::new(TreeSampler::with_cut_at(
+                bvh::build(prims, Cost::Sah).unwrap(),
+                Importance::Plain,
+                rep,
+                size,
+            )),
+        ),
+        (
+            "tree2".into(),
+            Box::new(TreeSampler::with_cut_at(two, Importance::Cones, rep, size)),
+        ),
+    ]
+}
+
+/// The paper's estimator's view of a cut sampler, for trait objects.
+trait Subtrees {
+    fn cut_len(&self) -> usize;
+    fn sample_subtree(&self, s: &Shading, j: usize, u: f32) -> Option<mdas::lights::LightSample>;
+    fn subtree_pmf(&self, s: &Shading, light: u32) -> Option<(usize, f64)>;
+}
+
+impl<T: LightTree> Subtrees for TreeSampler<T> {
+    fn cut_len(&self) -> usize {
+        self.cut.len()
+    }
+    fn sample_subtree(&self, s: &Shading, j: usize, u: f32) -> Option<mdas::lights::LightSample> {
+        TreeSampler::sample_subtree(self, s, j, u)
+    }
+    fn subtree_pmf(&self, s: &Shading, light: u32) -> Option<(usize, f64)> {
+        TreeSampler::subtree_pmf(self, s, light)
+    }
+}
+
+/// One light per subtree: a draw from subtree j is a light below cut node
+/// j, with exactly the pmf `subtree_pmf` gives it; within each subtree the
+/// pmfs sum to 1 minus the probability of a dead branch, which stratified
+/// draws measure to within their resolution (M = 4096 strata: the set of u
+/// that draw nothing is a union of intervals, and each end of one can move
+/// the measured fraction by at most 1/M).
+#[test]
+fn each_cut_subtree_samples_its_own_lights_with_their_pmf() {
+    let mut rng = StdRng::seed_from_u64(21);
+    let m = 4096u32;
+    for n in [7, 60, 300] {
+        let prims = random_scene(&mut rng, n);
+        for _ in 0..3 {
+            let rep = random_shading(&mut rng);
+            let s = Shading {
+                p: rep.p + Vec3::splat(0.3),
+                n: rep.n,
+            };
+            for size in [4, 16] {
+                for (name, est) in cut_estimators(&prims, &rep, size) {
+                    let mut sums = vec![0.0f64; est.cut_len()];
+                    for l in 0..n as u32 {
+                        if let Some((j, p)) = est.subtree_pmf(&s, l) {
+                            assert!(p >= 0.0 && p <= 1.0 + 1e-6, "{name}: pmf {p}");
+                            sums[j] += p;
+                        }
+                    }
+                    for (j, &sum) in sums.iter().enumerate() {
+                        let (mut none, mut ends, mut last) = (0u32, 0u32, false);
+                        for k in 0..m {
+                            let u = (k as f32 + 0.5) / m as f32;
+                            let drawn = est.sample_subtree(&s, j, u);
+                            ends += (drawn.is_none() != last) as u32;
+                            last = drawn.is_none();
+                            match drawn {
+                                Some(ls) => {
+                                    assert_eq!(
+                                        est.subtree_pmf(&s, ls.light),
+                                        Some((j, ls.pmf)),
+                                        "{name}/cut{size}: subtree {j}, u = {u}"
+                                    );
+                                    assert!(ls.pmf > 0.0, "{name}: a light of pmf 0 drawn");
+                                }
+                                None => none += 1,
+                            }
+                        }
+                        let dead = none as f64 / m as f64;
+                        assert!(
+                            (sum + dead - 1.0).abs() <= (ends + 1) as f64 / m as f64 + 1e-9,
+                            "{name}/cut{size}: subtree {j}: Σ pmf {sum} + P(none) {dead} != 1"
+                        );
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// The paper's estimator Σ_j f(l_j)/pmf_j(l_j) is unbiased for Σ f over
+/// the lights it can draw (pmf > 0), with the GPU's random numbers:
+/// subtree j uses u shifted by j·0.8566749 mod 1 (`ml_direct`). f is a
+/// random positive weight per light; 65,536 stratified u; the mean must
+/// lie within 6 standard errors (the estimates are i.i.d. only in their
+/// stratum, which makes the standard error conservative).
+#[test]
+fn the_cut_estimator_is_unbiased() {
+    const STEP: f32 = 0.856_674_9;
+    let mut rng = StdRng::seed_from_u64(22);
+    let m = 65_536u32;
+    for n in [60, 300] {
+        let prims = random_scene(&mut rng, n);
+        let f: Vec<f64> = (0..n).map(|_| rng.random_range(0.1..10.0)).collect();
+        for _ in 0..2 {
+            let rep = random_shading(&mut rng);
+            for (name, est) in cut_estimators(&prims, &rep, 8) {
+                let live: f64 = (0..n as u32)
+                    .filter(|&l| est.subtree_pmf(&rep, l).is_some_and(|(_, p)| p > 0.0))
+                    .map(|l| f[l as usize])
+                    .sum();
+                if live == 0.0 {
+                    continue;
+                }
+                let xs: Vec<f64> = (0..m)
+                    .map(|k| {
+                        let u = (k as f32 + 0.5) / m as f32;
+                        (0..est.cut_len())
+                            .filter_map(|j| {
+                                let uj = (u + j as f32 * STEP).fract();
+                                est.sample_subtree(&rep, j, uj)
+                            })
+                            .map(|ls| f[ls.light as usize] / ls.pmf)
+                            .sum::<f64>()
+                            / live
+                    })
+                    .collect();
+                let mean = xs.iter().sum::<f64>() / m as f64;
+                let var = xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (m - 1) as f64;
+                let se = (var / m as f64).sqrt();
+                assert!(
+                    (mean - 1.0).abs() <= 6.0 * se + 1e-9,
+                    "{name} ({n} lights): E[Σ f/pmf]/Σf = {mean} ± {se}"
+                );
+            }
+        }
+    }
+}

@@ -59,7 +59,10 @@ struct LightParams {
     // sst: ν_min and σ_max² of the suitability test (substitute.rs, eq. 3).
     sst_nu_min: f32,
     sst_sigma_max2: f32,
-    _pad0: u32,
+    // Kinds with cuts: 0 = one light per cut subtree (the paper's
+    // estimator, light_sample_subtree), 1 = one pick from the cut's mixture
+    // (light_sample; the ablation).
+    cut_mixture: u32,
     // lgh (src/lights/lgh.rs): the grid's lo, L, h_1, 1/h_1, α, level 0 on
     // (1) or off, shadow samples S, and where the level-1 cell ranges and
     // the sorted light ids start in light_index (after the vertex index).

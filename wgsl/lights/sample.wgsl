@@ -3,8 +3,15 @@
 // (real-time stochastic lightcuts §3.2–3.3). Needs lights/light_prim.wgsl,
 // lights/cone.wgsl and lights/bindings.wgsl.
 //
-//   light_sample(p, n, cut_base, u) -> LightPick  one light and its pmf
+//   light_sample(p, n, cut_base, u) -> LightPick  one light and its pmf (the
+//                                                 cut kinds: one pick from
+//                                                 the cut's mixture)
 //   light_pmf(p, n, cut_base, light) -> LightPmf  the pmf of a given light
+//   light_samples(cut_base) -> u32                light samples per evaluation
+//   light_sample_subtree(p, n, cut_base, j, u)    the light of subtree j of
+//                                                 the pixel's share of the cut
+//                                                 and its pmf in that subtree
+//   light_pmf_subtree(p, n, cut_base, light)      that pmf of a given light
 //   select_cut(p, n, &out) -> u32                 the greedy cut (pre-pass)
 //
 // `p` is the shading point, `n` its unit normal facing the outgoing direction
@@ -396,7 +403,8 @@ fn light_sample(s_p: vec3<f32>, s_n: vec3<f32>, cut_base: u32, u: f32) -> LightP
 
 // pmf of `light` in the perfect tree: find the cut node above its leaf, then
 // multiply the child probabilities along the path (leaf index bits).
-fn light_pmf_perfect(x: vec3<f32>, n: vec3<f32>, cut_base: u32, light: u32) -> LightPmf {
+// With `within`, the pmf within the cut node's subtree (no cut probability).
+fn light_pmf_perfect(x: vec3<f32>, n: vec3<f32>, cut_base: u32, light: u32, within: bool) -> LightPmf {
     let leaf1 = light_params.leaf_count + light_index[light]; // leaf node + 1
     let leaf_level = light_params.levels - 1u;
     let len = light_cut_len(cut_base);
@@ -411,11 +419,17 @@ fn light_pmf_perfect(x: vec3<f32>, n: vec3<f32>, cut_base: u32, light: u32) -> L
             break;
         }
     }
-    var probs: array<f32, MAX_CUT>;
-    if (found == NO_LIGHT || !light_cut_probabilities(x, n, cut_base, len, &probs)) {
+    var pmf = light_pmf_from(1.0);
+    if (found == NO_LIGHT) {
         return LightPmf(0.0, 0);
     }
-    var pmf = light_pmf_from(probs[found]);
+    if (!within) {
+        var probs: array<f32, MAX_CUT>;
+        if (!light_cut_probabilities(x, n, cut_base, len, &probs)) {
+            return LightPmf(0.0, 0);
+        }
+        pmf = light_pmf_from(probs[found]);
+    }
     for (var t = d; t > 0u; t--) {
         let node = (leaf1 >> t) - 1u;
         let child = (leaf1 >> (t - 1u)) - 1u;
@@ -435,7 +449,8 @@ fn light_pmf_perfect(x: vec3<f32>, n: vec3<f32>, cut_base: u32, light: u32) -> L
 
 // pmf of `light` in the BVH: walk up the parent links to the cut, then
 // multiply the child probabilities top-down (the order sampling uses).
-fn light_pmf_bvh(x: vec3<f32>, n: vec3<f32>, cut_base: u32, light: u32) -> LightPmf {
+// With `within`, the pmf within the cut node's subtree (no cut probability).
+fn light_pmf_bvh(x: vec3<f32>, n: vec3<f32>, cut_base: u32, light: u32, within: bool) -> LightPmf {
     let len = light_cut_len(cut_base);
     var path: array<u32, LIGHT_MAX_DEPTH>;
     var depth = 0u;
@@ -458,11 +473,17 @@ fn light_pmf_bvh(x: vec3<f32>, n: vec3<f32>, cut_base: u32, light: u32) -> Light
             break;
         }
     }
-    var probs: array<f32, MAX_CUT>;
-    if (found == NO_LIGHT || !light_cut_probabilities(x, n, cut_base, len, &probs)) {
+    var pmf = light_pmf_from(1.0);
+    if (found == NO_LIGHT) {
         return LightPmf(0.0, 0);
     }
-    var pmf = light_pmf_from(probs[found]);
+    if (!within) {
+        var probs: array<f32, MAX_CUT>;
+        if (!light_cut_probabilities(x, n, cut_base, len, &probs)) {
+            return LightPmf(0.0, 0);
+        }
+        pmf = light_pmf_from(probs[found]);
+    }
     for (var i = depth - 1u; i > 0u; i--) {
         let l = light_left_child(path[i]);
         let p_left = light_p_left(light_importance_of(l, x, n), light_importance_of(l + 1u, x, n));
@@ -493,12 +514,60 @@ fn light_pmf(s_p: vec3<f32>, s_n: vec3<f32>, cut_base: u32, light: u32) -> Light
             return LightPmf(0.0, 0);
         }
         case LIGHT_KIND_UNBALANCED, LIGHT_KIND_UNBALANCED_NOCUT, LIGHT_KIND_UNBALANCED_NOCONE, LIGHT_KIND_TREE2: {
-            return light_pmf_bvh(s_p, s_n, cut_base, light);
+            return light_pmf_bvh(s_p, s_n, cut_base, light, false);
         }
         default: {
-            return light_pmf_perfect(s_p, s_n, cut_base, light);
+            return light_pmf_perfect(s_p, s_n, cut_base, light, false);
         }
     }
+}
+
+// Whether an evaluation draws one light per subtree of its share of the cut
+// (the paper's estimator: the kinds with cuts, cut_mixture = 0) instead of
+// one light_sample.
+fn light_per_subtree() -> bool {
+    return light_uses_cut() && light_params.cut_mixture == 0u;
+}
+
+// Light samples (shadow rays) one evaluation draws: the length of the
+// pixel's share of the cut under the paper's estimator, else 1.
+fn light_samples(cut_base: u32) -> u32 {
+    if (light_per_subtree()) {
+        return light_cut_len(cut_base);
+    }
+    return 1u;
+}
+
+// The paper's estimator, real-time stochastic lightcuts §2.2 and §4: the
+// light drawn with u from subtree j (< light_cut_len) of the pixel's share of
+// the cut, by a descent from its cut node; pmf is the probability within that
+// subtree. Σ_j f(l_j)/pmf_j over the share estimates the share's lights
+// without bias (src/lights/cut.rs TreeSampler::sample_subtree).
+// The kinds without cuts have one "subtree", all lights: light_sample.
+fn light_sample_subtree(s_p: vec3<f32>, s_n: vec3<f32>, cut_base: u32, j: u32, u: f32) -> LightPick {
+    if (!light_uses_cut()) {
+        return light_sample(s_p, s_n, cut_base, u);
+    }
+    if (light_params.count == 0u || j >= light_cut_len(cut_base)) {
+        return light_no_pick();
+    }
+    return light_descend(light_cut_node(cut_base, j), s_p, s_n, u, light_pmf_from(1.0));
+}
+
+// The probability that light_sample_subtree of the cut node above `light`
+// returns it (0 when no node of the pixel's share is above it); light_pmf
+// for the kinds without cuts.
+fn light_pmf_subtree(s_p: vec3<f32>, s_n: vec3<f32>, cut_base: u32, light: u32) -> LightPmf {
+    if (!light_uses_cut()) {
+        return light_pmf(s_p, s_n, cut_base, light);
+    }
+    if (light >= light_params.count) {
+        return LightPmf(0.0, 0);
+    }
+    if (light_uses_bvh()) {
+        return light_pmf_bvh(s_p, s_n, cut_base, light, true);
+    }
+    return light_pmf_perfect(s_p, s_n, cut_base, light, true);
 }
 
 // Greedy-cut key (docs "Cuts"): −1 = not refinable (a leaf or I = 0); a point

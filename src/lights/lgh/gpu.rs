@@ -20,6 +20,7 @@ use crate::gpu::buffer::STORAGE;
 use crate::gpu::radix_sort::RadixSort;
 use crate::gpu::shader::{bind_buffers, storage_entry, uniform_entry, Wgsl};
 use crate::gpu::{Gpu, Profiler};
+use crate::kernel_base::RAY_ITERATIONS;
 use crate::lights::light_params::LightParams;
 use crate::lights::{gpu_build, LightPrim, KIND_TRIANGLE};
 use crate::wgsl_file;
@@ -34,8 +35,6 @@ const WG: u32 = 128;
 /// all (DESIGN.md): the gathers and the shading walk stay below this on a
 /// CPU adapter, or the build is refused with the reason.
 const CPU_LOOP_BUDGET: u64 = 60_000;
-/// Loop iterations allowed for one ray's traversal in the bounds above.
-const RAY_ITERATIONS: u64 = 1_000;
 
 /// Profiler phases of a build, in order.
 pub const PHASES: [&str; 6] = [
