@@ -10,7 +10,7 @@
 #
 # Usage (defaults shown):
 #   SCENE=scenes/cornell_lights.toml SCALE=1 REF_SPP=1024 SEEDS=3 REPEATS=3 \
-#   SIZES="4 8 16 32" TIME_MS= OUT=out/cuts benches/cuts.sh
+#   SIZES="4 8 16 32" MIXTURE=1 TIME_MS= OUT=out/cuts benches/cuts.sh
 # TIME_MS empty: MDAS+tree at its spp sets each run's target time;
 # otherwise every run is at that time.
 set -euo pipefail
@@ -37,7 +37,7 @@ run() { # label, extra args...
 for n in $SIZES; do
     run "subtrees-$n" --cut-size "$n"
 done
-run "mixture" --cut-sampling mixture
+if [ "${MIXTURE:-1}" = 1 ]; then run "mixture" --cut-sampling mixture; fi
 python3 - "$OUT" "$name" <<'EOF'
 import json, sys, glob, os
 out, name = sys.argv[1], sys.argv[2]
@@ -51,11 +51,13 @@ for d in sorted(glob.glob(f"{out}/{name}-*")):
         o = x.get("seeds")
         return (o["mse"], o["mse_ci95"]) if o else (x["mse"], [x["mse"], x["mse"]])
     (mt, ct), (mn, cn) = m(t), m(nc)
+    rel = lambda x: (x.get("seeds") or x)["relmse"]
     rows.append((os.path.basename(d)[len(name) + 1:], eq["target_ms"], t["light_samples_per_eval"],
-                 t["search"]["lo"]["spp"], mt, ct, nc["search"]["lo"]["spp"], mn, cn, mt / mn))
-print(f"| {name} | target ms | tree light samples/eval | tree spp | tree MSE [95%] | tree_nocut spp | tree_nocut MSE [95%] | tree / tree_nocut |")
-print("|---|---:|---:|---:|---|---:|---|---:|")
-for (label, tms, ls, ts, mt, ct, ns, mn, cn, ratio) in rows:
+                 t["search"]["lo"]["spp"], mt, ct, nc["search"]["lo"]["spp"], mn, cn, mt / mn,
+                 rel(t) / rel(nc)))
+print(f"| {name} | target ms | tree light samples/eval | tree spp | tree MSE [95%] | tree_nocut spp | tree_nocut MSE [95%] | tree / tree_nocut MSE | RelMSE |")
+print("|---|---:|---:|---:|---|---:|---|---:|---:|")
+for (label, tms, ls, ts, mt, ct, ns, mn, cn, ratio, rratio) in rows:
     print(f"| {label} | {tms:.1f} | {ls:g} | {ts} | {mt:.3e} [{ct[0]:.3e}, {ct[1]:.3e}] | {ns} | "
-          f"{mn:.3e} [{cn[0]:.3e}, {cn[1]:.3e}] | {ratio:.3f} |")
+          f"{mn:.3e} [{cn[0]:.3e}, {cn[1]:.3e}] | {ratio:.3f} | {rratio:.3f} |")
 EOF

@@ -380,3 +380,62 @@ fn no_file_over_the_line_limit() {
     );
     assert!(files.len() > 100, "src/ was read ({} files)", files.len());
 }
+
+/// Sampler names live in the registry (`lights::sampler::SamplerKind`,
+/// issue 50): no string literal of a sampler name in the code of `src/`
+/// outside `lights/sampler.rs` (test files and modules aside), and no tree
+/// kind named in the WGSL, whose tree rules read the predicates generated
+/// from `SamplerKind`'s (`gpu_sampler::kinds_wgsl`). The simple pickers
+/// (`uniform`, `power`) and `lgh` have code paths of their own there.
+#[test]
+fn sampler_names_only_in_the_registry() {
+    use crate::lights::gpu_sampler::kind_constant;
+    use crate::lights::sampler::SamplerKind;
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let src = root.join("src");
+    let mut files = Vec::new();
+    rust_files(&src, &mut files);
+    let mut named = Vec::new();
+    for f in &files {
+        let rel = f.strip_prefix(&src).unwrap();
+        if rel == Path::new("lights/sampler.rs") || f.ends_with("tests.rs") {
+            continue;
+        }
+        let code = code(&std::fs::read_to_string(f).unwrap());
+        for k in SamplerKind::ALL {
+            if code.contains(&format!("\"{}\"", k.name())) {
+                named.push(format!("{}: \"{}\"", rel.display(), k.name()));
+            }
+        }
+    }
+    let mut wgsl = Vec::new();
+    let mut stack = vec![root.join("wgsl")];
+    while let Some(dir) = stack.pop() {
+        for entry in std::fs::read_dir(dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                stack.push(path);
+            } else if path.extension().is_some_and(|e| e == "wgsl") {
+                wgsl.push(path);
+            }
+        }
+    }
+    let trees: Vec<String> = SamplerKind::ALL
+        .into_iter()
+        .filter(|k| k.uses_tree())
+        .map(kind_constant)
+        .collect();
+    for f in &wgsl {
+        let text = std::fs::read_to_string(f).unwrap();
+        for token in text.split(|c: char| !(c.is_ascii_alphanumeric() || c == '_')) {
+            if trees.iter().any(|t| t == token) {
+                named.push(format!("{}: {token}", f.display()));
+            }
+        }
+    }
+    assert!(
+        named.is_empty(),
+        "sampler kinds named outside the registry: {named:#?}"
+    );
+    assert!(wgsl.len() > 30, "wgsl/ was read ({} files)", wgsl.len());
+}

@@ -514,7 +514,7 @@ impl GpuSamplerData {
 }
 
 /// The WGSL constant of kind `k`'s index: `LIGHT_KIND_` and its name.
-fn kind_constant(k: SamplerKind) -> String {
+pub(crate) fn kind_constant(k: SamplerKind) -> String {
     format!("LIGHT_KIND_{}", k.name().to_uppercase())
 }
 
@@ -524,7 +524,8 @@ fn kind_constant(k: SamplerKind) -> String {
 /// holds.
 pub fn kinds_wgsl() -> String {
     type Predicate = (&'static str, fn(SamplerKind) -> bool);
-    let predicates: [Predicate; 4] = [
+    let predicates: [Predicate; 5] = [
+        ("light_uses_tree", SamplerKind::uses_tree),
         ("light_uses_bvh", SamplerKind::uses_bvh),
         ("light_uses_cut", SamplerKind::uses_cut),
         ("light_uses_cones", SamplerKind::uses_cones),

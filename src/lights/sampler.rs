@@ -142,6 +142,12 @@ impl SamplerKind {
         self != SamplerKind::Lgh
     }
 
+    /// Whether the kind samples a light tree (the perfect tree, the
+    /// substitute tree, a BVH or the two-level tree).
+    pub fn uses_tree(self) -> bool {
+        self.uses_perfect_tree() || self.uses_bvh()
+    }
+
     /// Whether the kind samples from per-block cuts.
     pub fn uses_cut(self) -> bool {
         matches!(

@@ -59,8 +59,8 @@ fn light_no_pick() -> LightPick {
     return LightPick(NO_LIGHT, 0.0, 0);
 }
 
-// light_uses_bvh(), light_uses_cut(), light_uses_cones() and
-// light_substitutes_on() are generated from SamplerKind's predicates
+// light_uses_tree(), light_uses_bvh(), light_uses_cut(), light_uses_cones()
+// and light_substitutes_on() are generated from SamplerKind's predicates
 // (lights/kinds.wgsl, gpu_sampler.rs kinds_wgsl): one list of which kind
 // does what.
 
@@ -513,10 +513,10 @@ fn light_pmf(s_p: vec3<f32>, s_n: vec3<f32>, cut_base: u32, light: u32) -> Light
         case LIGHT_KIND_LGH: {
             return LightPmf(0.0, 0);
         }
-        case LIGHT_KIND_UNBALANCED, LIGHT_KIND_UNBALANCED_NOCUT, LIGHT_KIND_UNBALANCED_NOCONE, LIGHT_KIND_TREE2: {
-            return light_pmf_bvh(s_p, s_n, cut_base, light, false);
-        }
         default: {
+            if (light_uses_bvh()) {
+                return light_pmf_bvh(s_p, s_n, cut_base, light, false);
+            }
             return light_pmf_perfect(s_p, s_n, cut_base, light, false);
         }
     }
@@ -588,7 +588,7 @@ fn light_cut_key(node: u32, x: vec3<f32>, n: vec3<f32>) -> f32 {
 // representative point (p, n), written to `out` in selection order; returns
 // its length (0 without lights or for the kinds without a tree).
 fn select_cut(p: vec3<f32>, n: vec3<f32>, out: ptr<function, array<u32, MAX_CUT>>) -> u32 {
-    if (light_params.count == 0u || light_params.kind == LIGHT_KIND_UNIFORM || light_params.kind == LIGHT_KIND_POWER) {
+    if (light_params.count == 0u || !light_uses_tree()) {
         return 0u;
     }
     let size = clamp(light_params.cut_size, 1u, MAX_CUT);
