@@ -261,7 +261,7 @@ fn each_cut_subtree_samples_its_own_lights_with_their_pmf() {
                     let mut sums = vec![0.0f64; est.cut_len()];
                     for l in 0..n as u32 {
                         if let Some((j, p)) = est.subtree_pmf(&s, l) {
-                            assert!(p >= 0.0 && p <= 1.0 + 1e-6, "{name}: pmf {p}");
+                            assert!((0.0..=1.0 + 1e-6).contains(&p), "{name}: pmf {p}");
                             sums[j] += p;
                         }
                     }
