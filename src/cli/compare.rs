@@ -26,8 +26,9 @@ pub(crate) struct CompareArgs {
     /// bias then shows against the reference, which always uses the BVH).
     #[arg(long, value_name = "BACKEND", conflicts_with = "samplers")]
     pub(crate) visibility: Option<VisibilityKind>,
-    /// (With --samplers too: every compared sampler; the reference keeps
-    /// the scene's own table, which every unbiased sampler converges to.)
+    // --cut-size and --cut-sampling apply to every compared render (with
+    // --samplers, every sampler); the reference keeps the scene's own table,
+    // which every unbiased sampler converges to.
     #[command(flatten)]
     pub(crate) cuts: CutArgs,
     /// Compare these light samplers (comma-separated: uniform, power,
@@ -42,7 +43,9 @@ pub(crate) struct CompareArgs {
     /// method's mean RelMSE with a 95% interval, its bias and variance, and
     /// the ratio's interval. With --samplers (default 1): each sampler's
     /// two bracketing budgets over the seeds, its mean RelMSE, MSE and
-    /// MSE/uniform at the target time with 95% intervals.
+    /// MSE/uniform at the target time with 95% intervals, and at the
+    /// budget nearer the target its relative bias per channel and its MSE
+    /// split into bias² and variance.
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=64))]
     pub(crate) seeds: Option<u32>,
     /// Inset of the figure, as x,y,w,h in film pixels (repeatable; default:
