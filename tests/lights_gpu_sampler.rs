@@ -137,6 +137,7 @@ fn unit(rng: &mut StdRng) -> Vec3 {
 
 /// Block representatives, queries near them (a block's pixels), and the
 /// CPU cut of every block.
+#[derive(Clone)]
 struct Setup {
     prims: Vec<LightPrim>,
     reps: Vec<Shading>,
@@ -426,19 +427,19 @@ fn compare_cuts(name: &str, gpu_cuts: &[Vec<u32>], cpu_cuts: &[Vec<u32>]) {
 
 /// The CPU samplers of a tree kind, one per block (its CPU cuts uploaded to
 /// `data`) or one from the root.
-fn tree_samplers<T: LightTree + Clone + 'static>(
+fn tree_samplers<T: LightTree + Clone>(
     gpu: &Gpu,
     data: &GpuSamplerData,
     tree: &T,
     s: &Setup,
-) -> Vec<Box<dyn LightSampler>> {
+) -> Vec<TreeSampler<T>> {
     let imp = data.kind.importance();
     if !data.kind.uses_cut() {
-        return vec![Box::new(TreeSampler::new(tree.clone(), imp))];
+        return vec![TreeSampler::new(tree.clone(), imp)];
     }
     upload_cpu_cuts(gpu, data, tree, imp, s)
         .into_iter()
-        .map(|c| Box::new(TreeSampler::with_cut(tree.clone(), imp, c)) as Box<dyn LightSampler>)
+        .map(|c| TreeSampler::with_cut(tree.clone(), imp, c))
         .collect()
 }
 
@@ -464,33 +465,24 @@ impl<T: LightTree> LightSampler for Subtree<'_, T> {
 }
 
 /// The paper's cut estimator on the GPU against the CPU: query i draws
-/// from subtree `(i / BLOCKS) mod CUT_SIZE` of its block's cut (the CPU
-/// cuts, uploaded), and queries the pmfs within subtrees.
-fn check_subtrees<T: LightTree + Clone + 'static>(
+/// from subtree `(i / BLOCKS) mod CUT_SIZE` of its block's cut (`samplers`,
+/// one per block, whose cuts `data` holds), and queries the pmfs within
+/// subtrees.
+fn check_subtrees<T: LightTree>(
     gpu: &Gpu,
     h: &Harness,
     name: &str,
     data: &GpuSamplerData,
-    tree: &T,
+    samplers: &[TreeSampler<T>],
     s: &Setup,
 ) {
-    let imp = data.kind.importance();
-    let cuts = upload_cpu_cuts(gpu, data, tree, imp, s);
-    let samplers: Vec<_> = cuts
-        .into_iter()
-        .map(|c| TreeSampler::with_cut(tree.clone(), imp, c))
-        .collect();
     let views: Vec<Subtree<T>> = (0..QUERIES as u32)
         .map(|i| Subtree {
             sampler: &samplers[(i % BLOCKS) as usize],
             j: (i / BLOCKS % CUT_SIZE) as usize,
         })
         .collect();
-    let mut subtrees = Setup {
-        prims: s.prims.clone(),
-        reps: s.reps.clone(),
-        queries: s.queries.clone(),
-    };
+    let mut subtrees = s.clone();
     for (i, q) in subtrees.queries.iter_mut().enumerate() {
         q.subtree = i as u32 / BLOCKS % CUT_SIZE;
     }
@@ -516,11 +508,10 @@ fn check_kind<T: LightTree + Clone + 'static>(
 ) {
     let samplers = tree_samplers(gpu, data, tree, s);
     let (answers, gpu_cuts) = h.run(gpu, data, s);
-    let cpu =
-        |i: u32| -> &dyn LightSampler { samplers[(i % BLOCKS) as usize % samplers.len()].as_ref() };
+    let cpu = |i: u32| -> &dyn LightSampler { &samplers[(i % BLOCKS) as usize % samplers.len()] };
     compare(name, &answers, s, &cpu);
     if data.kind.uses_cut() && s.prims.len() >= 4 * CUT_SIZE as usize {
-        check_subtrees(gpu, h, name, data, tree, s);
+        check_subtrees(gpu, h, name, data, &samplers, s);
     }
     if data.kind.uses_cut() {
         let imp = data.kind.importance();

@@ -48,10 +48,13 @@ fn ml_direct(s: Surface, px: vec2<u32>, u: vec4<f32>, time: f32) -> vec3<f32> {
     let base = light_cut_base(px);
     var sum = vec3<f32>(0.0);
     if (light_per_subtree()) {
-        let len = light_cut_len(base);
+        var len = light_cut_len(base);
+        if (light_params.count == 0u) {
+            len = 0u;
+        }
         for (var j = 0u; j < len; j++) {
             let uj = fract(u + f32(j) * ML_SUBTREE_STEP);
-            sum += ml_pick(s, light_sample_subtree(s.x, s.ns, base, j, uj.x), uj.yzw, time);
+            sum += ml_pick(s, light_descend_subtree(s.x, s.ns, base, j, uj.x), uj.yzw, time);
         }
     } else {
         sum = ml_pick(s, light_sample(s.x, s.ns, base, u.x), u.yzw, time);

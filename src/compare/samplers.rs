@@ -140,8 +140,8 @@ fn run(gpu: &Gpu, spec: &SamplersSpec) -> Result<Report> {
         kinds.push(MDAS_SAMPLER);
     }
     let original = scene.integrand.clone();
-    let mut integrands: Vec<(SamplerKind, Box<dyn Integrand>)> = Vec::new();
-    let mut light_samples: Vec<(SamplerKind, f64)> = Vec::new();
+    // Per sampler: its integrand and its light samples per evaluation.
+    let mut integrands: Vec<(SamplerKind, Box<dyn Integrand>, f64)> = Vec::new();
     for &kind in &kinds {
         let overrides = session::IntegrandOverrides {
             frame: setup.frame,
@@ -149,23 +149,24 @@ fn run(gpu: &Gpu, spec: &SamplersSpec) -> Result<Report> {
             ..spec.overrides
         };
         scene.integrand = overrides.apply(&original, &setup.scene)?;
-        if let IntegrandSpec::ManyLight(m) = &scene.integrand {
-            light_samples.push((kind, m.light_samples_per_eval(kind)));
-        }
+        let IntegrandSpec::ManyLight(m) = &scene.integrand else {
+            unreachable!("checked above: the scene's integrand is many_light");
+        };
+        let light_samples = m.light_samples_per_eval(kind);
         integrands.push((
             kind,
             session::integrand_on(gpu, &scene, gpu_scene.clone(), film)?,
+            light_samples,
         ));
     }
     scene.integrand = original;
-    let integrand_of = |kind: SamplerKind| -> &dyn Integrand {
+    let entry_of = |kind: SamplerKind| {
         integrands
             .iter()
-            .find(|(k, _)| *k == kind)
+            .find(|(k, ..)| *k == kind)
             .expect("an integrand per sampler")
-            .1
-            .as_ref()
     };
+    let integrand_of = |kind: SamplerKind| -> &dyn Integrand { entry_of(kind).1.as_ref() };
     let mdas_integrand = integrand_of(MDAS_SAMPLER);
     let params = (setup.mdas_params)(scene.mdas);
     let min_spp = check_mdas(
@@ -309,10 +310,7 @@ fn run(gpu: &Gpu, spec: &SamplersSpec) -> Result<Report> {
         .map(|((k, r), b)| SamplerReport {
             sampler: k.to_string(),
             method: format!("halton+{k}"),
-            light_samples_per_eval: light_samples
-                .iter()
-                .find(|(s, _)| s == k)
-                .map_or(1.0, |&(_, n)| n),
+            light_samples_per_eval: entry_of(*k).2,
             relmse: r.relmse,
             mse: r.mse,
             mse_vs_uniform: uniform_mse.map(|u| r.mse / u),

@@ -91,6 +91,29 @@ impl Ctx<'_> {
         v.as_ref().map_or(Ok(default), |v| self.int(v, key, range))
     }
 
+    /// An optional name among `names` for `key`, parsed to its value;
+    /// `default` when absent. An unknown name is an error at its position
+    /// that lists the names.
+    pub(super) fn opt_name<T: std::str::FromStr>(
+        &self,
+        v: &Option<S<String>>,
+        key: &str,
+        names: &[&str],
+        default: T,
+    ) -> Result<T> {
+        let Some(v) = v else { return Ok(default) };
+        v.get_ref().parse::<T>().map_err(|_| {
+            self.error(
+                v.span(),
+                format!(
+                    "unknown {key} '{}', expected one of {}",
+                    v.get_ref(),
+                    quoted_list(names)
+                ),
+            )
+        })
+    }
+
     pub(super) fn u32(&self, v: &Option<S<i64>>, key: &str, min: u32, default: u32) -> Result<u32> {
         Ok(self.opt_int(v, key, min as i64..=u32::MAX as i64, default as i64)? as u32)
     }

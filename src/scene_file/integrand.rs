@@ -1,7 +1,6 @@
 //! `[integrand]`: the table handed to [`IntegrandSpec`], limits from the
 //! integrand modules.
 
-use super::ctx::quoted_list;
 use super::ctx::{Ctx, Result};
 use super::raw::*;
 use super::values::{Num, S};
@@ -52,34 +51,18 @@ impl Ctx<'_> {
             },
             "many_light" => {
                 let d = ManyLightSpec::default();
-                let sampler = match &r.sampler {
-                    None => d.sampler,
-                    Some(v) => v.get_ref().parse::<SamplerKind>().map_err(|_| {
-                        let names = SamplerKind::ALL.map(SamplerKind::name);
-                        self.error(
-                            v.span(),
-                            format!(
-                                "unknown sampler '{}', expected one of {}",
-                                v.get_ref(),
-                                quoted_list(&names)
-                            ),
-                        )
-                    })?,
-                };
-                let cut_sampling = match &r.cut_sampling {
-                    None => d.cut_sampling,
-                    Some(v) => v.get_ref().parse::<CutSampling>().map_err(|_| {
-                        let names = CutSampling::ALL.map(CutSampling::name);
-                        self.error(
-                            v.span(),
-                            format!(
-                                "unknown cut_sampling '{}', expected one of {}",
-                                v.get_ref(),
-                                quoted_list(&names)
-                            ),
-                        )
-                    })?,
-                };
+                let sampler = self.opt_name(
+                    &r.sampler,
+                    "sampler",
+                    &SamplerKind::ALL.map(SamplerKind::name),
+                    d.sampler,
+                )?;
+                let cut_sampling = self.opt_name(
+                    &r.cut_sampling,
+                    "cut_sampling",
+                    &CutSampling::ALL.map(CutSampling::name),
+                    d.cut_sampling,
+                )?;
                 let block = self.u32(&r.block, "block", 1, d.block)?;
                 let interleave = self.u32(&r.interleave, "interleave", 1, d.interleave)?;
                 if block % interleave != 0 {

@@ -333,9 +333,7 @@ fn the_cut_estimator_is_unbiased() {
                             / live
                     })
                     .collect();
-                let mean = xs.iter().sum::<f64>() / m as f64;
-                let var = xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (m - 1) as f64;
-                let se = (var / m as f64).sqrt();
+                let (mean, se) = mean_se(&xs);
                 assert!(
                     (mean - 1.0).abs() <= 6.0 * se + 1e-9,
                     "{name} ({n} lights): E[Σ f/pmf]/Σf = {mean} ± {se}"

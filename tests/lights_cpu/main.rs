@@ -163,6 +163,14 @@ fn chunks(n: usize, k: usize) -> Vec<std::ops::Range<u32>> {
         .collect()
 }
 
+/// The mean of `xs` and its standard error (sample variance with n − 1).
+fn mean_se(xs: &[f64]) -> (f64, f64) {
+    let n = xs.len() as f64;
+    let mean = xs.iter().sum::<f64>() / n;
+    let var = xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0);
+    (mean, (var / n).sqrt())
+}
+
 /// `Σ_lights pmf`.
 fn pmf_sum(s: &dyn LightSampler, sh: &Shading, n: usize) -> f64 {
     (0..n as u32).map(|i| s.pmf(sh, i)).sum()

@@ -107,9 +107,7 @@ fn estimator_of_the_live_light_count() {
                         .map_or(0.0, |ls| 1.0 / (ls.pmf * live))
                 })
                 .collect();
-            let mean = xs.iter().sum::<f64>() / m as f64;
-            let var = xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (m - 1) as f64;
-            let se = (var / m as f64).sqrt();
+            let (mean, se) = mean_se(&xs);
             assert!(
                 (mean - 1.0).abs() <= 6.0 * se + 1e-9,
                 "{name}: E[1/(pmf·N+)] = {mean} ± {se}"

@@ -7,7 +7,6 @@
 //                                                 cut kinds: one pick from
 //                                                 the cut's mixture)
 //   light_pmf(p, n, cut_base, light) -> LightPmf  the pmf of a given light
-//   light_samples(cut_base) -> u32                light samples per evaluation
 //   light_sample_subtree(p, n, cut_base, j, u)    the light of subtree j of
 //                                                 the pixel's share of the cut
 //                                                 and its pmf in that subtree
@@ -529,15 +528,6 @@ fn light_per_subtree() -> bool {
     return light_uses_cut() && light_params.cut_mixture == 0u;
 }
 
-// Light samples (shadow rays) one evaluation draws: the length of the
-// pixel's share of the cut under the paper's estimator, else 1.
-fn light_samples(cut_base: u32) -> u32 {
-    if (light_per_subtree()) {
-        return light_cut_len(cut_base);
-    }
-    return 1u;
-}
-
 // The paper's estimator, real-time stochastic lightcuts §2.2 and §4: the
 // light drawn with u from subtree j (< light_cut_len) of the pixel's share of
 // the cut, by a descent from its cut node; pmf is the probability within that
@@ -551,6 +541,12 @@ fn light_sample_subtree(s_p: vec3<f32>, s_n: vec3<f32>, cut_base: u32, j: u32, u
     if (light_params.count == 0u || j >= light_cut_len(cut_base)) {
         return light_no_pick();
     }
+    return light_descend_subtree(s_p, s_n, cut_base, j, u);
+}
+
+// light_sample_subtree for a kind with cuts, lights and j < light_cut_len
+// (ml_direct's loop, which has checked them).
+fn light_descend_subtree(s_p: vec3<f32>, s_n: vec3<f32>, cut_base: u32, j: u32, u: f32) -> LightPick {
     return light_descend(light_cut_node(cut_base, j), s_p, s_n, u, light_pmf_from(1.0));
 }
 
