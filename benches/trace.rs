@@ -39,6 +39,7 @@ fn material(name: &str, albedo: Vec3, emission: Vec3) -> Material {
         albedo,
         emission,
         checker: None,
+        one_sided: false,
     }
 }
 

@@ -80,6 +80,7 @@ fn material(name: &str, albedo: Vec3) -> Material {
         albedo,
         emission: Vec3::ZERO,
         checker: None,
+        one_sided: false,
     }
 }
 
@@ -895,6 +896,7 @@ fn scene_bindings_read_back_in_wgsl() {
             albedo2: Vec3::new(0.9, 0.8, 0.7),
             scale: 0.25,
         }),
+        one_sided: true,
     });
     let lamp = scene.materials.len() as u32 - 1;
     scene.meshes.push(mesh(
@@ -986,6 +988,7 @@ fn scene_bindings_read_back_in_wgsl() {
     assert_eq!(&out[43..49], &[1.0, 2.0, 3.0, 5.0, 6.0, 7.0]);
     assert_eq!(out[49].to_bits(), 1);
     assert_eq!(&out[50..56], &[0.0, -1.0, 0.0, 0.5, 0.25, 0.125]);
+    assert_eq!(out[56].to_bits(), 1, "the lamp's one_sided flag");
     for (i, q) in queries.iter().enumerate() {
         let got = &out[64 + 10 * i..64 + 10 * i + 10];
         let want = built.triangle_world(q[0], f32::from_bits(q[1]));

@@ -1404,6 +1404,104 @@ fn hostile_inputs_fail_cleanly() {
             expect: vec!["positive".into()],
         },
     ];
+    // Mitsuba scene files (issue 51), with the same guarantees: the
+    // position is in the file at fault (for an include cycle, the file
+    // whose <include> closes it).
+    let mut cases = cases;
+    for (file, at_file, line, col, message) in [
+        (
+            "xml_unclosed.xml",
+            "xml_unclosed.xml",
+            10,
+            3,
+            "expected 'bsdf' tag",
+        ),
+        (
+            "xml_unknown_ref.xml",
+            "xml_unknown_ref.xml",
+            12,
+            31,
+            "no BSDF has id 'nope'",
+        ),
+        (
+            "xml_cycle_a.xml",
+            "xml_cycle_b.xml",
+            2,
+            22,
+            "an include cycle",
+        ),
+        (
+            "xml_huge_width.xml",
+            "xml_huge_width.xml",
+            6,
+            55,
+            "film width must be in 1..=16384",
+        ),
+        (
+            "xml_absurd_transform.xml",
+            "xml_absurd_transform.xml",
+            12,
+            3,
+            "beyond ±1e9",
+        ),
+        (
+            "xml_unknown_plugin.xml",
+            "xml_unknown_plugin.xml",
+            13,
+            17,
+            "unsupported BSDF 'roughconductor'",
+        ),
+        (
+            "xml_texture.xml",
+            "xml_texture.xml",
+            14,
+            7,
+            "textures are not supported",
+        ),
+        (
+            "xml_environment.xml",
+            "xml_environment.xml",
+            8,
+            18,
+            "no environment light",
+        ),
+        ("xml_entities.xml", "xml_entities.xml", 1, 1, "DTD"),
+        (
+            "xml_undefined_param.xml",
+            "xml_undefined_param.xml",
+            6,
+            55,
+            "'$res' names no parameter",
+        ),
+        (
+            "xml_nan.xml",
+            "xml_nan.xml",
+            13,
+            46,
+            "'nan' is not a finite number",
+        ),
+        (
+            "xml_unknown_property.xml",
+            "xml_unknown_property.xml",
+            13,
+            39,
+            "no property 'alpha'",
+        ),
+        (
+            "xml_bad_ply.xml",
+            "xml_bad_ply.xml",
+            13,
+            36,
+            "face 0 names vertex 7",
+        ),
+    ] {
+        cases.push(Hostile {
+            what: file,
+            args: render(&[&fx(file), "-o", &o]),
+            env: None,
+            expect: vec![at(at_file, line, col), message.into()],
+        });
+    }
     let before = snapshot(&out);
     let mut times = Vec::new();
     for case in &cases {

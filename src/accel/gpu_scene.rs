@@ -113,6 +113,7 @@ impl GpuScene {
                 albedo: m.albedo.into(),
                 checker_scale: m.checker.map_or(0.0, |c| c.scale),
                 emission: m.emission.into(),
+                one_sided: m.one_sided as u32,
                 albedo2: m.checker.map_or(m.albedo, |c| c.albedo2).into(),
                 ..Default::default()
             })

@@ -52,7 +52,8 @@ pub const VISIBILITY_BVH: u32 = 0;
 /// `SceneUniforms::visibility` of the voxel array.
 pub const VISIBILITY_VOXEL: u32 = 1;
 
-/// `Material` (binding 5): Lambertian albedo, optional checker, emission.
+/// `Material` (binding 5): Lambertian albedo, optional checker, emission,
+/// sidedness.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuMaterial {
@@ -60,7 +61,9 @@ pub struct GpuMaterial {
     /// Checker cell size in world units; 0 = no checker.
     pub checker_scale: f32,
     pub emission: [f32; 3],
-    pub _pad0: f32,
+    /// 1: the back side (opposite the geometric normal) reflects nothing
+    /// (Mitsuba's plain `diffuse`); 0: both sides reflect.
+    pub one_sided: u32,
     /// Second checker colour (equals `albedo` without a checker).
     pub albedo2: [f32; 3],
     pub _pad1: f32,

@@ -17,6 +17,7 @@
 pub mod motion;
 pub mod noise;
 pub mod obj;
+pub mod ply;
 pub mod shapes;
 
 use crate::film::Film;
@@ -52,12 +53,17 @@ pub struct Checker {
 
 /// Lambertian material with optional one-sided emission (emitted toward
 /// the side the geometric normal faces) and optional checker texture.
+/// Reflection is two-sided unless `one_sided`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Material {
     pub name: String,
     pub albedo: Vec3,
     pub emission: Vec3,
     pub checker: Option<Checker>,
+    /// The back side (opposite the geometric normal) reflects nothing, as
+    /// a Mitsuba `diffuse` BSDF not wrapped in `twosided`; false for every
+    /// material of a TOML scene.
+    pub one_sided: bool,
 }
 
 /// One rigid-motion keyframe: at scene time `time` the mesh is rotated by

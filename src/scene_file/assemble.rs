@@ -70,6 +70,7 @@ impl Ctx<'_> {
                         albedo: Vec3::ZERO,
                         emission: radiance,
                         checker: None,
+                        one_sided: false,
                     });
                 }
             }
@@ -241,6 +242,7 @@ impl Ctx<'_> {
                 None => Vec3::ZERO,
             },
             checker,
+            one_sided: false,
         })
     }
 }

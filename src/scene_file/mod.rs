@@ -49,6 +49,7 @@ mod ctx;
 mod integrand;
 mod lights;
 mod mdas;
+mod mitsuba;
 mod raw;
 mod shapes;
 #[cfg(test)]
@@ -185,7 +186,18 @@ pub fn load(path: &Path) -> Result<SceneFile, SceneError> {
                     .into(),
         }
     })?;
+    if path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("xml"))
+    {
+        return mitsuba::parse(&text, path);
+    }
     parse(&text, path)
+}
+
+/// Load a Mitsuba 3 scene (XML) from its text; `file_name` as in [`parse`].
+pub fn parse_mitsuba(text: &str, file_name: &Path) -> Result<SceneFile, SceneError> {
+    mitsuba::parse(text, file_name)
 }
 
 /// Load a scene from TOML text. `file_name` names the file in messages,

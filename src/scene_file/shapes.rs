@@ -23,6 +23,35 @@ pub(super) struct ShapeOutputs {
     pub(super) warnings: Vec<String>,
 }
 
+/// A vertex beyond ±[`MAX_COORDINATE`] (or not finite), as a sentence.
+pub(super) fn far_vertex(mesh: &TriMesh) -> Option<String> {
+    let limit = MAX_COORDINATE;
+    let p = mesh
+        .positions
+        .iter()
+        .find(|p| !p.is_finite() || p.abs().max_element() > limit)?;
+    Some(format!(
+        "a vertex lies at {p}, beyond ±{limit:e} (the largest coordinate a scene may use)"
+    ))
+}
+
+/// Why a `kind` mesh is unusable, as a sentence: no triangle with area, or
+/// a pile of coincident triangles ([`shapes::MAX_COINCIDENT_TRIANGLES`]).
+pub(super) fn degenerate(mesh: &TriMesh, kind: &str, transformed: bool) -> Option<String> {
+    if !mesh.has_area() {
+        let why = if transformed {
+            " (after transform)"
+        } else {
+            ""
+        };
+        return Some(format!(
+            "this {kind} is entirely degenerate: every triangle has zero area{why}"
+        ));
+    }
+    shapes::coincident_triangles((0..mesh.indices.len()).map(|t| mesh.triangle(t)))
+        .map(|pile| format!("this {kind} is degenerate: {pile}"))
+}
+
 /// Splits a merged mesh into its parts (first triangles in `parts`,
 /// ascending), each with only the vertices it uses, named `SHAPE/PART`.
 fn split_parts(
@@ -336,36 +365,15 @@ impl Ctx<'_> {
         if let Some(tr) = &r.transform {
             mesh.transform(&self.transform(tr.get_ref())?);
         }
-        let limit = super::MAX_COORDINATE;
-        if let Some(p) = mesh
-            .positions
-            .iter()
-            .find(|p| !p.is_finite() || p.abs().max_element() > limit)
-        {
+        if let Some(message) = far_vertex(&mesh) {
             let span = r
                 .transform
                 .as_ref()
                 .map_or(geometry_span.clone(), |t| t.span());
-            return Err(self.error(
-                span,
-                format!("a vertex lies at {p}, beyond ±{limit:e} (the largest coordinate a scene may use)"),
-            ));
+            return Err(self.error(span, message));
         }
-        if !mesh.has_area() {
-            let why = if r.transform.is_some() {
-                " (after transform)"
-            } else {
-                ""
-            };
-            return Err(self.error(
-                geometry_span,
-                format!("this {kind} is entirely degenerate: every triangle has zero area{why}"),
-            ));
-        }
-        if let Some(pile) =
-            shapes::coincident_triangles((0..mesh.indices.len()).map(|t| mesh.triangle(t)))
-        {
-            return Err(self.error(geometry_span, format!("this {kind} is degenerate: {pile}")));
+        if let Some(message) = degenerate(&mesh, kind, r.transform.is_some()) {
+            return Err(self.error(geometry_span, message));
         }
         let motion = match &r.motion {
             Some(m) => self.motion(m)?,
@@ -451,6 +459,7 @@ impl Ctx<'_> {
                         albedo,
                         emission,
                         checker: None,
+                        one_sided: false,
                     });
                     scene_material[m] = Some(i);
                     i

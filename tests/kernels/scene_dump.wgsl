@@ -20,6 +20,7 @@ fn dump(@builtin(workgroup_id) id: vec3<u32>) {
     let m = materials[arrayLength(&materials) - 1u];
     let mm = array<f32, 10>(m.albedo.x, m.albedo.y, m.albedo.z, m.checker_scale, m.emission.x, m.emission.y, m.emission.z, m.albedo2.x, m.albedo2.y, m.albedo2.z);
     for (var i = 0u; i < 10u; i++) { out[28u + i] = mm[i]; }
+    out[56] = bitcast<f32>(m.one_sided);
     let e = emitters[1];
     out[38] = bitcast<f32>(e.prim); out[39] = e.cdf; out[40] = e.pmf; out[41] = e.area;
     for (var l = 0u; l < 2u; l++) {

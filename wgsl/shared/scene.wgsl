@@ -31,7 +31,7 @@ struct SceneUniforms {
   light_count: u32, instance_count: u32, tlas_root: u32, triangle_count: u32,
   visibility: u32 /* VISIBILITY_* */, voxel_directions: u32, voxel_skip: u32, voxel_objects: u32,  // shared/voxel.wgsl
 }
-struct Material { albedo: vec3<f32>, checker_scale: f32 /* 0 = no checker */, emission: vec3<f32>, _pad0: f32, albedo2: vec3<f32>, _pad1: f32 }
+struct Material { albedo: vec3<f32>, checker_scale: f32 /* 0 = no checker */, emission: vec3<f32>, one_sided: u32 /* 1: the back reflects nothing */, albedo2: vec3<f32>, _pad1: f32 }
 struct Emitter { prim: u32, cdf: f32, pmf: f32, area: f32 }  // emissive triangles, selection pmf ∝ luminance(emission)·area; cdf inclusive, last = 1 exactly
 struct Light { kind: u32 /* 0 point, 1 directional */, _pad0: u32, _pad1: u32, _pad2: u32, position: vec3<f32> /* or direction light travels, normalized */, _pad3: f32, intensity: vec3<f32> /* or irradiance */, _pad4: f32 }
 struct Instance { node_root: u32, prim_offset: u32, key_offset: u32, key_count: u32 /* 0 = static, identity */ }
