@@ -1249,3 +1249,72 @@ fn tilted_vertex_normals_lose_the_lobe_behind_the_surface() {
         }
     }
 }
+
+// ------------------------------------------------------------ sidedness
+
+/// Issue 51: a Mitsuba `diffuse` BSDF is one-sided — black from behind —
+/// and `twosided` reflects on both sides. Two rectangles side by side at
+/// z = 0, seen head-on by a pinhole camera at z = 5 and lit head-on by a
+/// directional light of irradiance E travelling along −z, so every pixel
+/// inside a rectangle is exactly ρ/π·E (cos = 1, no shadow) or 0. With
+/// `facing_camera` the rectangles' front is seen and lit, else (flipped
+/// normals) their back.
+fn sidedness(facing_camera: bool) -> SceneFile {
+    let text = format!(
+        r#"<scene version="3.0.0">
+  <integrator type="direct"/>
+  <sensor type="perspective">
+    <float name="fov" value="60"/>
+    <transform name="to_world"><lookat origin="0, 0, 5" target="0, 0, 0" up="0, 1, 0"/></transform>
+    <film type="hdrfilm"><integer name="width" value="32"/><integer name="height" value="16"/><rfilter type="box"/></film>
+  </sensor>
+  <emitter type="directional"><vector name="direction" x="0" y="0" z="-1"/><rgb name="irradiance" value="2"/></emitter>
+  <shape type="rectangle">
+    <boolean name="flip_normals" value="{flip}"/>
+    <transform name="to_world"><scale value="1.4"/><translate x="-1.5"/></transform>
+    <bsdf type="diffuse"><rgb name="reflectance" value="0.6, 0.3, 0.9"/></bsdf>
+  </shape>
+  <shape type="rectangle">
+    <boolean name="flip_normals" value="{flip}"/>
+    <transform name="to_world"><scale value="1.4"/><translate x="1.5"/></transform>
+    <bsdf type="twosided"><bsdf type="diffuse"><rgb name="reflectance" value="0.6, 0.3, 0.9"/></bsdf></bsdf>
+  </shape>
+</scene>
+"#,
+        flip = !facing_camera
+    );
+    scene_file::parse_mitsuba(&text, Path::new("sidedness.xml")).unwrap()
+}
+
+#[test]
+fn a_one_sided_diffuse_surface_is_black_from_behind() {
+    let lit = |rho: f32| rho * 2.0 / std::f32::consts::PI;
+    let want = [lit(0.6), lit(0.3), lit(0.9)];
+    for facing_camera in [true, false] {
+        let scene = sidedness(facing_camera);
+        assert_eq!(scene.integrand, IntegrandSpec::DepthOfField);
+        let r = render(&scene, 4, 0);
+        // Pixel rows 6..10 and columns 5..10 (left) and 22..27 (right) lie
+        // inside the rectangles (x from ±0.1 to ±2.9 at a half-width of
+        // 5·tan 30°·2 = 5.77 world units over 32 pixels).
+        for j in 6..10 {
+            for (i, one_sided) in (5..10)
+                .map(|i| (i, true))
+                .chain((22..27).map(|i| (i, false)))
+            {
+                let got = r.image[(j * 32 + i) as usize];
+                let expect = if one_sided && !facing_camera {
+                    [0.0; 3]
+                } else {
+                    want
+                };
+                for c in 0..3 {
+                    assert!(
+                        (got[c] - expect[c]).abs() <= 1e-5,
+                        "pixel ({i}, {j}), facing camera {facing_camera}, one-sided {one_sided}: {got:?} vs {expect:?}"
+                    );
+                }
+            }
+        }
+    }
+}
