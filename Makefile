@@ -8,7 +8,7 @@ CARGO ?= cargo
 SCENE ?= scenes/cornell.toml
 SPP ?= 64
 
-.PHONY: run test lint vulkan build bench info clean mutants mutants-wgsl
+.PHONY: run test lint crosscheck vulkan build bench info clean mutants mutants-wgsl
 
 vulkan:
 	@./.ci/ensure-vulkan.sh
@@ -49,6 +49,15 @@ bench: vulkan
 lint:
 	$(CARGO) fmt --all -- --check
 	$(CARGO) clippy --all-targets -- -D warnings
+
+# The independent renderer (issue 51): renders tests/crosscheck/scenes/*.xml
+# with Mitsuba 3 (scalar_rgb, installed from the Python package registry
+# into target/mitsuba-venv on first use) and with mdas (the test-profile
+# binary `make test` built), and compares them statistically
+# (tests/crosscheck/crosscheck.py). CI runs it after `make lint`.
+crosscheck: vulkan
+	$(CARGO) build --profile test --bin mdas
+	MDAS=target/debug/mdas ./.ci/crosscheck.sh
 
 # Mutation testing of the CPU code (`.ci/cargo-mutants.sh`): cargo-mutants
 # on the samplers, trees, closed forms, metrics, comparison statistics and

@@ -4,7 +4,7 @@ use super::*;
 
 #[derive(clap::Args)]
 pub(crate) struct BenchArgs {
-    /// Scene files (TOML).
+    /// Scene files: TOML, or Mitsuba 3 XML (.xml; the subset in docs/scene-format.md).
     #[arg(required = true)]
     pub(crate) scenes: Vec<PathBuf>,
     /// Render at this fraction of each scene's film size.

@@ -5,7 +5,7 @@ use super::*;
 
 #[derive(clap::Args)]
 pub(crate) struct CompareArgs {
-    /// Scene file (TOML).
+    /// Scene file: TOML, or a Mitsuba 3 XML file (.xml; the subset in docs/scene-format.md).
     pub(crate) scene: PathBuf,
     /// MDAS samples per pixel (average, may be fractional; default: the
     /// scene's [mdas] spp). Its measured time is the equal-time target.

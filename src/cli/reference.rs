@@ -4,7 +4,7 @@ use super::*;
 
 #[derive(clap::Args)]
 pub(crate) struct ReferenceArgs {
-    /// Scene file (TOML).
+    /// Scene file: TOML, or a Mitsuba 3 XML file (.xml; the subset in docs/scene-format.md).
     pub(crate) scene: PathBuf,
     /// Samples per pixel of the reference (at least 1).
     #[arg(long, default_value_t = 65536, value_parser = clap::value_parser!(u32).range(1..))]

@@ -11,7 +11,7 @@ const MAX_HALTON_SPP: u32 = 1 << 24;
 
 #[derive(clap::Args)]
 pub(crate) struct RenderArgs {
-    /// Scene file (TOML; see docs/scene-format.md).
+    /// Scene file: TOML, or a Mitsuba 3 XML file (.xml); see docs/scene-format.md.
     pub(crate) scene: PathBuf,
     /// Sampling method.
     #[arg(long, value_enum, default_value = "halton")]

@@ -4,7 +4,7 @@ use super::*;
 
 #[derive(clap::Args)]
 pub(crate) struct SweepArgs {
-    /// Scene file (TOML).
+    /// Scene file: TOML, or a Mitsuba 3 XML file (.xml; the subset in docs/scene-format.md).
     pub(crate) scene: PathBuf,
     /// Budgets, samples per pixel, for both methods (MDAS budgets below
     /// its initial sample count are skipped).

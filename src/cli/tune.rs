@@ -4,7 +4,7 @@ use super::*;
 
 #[derive(clap::Args)]
 pub(crate) struct TuneArgs {
-    /// Scene file (TOML).
+    /// Scene file: TOML, or a Mitsuba 3 XML file (.xml; the subset in docs/scene-format.md).
     pub(crate) scene: PathBuf,
     /// MDAS's budget, samples per pixel (default: the scene's [mdas] spp).
     #[arg(long)]

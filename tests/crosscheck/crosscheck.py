@@ -58,18 +58,25 @@ over the K seeds.
    (sums of) chi²_{K-1}/(K-1) terms, with weights w_i ~ pixel variance /
    (B² + 0.01); with N_eff = (sum w)² / sum w² effective terms the ratio has
    a standard deviation of about sqrt((2 + 2/(K-1)) / N_eff) (Gaussian
-   pixels). These scenes have N_eff of several thousand over their
-   3 x 3072 terms (printed per scene), so sd ~ 0.03 and 1.5 is > 10 sd
-   away; the spread over repeated self-tests (seeds 0..7 split 8 ways) stayed
-   within 0.9–1.1. Heavier tails (path tracing) widen it, hence the
-   generous margin. A geometric error (a mirrored or shifted image, a
-   missing shadow) adds its squared difference at every pixel it touches
-   and fails even when the means agree; a scene whose N_eff is below 100
-   is flagged in the table.
+   pixels). These scenes have N_eff from ~300 (thinlens: the variance sits
+   on the blurred edges) to ~4000 of their 3 x 3072 terms (printed per
+   scene), sd 0.03-0.1. Measured on Mitsuba against itself (30 self-tests,
+   6 scenes x 5 disjoint seed sets, these spp): ratio 0.83-1.07, mean 0.98,
+   sd 0.05, so 1.5 is ~10 sd above the mean (>= 5 sd for thinlens) and
+   leaves room for heavier-tailed noise. A geometric error (a mirrored or
+   shifted image, a missing shadow) adds its squared difference at every
+   pixel it touches and fails even when the means agree (a 1 % wider fov:
+   ratio ~10; shading the smooth PLY sphere flat: ~1.8); a scene whose
+   N_eff is below 100 fails as too weak.
 
 --self-test: the mdas side is Mitsuba itself with seeds K..2K-1 (at mdas's
 sample counts): it must pass; the same images times 1.01 and mirrored left
-to right must fail. Exit 0 only if all three behave, on every scene.
+to right must fail, and so must Mitsuba renders of "mutants" of some scenes
+(MUTANTS: the kind of mistake a scene loader makes, e.g. max_depth off by
+one, a one-sided surface made two-sided, aperture radius read as a
+diameter). Exit 0 only if every variant behaves, on every scene.
+Checked on Mitsuba against itself, 72 channel tests: |d|/sigma had rms 1.03
+and max 2.35, the seed spread max 4.4 (limit 7.0).
 
 Mitsuba seeds: Mitsuba's scalar render seeds pixel streams with
 seed·W·H + block_id·32² + i, so consecutive seeds overlap when the 32x32
@@ -108,6 +115,22 @@ SCENES = {
     "ply_sphere": (64, "area-light direct lighting (perspective), disk light"),
     "path_cornell": (320, "path, max_depth 4 (2 indirect bounces), area light"),
     "path_mixed": (448, "path, max_depth 3 (1 indirect bounce), area + point + directional"),
+}
+
+# Self-test mutants: scene -> (label, XML text, replacement). Mitsuba renders
+# the changed scene as the "mdas" side, which must fail. Each one changes the
+# image well beyond the checks' noise (the mean or the RelMSE ratio by >5x).
+MUTANTS = {
+    "area_direct": [("one-sided card made two-sided",
+                     '<bsdf type="diffuse">\n            <rgb name="reflectance" value="0.8, 0.8, 0.3"/>\n'
+                     '        </bsdf>',
+                     '<bsdf type="twosided"><bsdf type="diffuse">\n'
+                     '            <rgb name="reflectance" value="0.8, 0.8, 0.3"/>\n        </bsdf></bsdf>')],
+    "delta_lights": [("fov 1 % wider", '<float name="fov" value="40"/>', '<float name="fov" value="40.4"/>')],
+    "thinlens": [("aperture radius read as a diameter", '<default name="aperture" value="0.08"/>',
+                  '<default name="aperture" value="0.04"/>')],
+    "path_cornell": [("max_depth 3 instead of 4", '<default name="max_depth" value="4"/>',
+                      '<default name="max_depth" value="3"/>')],
 }
 
 CHANNELS = "RGB"
@@ -228,10 +251,22 @@ def load_mitsuba():
 
 
 class MitsubaScene:
-    def __init__(self, mi, path):
+    def __init__(self, mi, path, replace=None):
+        """The scene at path; replace = (old, new) edits its XML text first."""
         self.mi = mi
         try:
-            self.scene = mi.load_file(path)
+            if replace is None:
+                self.scene = mi.load_file(path)
+            else:
+                with open(path) as fh:
+                    text = fh.read()
+                if text.count(replace[0]) != 1:
+                    raise SetupError(f"mutant of {path}: text to replace not found once: {replace[0]!r}")
+                # Relative file names resolve against the scene's folder.
+                mi.file_resolver().prepend(os.path.dirname(os.path.abspath(path)))
+                self.scene = mi.load_string(text.replace(*replace))
+        except SetupError:
+            raise
         except Exception as e:  # a scene Mitsuba cannot load is a broken test
             raise SetupError(f"Mitsuba cannot load {path}: {e}") from e
         w, h = (int(v) for v in self.scene.sensors()[0].film().crop_size())
@@ -350,6 +385,9 @@ def write_image(mi, path, img):
 
 
 def print_result(label, res, out=sys.stdout):
+    if len(label) > 28:
+        print(label, file=out)
+        label = ""
     for ch in res["channels"]:
         ok = ch["pass_mean"] and ch["strong_enough"] and ch["pass_seed_spread"]
         print(f"{label:<28} {ch['channel']}  {ch['mean_mdas']:10.6f}  {ch['mean_mitsuba']:12.6f}  "
@@ -425,8 +463,13 @@ def run(mi, names, mdas, args):
             print(f"[{name}] Mitsuba as mdas, {K} x {spp_mdas} spp ...", file=sys.stderr, flush=True)
             t0 = time.time()
             a = np.stack([scene.render(k, spp_mdas) for k in range(K, 2 * K)])
-            entry["time_mitsuba_as_mdas_s"] = time.time() - t0
             variants = {"same": (a, True), "scaled_1.01": (a * 1.01, False), "mirrored": (a[:, :, ::-1], False)}
+            for label, old, new in MUTANTS.get(name, []):
+                print(f"[{name}] Mitsuba mutant ({label}) as mdas ...", file=sys.stderr, flush=True)
+                mutant = MitsubaScene(mi, path, (old, new))
+                variants["mutant: " + label] = (np.stack([mutant.render(k, spp_mdas) for k in range(K, 2 * K)]),
+                                                False)
+            entry["time_mitsuba_as_mdas_s"] = time.time() - t0
             entry["variants"] = {}
             for vname, (img, expect_pass) in variants.items():
                 res = compare(img, b)
@@ -470,6 +513,7 @@ def run(mi, names, mdas, args):
         if res is None:
             print(f"{label:<28} {verdict}")
             continue
+        print()
         print_result(label, res)
         print(f"{'':<28} => {verdict}")
     print()
