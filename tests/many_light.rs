@@ -1078,6 +1078,54 @@ mod lgh {
         ManyLight::new(gpu(), &scene.scene, gpu_scene, film, &spec).unwrap()
     }
 
+    /// Issue 51: the grid hierarchy rejects light from behind the
+    /// geometric surface, as every other sampler does (`cos_reflect`). A
+    /// 4 × 4 floor whose vertex normals lean to (0.8, 0.6, 0) and a point
+    /// light at (5, h, 0): at h = −1 every floor point sees it above its
+    /// shading hemisphere (n_s·ω > 0) but below its geometric one (ω·y <
+    /// 0), so the exact unshadowed sum (level 0 only, no shadow rays) is 0
+    /// everywhere; at h = +1 it lights the floor.
+    #[test]
+    fn lgh_ignores_light_from_behind_a_smooth_surface() {
+        let dir = std::env::temp_dir().join(format!("mdas-lgh-smooth-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let obj = dir.join("floor.obj");
+        std::fs::write(
+            &obj,
+            "v -2 0 -2\nv -2 0 2\nv 2 0 2\nv 2 0 -2\nvn 0.8 0.6 0\nf 1//1 2//1 3//1\nf 1//1 3//1 4//1\n",
+        )
+        .unwrap();
+        let params = LghParams {
+            level0: true,
+            shadow_samples: 0,
+            ..LghParams::default()
+        };
+        for h in [-1.0, 1.0] {
+            let text = format!(
+                "[film]\nwidth = 8\nheight = 8\n[camera]\nposition = [0, 5, -3]\nlook_at = [0, 0, 0]\nup = [0, 1, 0]\nfov_y = 30\n\
+                 [[material]]\nname = \"white\"\nalbedo = [1, 1, 1]\n\
+                 [[shape]]\ntype = \"mesh\"\nname = \"floor\"\nmaterial = \"white\"\nfile = \"{}\"\n\
+                 [[light]]\ntype = \"point\"\nposition = [5, {h}, 0]\nintensity = [10, 10, 10]\n\
+                 [integrand]\ntype = \"many_light\"\n",
+                obj.display()
+            );
+            let scene = mdas::scene_file::parse(&text, Path::new("smooth.toml")).unwrap();
+            let r = Halton::new(2, 1)
+                .render(gpu(), &integrand_lgh(&scene, params))
+                .unwrap();
+            let lit = r.image.iter().filter(|p| p[0] > 0.0).count();
+            if h < 0.0 {
+                assert_eq!(
+                    lit, 0,
+                    "light behind the geometric surface reached the floor"
+                );
+            } else {
+                assert!(lit > 32, "only {lit} of 64 pixels lit from above");
+            }
+        }
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
     /// Image means of K Halton renders (seeds `seed..seed + K`).
     fn means(integrand: &ManyLight, k: u32, spp: u32, seed: u32) -> Vec<[f64; 3]> {
         (0..k)

@@ -157,7 +157,7 @@ fn ml_lgh(s: Surface, u: vec4<f32>, u_tri: vec3<f32>, time: f32) -> vec3<f32> {
         tri = s.rho * INV_PI * f32(t) * ml_light(s, light_prims[id], u_tri.yz, time);
     }
     let origin = offset_origin(s.x, s.n);
-    lgh_sum(origin, s.ns);
+    lgh_sum(origin, s.ns, s.n);
     if (!(lgh_total > 0.0)) {
         return tri;
     }
@@ -165,7 +165,7 @@ fn ml_lgh(s: Surface, u: vec4<f32>, u_tri: vec3<f32>, time: f32) -> vec3<f32> {
     if (count == 0u) {
         return tri + s.rho * INV_PI * lgh_u;
     }
-    lgh_pick(origin, s.ns, u.x);
+    lgh_pick(origin, s.ns, s.n, u.x);
     var sum = vec3<f32>(0.0);
     for (var k = 0u; k < count; k++) {
         let j = fract(u.yzw + f32(k) * LGH_JITTER_STEP);

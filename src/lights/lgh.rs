@@ -198,8 +198,17 @@ impl Emitter {
     }
 
     /// `I(ω)·cosθ_x / (max(d², clamp²) + soft²)` at `x` with unit normal
-    /// `n` (no blending weight): the WGSL `lgh_emitter_eval`.
+    /// `n` (no blending weight), on a flat surface: [`Emitter::eval_shaded`]
+    /// with the geometric normal `n` too.
     pub fn eval(&self, x: Vec3, n: Vec3) -> Vec3 {
+        self.eval_shaded(x, n, n)
+    }
+
+    /// `I(ω)·cosθ_x / (max(d², clamp²) + soft²)` at `x` with unit shading
+    /// normal `n`, and 0 for light from behind the unit geometric normal
+    /// `ng` (as every other sampler's `cos_reflect`: light cannot pass
+    /// through the surface): the WGSL `lgh_emitter_eval`.
+    pub fn eval_shaded(&self, x: Vec3, n: Vec3, ng: Vec3) -> Vec3 {
         let to = self.pos - x;
         let d2 = to.dot(to);
         if !positive(d2) {
@@ -207,7 +216,7 @@ impl Emitter {
         }
         let wi = to / d2.sqrt();
         let cos_x = n.dot(wi);
-        if cos_x <= 0.0 {
+        if cos_x <= 0.0 || ng.dot(wi) <= 0.0 {
             return Vec3::ZERO;
         }
         let lobe = self.iso + (-self.n.dot(wi)).max(0.0);
@@ -584,7 +593,8 @@ impl Lgh {
 
     /// The candidates with `‖f‖ > 0` of shading point `x` (unit normal
     /// `n`) in visiting order (module docs); `prims` are the lights built
-    /// from (level 0), `clamp2` the VPL clamp².
+    /// from (level 0), `clamp2` the VPL clamp². On a flat surface: see
+    /// [`Lgh::candidates_shaded`].
     pub fn candidates(
         &self,
         prims: &[LightPrim],
@@ -592,6 +602,20 @@ impl Lgh {
         clamp2: f32,
         x: Vec3,
         n: Vec3,
+    ) -> Vec<Candidate> {
+        self.candidates_shaded(prims, params, clamp2, x, n, n)
+    }
+
+    /// [`Lgh::candidates`] at a point with unit shading normal `n` and
+    /// unit geometric normal `ng` ([`Emitter::eval_shaded`]).
+    pub fn candidates_shaded(
+        &self,
+        prims: &[LightPrim],
+        params: &LghParams,
+        clamp2: f32,
+        x: Vec3,
+        n: Vec3,
+        ng: Vec3,
     ) -> Vec<Candidate> {
         let g = &self.grid;
         let first = if params.level0 { 0 } else { 1 };
@@ -603,7 +627,7 @@ impl Lgh {
             if !positive(b) {
                 return;
             }
-            let f = b * e.eval(x, n);
+            let f = b * e.eval_shaded(x, n, ng);
             let lum = luminance(f);
             if lum > 0.0 {
                 out.push(Candidate {

@@ -19,9 +19,10 @@ struct LghEmitter {
     qw: vec3<f32>,
 }
 
-// I(ω)·cosθ_x / (max(d², clamp²) + soft²) at x with unit normal n
-// (Emitter::eval).
-fn lgh_emitter_eval(em: LghEmitter, x: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+// I(ω)·cosθ_x / (max(d², clamp²) + soft²) at x with unit shading normal
+// n, and 0 for light from behind the unit geometric normal ng, as every
+// other sampler's `cos_reflect` (Emitter::eval_shaded).
+fn lgh_emitter_eval(em: LghEmitter, x: vec3<f32>, n: vec3<f32>, ng: vec3<f32>) -> vec3<f32> {
     let to = em.pos - x;
     let d2 = dot(to, to);
     if (!(d2 > 0.0)) {
@@ -29,7 +30,7 @@ fn lgh_emitter_eval(em: LghEmitter, x: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
     }
     let wi = to / sqrt(d2);
     let cos_x = dot(n, wi);
-    if (cos_x <= 0.0) {
+    if (cos_x <= 0.0 || dot(ng, wi) <= 0.0) {
         return vec3<f32>(0.0);
     }
     let lobe = em.iso + max(-dot(em.n, wi), 0.0);
@@ -95,12 +96,12 @@ var<private> lgh_last_pos: vec3<f32>;
 var<private> lgh_last_sigma: vec3<f32>;
 var<private> lgh_last_chroma: vec3<f32>;
 
-fn lgh_visit(first: u32, level: u32, em: LghEmitter, x: vec3<f32>, n: vec3<f32>, picking: bool) {
+fn lgh_visit(first: u32, level: u32, em: LghEmitter, x: vec3<f32>, n: vec3<f32>, ng: vec3<f32>, picking: bool) {
     let b = lgh_blend(first, level, length(em.pos - x));
     if (!(b > 0.0)) {
         return;
     }
-    let f = b * lgh_emitter_eval(em, x, n);
+    let f = b * lgh_emitter_eval(em, x, n, ng);
     let lum = luminance(f);
     if (!(lum > 0.0)) {
         return;
@@ -131,7 +132,7 @@ fn lgh_visit(first: u32, level: u32, em: LghEmitter, x: vec3<f32>, n: vec3<f32>,
 }
 
 // Visits every candidate of x (unit normal n) in the oracle's order.
-fn lgh_walk(x: vec3<f32>, n: vec3<f32>, picking: bool) {
+fn lgh_walk(x: vec3<f32>, n: vec3<f32>, ng: vec3<f32>, picking: bool) {
     let levels = light_params.lgh_levels;
     let lo = light_params.lgh_lo;
     let alpha = light_params.lgh_alpha;
@@ -157,7 +158,7 @@ fn lgh_walk(x: vec3<f32>, n: vec3<f32>, picking: bool) {
                             return;
                         }
                         let id = light_index[light_params.lgh_sorted_offset + s];
-                        lgh_visit(first, 0u, lgh_light_emitter(light_prims[id], clamp2), x, n, picking);
+                        lgh_visit(first, 0u, lgh_light_emitter(light_prims[id], clamp2), x, n, ng, picking);
                     }
                 }
             }
@@ -198,7 +199,7 @@ fn lgh_walk(x: vec3<f32>, n: vec3<f32>, picking: bool) {
                     }
                     let slot = light_index[offset + xi + r * (y + r * z)];
                     if (slot != LGH_EMPTY) {
-                        lgh_visit(first, level, lgh_grid_emitter(lgh_lights[slot], v, clamp2), x, n, picking);
+                        lgh_visit(first, level, lgh_grid_emitter(lgh_lights[slot], v, clamp2), x, n, ng, picking);
                     }
                 }
             }
@@ -207,22 +208,22 @@ fn lgh_walk(x: vec3<f32>, n: vec3<f32>, picking: bool) {
 }
 
 // Sums U and F at x: lgh_u, lgh_total.
-fn lgh_sum(x: vec3<f32>, n: vec3<f32>) {
+fn lgh_sum(x: vec3<f32>, n: vec3<f32>, ng: vec3<f32>) {
     lgh_u = vec3<f32>(0.0);
     lgh_total = 0.0;
-    lgh_walk(x, n, false);
+    lgh_walk(x, n, ng, false);
 }
 
 // Picks the S shadow samples for stratification offset xi after lgh_sum
 // (pick): lgh_pick_* [0, S).
-fn lgh_pick(x: vec3<f32>, n: vec3<f32>, xi: f32) {
+fn lgh_pick(x: vec3<f32>, n: vec3<f32>, ng: vec3<f32>, xi: f32) {
     let s = light_params.lgh_shadows;
     for (var k = 0u; k < s; k++) {
         lgh_targets[k] = lgh_total * ((f32(k) + xi) / f32(s));
     }
     lgh_cum = 0.0;
     lgh_picked = 0u;
-    lgh_walk(x, n, true);
+    lgh_walk(x, n, ng, true);
     for (var k = lgh_picked; k < s; k++) {
         lgh_pick_pos[k] = lgh_last_pos;
         lgh_pick_sigma[k] = lgh_last_sigma;

@@ -67,6 +67,17 @@ fn emitter_eval_known_answers() {
     };
     let point = at(1.0, Vec3::ZERO, 0.0, 0.0);
     assert_eq!(point.eval(Vec3::ZERO, Vec3::Z), e / 4.0);
+    // Issue 51: a smooth-shaded receiver whose shading normal faces the
+    // light but whose geometric surface hides it gets nothing, as with
+    // every other sampler (cos_reflect); the shading cosine weights the
+    // rest.
+    let ns = Vec3::new(0.6, 0.0, 0.8);
+    assert!(close(point.eval_shaded(Vec3::ZERO, ns, Vec3::Z), e * 0.2));
+    assert_eq!(point.eval_shaded(Vec3::ZERO, ns, -Vec3::Z), Vec3::ZERO);
+    assert_eq!(
+        point.eval_shaded(Vec3::ZERO, Vec3::Z, Vec3::new(0.0, 1.0, -1e-3).normalize()),
+        Vec3::ZERO
+    );
     // A receiver tilted to cos θ_x = 0.8; one facing away sees nothing.
     let tilted = Vec3::new(0.6, 0.0, 0.8);
     assert!(close(point.eval(Vec3::ZERO, tilted), e * 0.2));
