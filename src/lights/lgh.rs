@@ -55,8 +55,11 @@
 //!
 //! A grid light emits `I(ω) = e·(iso/W + max(0, (N/W)·ω))`: exact for one
 //! point light or one VPL, and for VPLs sharing a normal. Its
-//! contribution at shading point x with normal n is
-//! `f = B_ℓ(d)·I(ω)·cosθ_x / (max(d², clamp²) + (c·R)²)` (`clamp` = the
+//! contribution at shading point x with shading normal n is
+//! `f = B_ℓ(d)·I(ω)·cosθ_x / (max(d², clamp²) + (c·R)²)`, and 0 for ω
+//! behind the geometric surface (as every sampler's `cos_reflect`; until
+//! issue 51 the grid hierarchy alone counted such light on smooth-shaded
+//! meshes) (`clamp` = the
 //! VPL clamp; `c·R` the paper's clamp, `c` = `lgh_clamp`, 0.01 by default
 //! as in its demo, R the radius of the lights' bounding cube); the
 //! original lights of `S_0` use the integrand's own light model. The blending functions (the paper's
