@@ -59,7 +59,7 @@ pub struct ObjFile {
 /// prints nothing: the process's panic hook is wrapped once to stay
 /// silent for panics raised inside `f` on this thread, and prints every
 /// other panic as before.
-fn without_panics<T>(f: impl FnOnce() -> T) -> Result<T, String> {
+pub(crate) fn without_panics<T>(f: impl FnOnce() -> T) -> Result<T, String> {
     use std::cell::Cell;
     thread_local! {
         static QUIET: Cell<bool> = const { Cell::new(false) };

@@ -22,7 +22,12 @@ pub const MAX_PLY_BYTES: u64 = 1 << 30;
 pub fn load_ply(path: &Path) -> Result<TriMesh, String> {
     let bytes = super::read_input(path, MAX_PLY_BYTES)
         .map_err(|e| format!("cannot read mesh file '{}': {e}", path.display()))?;
-    parse_ply(&bytes).map_err(|e| format!("mesh file '{}': {e}", path.display()))
+    // The parser is a dependency: a panic in it is an error, not a crash
+    // (issue 54 item 2).
+    super::obj::without_panics(|| parse_ply(&bytes))
+        .map_err(|panic| format!("the PLY parser failed ({panic})"))
+        .and_then(|r| r)
+        .map_err(|e| format!("mesh file '{}': {e}", path.display()))
 }
 
 /// One vertex as read: the properties this reader uses.

@@ -214,18 +214,25 @@ impl Builder {
         let flip = p.boolean(d, "flip_normals")?.unwrap_or(false);
         let mut file_mesh = |p: &mut Props<'a, 'i>,
                              load: fn(&Path) -> std::result::Result<TriMesh, String>|
-         -> Result<TriMesh> {
+         -> Result<(TriMesh, bool)> {
             let (name, n) = p
                 .string(d, "filename")?
                 .ok_or_else(|| d.node_error(node, format!("{what} needs 'filename'")))?;
             let path = d.file.parent().unwrap_or(Path::new("")).join(&name);
             self.inputs.push(path.clone());
             let mut mesh = load(&path).map_err(|e| d.attr_error(n, "value", e))?;
-            if p.boolean(d, "face_normals")?.unwrap_or(false) {
+            // As Mitsuba: a file's vertex normals shade unless
+            // `face_normals`; a file without them gets smooth ones (made
+            // after the transform, as Mitsuba does: the angles change
+            // under an uneven scale).
+            let face_normals = p.boolean(d, "face_normals")?.unwrap_or(false);
+            if face_normals {
                 mesh.normals.clear();
             }
-            Ok(mesh)
+            let smooth = !face_normals && mesh.normals.is_empty();
+            Ok((mesh, smooth))
         };
+        let mut smooth = false;
         // Mitsuba's meshes keep their winding under a mirroring to_world,
         // its analytic shapes (rectangle, disk, sphere) turn their normal
         // with the inverse transpose, as TriMesh::transform does.
@@ -252,8 +259,12 @@ impl Builder {
                 let m = sphere(f32v(center), radius as f32);
                 (m, false, &["to_world", "flip_normals", "center", "radius"])
             }
-            "obj" => (file_mesh(&mut p, obj::load_obj)?, true, &["to_world", "flip_normals", "filename", "face_normals"]),
-            "ply" => (file_mesh(&mut p, ply::load_ply)?, true, &["to_world", "flip_normals", "filename", "face_normals"]),
+            "obj" | "ply" => {
+                let load = if kind == "obj" { obj::load_obj } else { ply::load_ply };
+                let (m, s) = file_mesh(&mut p, load)?;
+                smooth = s;
+                (m, true, &["to_world", "flip_normals", "filename", "face_normals"])
+            }
             other => {
                 return Err(d.attr_error(
                     node,
@@ -280,6 +291,9 @@ impl Builder {
                 *n = -*n;
             }
         }
+        if smooth {
+            mesh.normals = mesh.angle_weighted_normals();
+        }
         if let Some(message) =
             far_vertex(&mesh).or_else(|| degenerate(&mesh, &what, to_world.is_some()))
         {
@@ -289,7 +303,16 @@ impl Builder {
         let name = d
             .attr(node, "id")?
             .unwrap_or_else(|| format!("{kind}@{line}:{column}"));
-        let bsdf = bsdf_used.unwrap_or(DEFAULT_BSDF);
+        // Mitsuba gives a shape without a BSDF a diffuse 0.5 one, but an
+        // emitter without one reflects nothing (checked by rendering).
+        let bsdf = match (bsdf_used, radiance) {
+            (Some(b), _) => b,
+            (None, Some(_)) => Bsdf {
+                albedo: Vec3::ZERO,
+                one_sided: true,
+            },
+            (None, None) => DEFAULT_BSDF,
+        };
         let material = self.material(bsdf, radiance.unwrap_or(Vec3::ZERO), name.clone());
         let TriMesh {
             positions,

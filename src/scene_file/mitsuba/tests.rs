@@ -326,3 +326,48 @@ fn anything_outside_the_subset_is_an_error_at_its_position() {
         error(&scene("").replace("<integrator type=\"direct\"/>", "")).contains("no <integrator>")
     );
 }
+
+#[test]
+fn emitters_without_a_bsdf_reflect_nothing_and_meshes_without_normals_are_smooth() {
+    let s = load(&scene(
+        r#"<shape type="rectangle"><emitter type="area"/></shape><shape type="cube"/>"#,
+    ));
+    let m = &s.scene.materials;
+    // Mitsuba (3.9.1, by rendering): an emitter without a BSDF is black,
+    // a plain shape without one a diffuse 0.5.
+    assert_eq!(m[s.scene.meshes[0].material as usize].albedo, Vec3::ZERO);
+    assert_eq!(m[s.scene.meshes[0].material as usize].emission, Vec3::ONE);
+    assert_eq!(
+        m[s.scene.meshes[1].material as usize].albedo,
+        Vec3::splat(0.5)
+    );
+
+    // A regular octahedron without normals: by symmetry each vertex's
+    // angle-weighted normal is radial; with face_normals there are none.
+    let dir = std::env::temp_dir().join(format!("mdas-mitsuba-ply-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let v = "1 0 0\n-1 0 0\n0 1 0\n0 -1 0\n0 0 1\n0 0 -1\n";
+    let f = "3 0 2 4\n3 2 1 4\n3 1 3 4\n3 3 0 4\n3 2 0 5\n3 1 2 5\n3 3 1 5\n3 0 3 5\n";
+    std::fs::write(
+        dir.join("octahedron.ply"),
+        format!(
+            "ply\nformat ascii 1.0\nelement vertex 6\nproperty float x\nproperty float y\nproperty float z\n\
+             element face 8\nproperty list uchar int vertex_indices\nend_header\n{v}{f}"
+        ),
+    )
+    .unwrap();
+    let shapes = r#"<shape type="ply"><string name="filename" value="octahedron.ply"/>
+          <transform name="to_world"><translate x="3"/></transform></shape>
+        <shape type="ply"><string name="filename" value="octahedron.ply"/>
+          <boolean name="face_normals" value="true"/></shape>"#;
+    let path = dir.join("octahedron.xml");
+    std::fs::write(&path, scene(shapes)).unwrap();
+    let s = super::super::load(&path).unwrap();
+    let smooth = &s.scene.meshes[0];
+    assert_eq!(smooth.normals.len(), 6);
+    for (p, n) in smooth.positions.iter().zip(&smooth.normals) {
+        assert!(close(*n, *p - Vec3::new(3.0, 0.0, 0.0)), "{p}: {n}");
+    }
+    assert!(s.scene.meshes[1].normals.is_empty());
+    std::fs::remove_dir_all(&dir).ok();
+}
