@@ -61,7 +61,7 @@ pub struct GpuMaterial {
     /// Checker cell size in world units; 0 = no checker.
     pub checker_scale: f32,
     pub emission: [f32; 3],
-    /// 1: the back side (opposite the geometric normal) reflects nothing
+    /// 1: the back side (behind the shading normal) reflects nothing
     /// (Mitsuba's plain `diffuse`); 0: both sides reflect.
     pub one_sided: u32,
     /// Second checker colour (equals `albedo` without a checker).

@@ -60,9 +60,10 @@ pub struct Material {
     pub albedo: Vec3,
     pub emission: Vec3,
     pub checker: Option<Checker>,
-    /// The back side (opposite the geometric normal) reflects nothing, as
-    /// a Mitsuba `diffuse` BSDF not wrapped in `twosided`; false for every
-    /// material of a TOML scene.
+    /// The back side reflects nothing, as a Mitsuba `diffuse` BSDF not
+    /// wrapped in `twosided`: seen from behind its shading normal (the
+    /// geometric one without vertex normals), as in Mitsuba's shading
+    /// frame. False for every material of a TOML scene.
     pub one_sided: bool,
 }
 

@@ -5,8 +5,8 @@
 // area-light (emissive triangle) estimate. Lambertian materials: outgoing
 // radiance ρ/π · irradiance; emission one-sided (toward the geometric
 // normal), reflection two-sided unless the material is one-sided (then
-// its back reflects nothing, as Mitsuba's plain `diffuse`) (DESIGN.md
-// "Materials", "Lights").
+// its back — behind the shading normal — reflects nothing, as Mitsuba's
+// plain `diffuse`) (DESIGN.md "Materials", "Lights").
 // Reflection takes its cosine from the shading normal (an OBJ's vertex
 // normals; the geometric normal elsewhere) and only light from the side the
 // geometric normal faces (`cos_reflect`); emission sides, ray offsets and
@@ -86,8 +86,11 @@ fn surface_at(hit: Hit, dir: vec3<f32>, time: f32) -> Surface {
     let front = dot(ng, dir) < 0.0;
     let side = select(-1.0, 1.0, front);
     let ns = triangle_shading_normal(hit.prim, hit.bary, time, ng);
-    // A one-sided material (Mitsuba's plain `diffuse`) is black from behind.
-    let rho = select(vec3<f32>(0.0), albedo_at(m, x), front || m.one_sided == 0u);
+    // A one-sided material (Mitsuba's plain `diffuse`) is black from
+    // behind, where — as in Mitsuba's shading frame — the shading normal
+    // decides which side the ray sees (the geometric normal without
+    // vertex normals).
+    let rho = select(vec3<f32>(0.0), albedo_at(m, x), dot(ns, dir) < 0.0 || m.one_sided == 0u);
     return Surface(x, side * ng, side * ns, rho, select(vec3<f32>(0.0), m.emission, front));
 }
 
