@@ -145,7 +145,7 @@ impl VoxelParams {
         }
         if self.resolution < WORD_BITS
             || self.resolution > MAX_RESOLUTION
-            || self.resolution % WORD_BITS != 0
+            || !self.resolution.is_multiple_of(WORD_BITS)
         {
             bail!(
                 "voxel_resolution must be a multiple of 32 in 32..={MAX_RESOLUTION}, found {}",

@@ -148,7 +148,7 @@ impl<'g> Profiler<'g> {
     /// The query slots of a new timestamp pair for phase `name`.
     fn next_pair(&mut self, name: &str) -> (&wgpu::QuerySet, u32) {
         let pair = self.pairs.len() as u32;
-        if pair % PAIRS_PER_SET == 0 {
+        if pair.is_multiple_of(PAIRS_PER_SET) {
             self.sets
                 .push(self.gpu.device.create_query_set(&wgpu::QuerySetDescriptor {
                     label: Some("mdas.profiler.timestamps"),

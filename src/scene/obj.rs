@@ -395,7 +395,7 @@ fn append_model(mesh: &mut TriMesh, model: &tobj::Model, normals: bool) -> Resul
             model.name
         )
     };
-    if m.positions.len() % 3 != 0 || m.indices.len() % 3 != 0 {
+    if !m.positions.len().is_multiple_of(3) || !m.indices.len().is_multiple_of(3) {
         return Err(malformed());
     }
     let mut positions = Vec::with_capacity(m.positions.len() / 3);
@@ -431,7 +431,7 @@ fn append_model(mesh: &mut TriMesh, model: &tobj::Model, normals: bool) -> Resul
         }
         return Ok(());
     }
-    if m.normals.len() % 3 != 0 || m.normal_indices.len() != m.indices.len() {
+    if !m.normals.len().is_multiple_of(3) || m.normal_indices.len() != m.indices.len() {
         return Err(format!("object '{}' has malformed normal data", model.name));
     }
     let vn: Vec<Vec3> = m

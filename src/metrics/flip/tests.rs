@@ -61,7 +61,7 @@ fn gradient_noisy(x: u32, y: u32, c: u32) -> u8 {
 fn checker(x: u32, y: u32, c: u32) -> u8 {
     const A: [u8; 3] = [200, 60, 30];
     const B: [u8; 3] = [20, 90, 220];
-    if ((x / 4) + (y / 4)) % 2 == 0 {
+    if ((x / 4) + (y / 4)).is_multiple_of(2) {
         A[c as usize]
     } else {
         B[c as usize]

@@ -101,7 +101,7 @@ impl Builder {
         }
         let shutter_open = p.float(d, "shutter_open")?.map_or(0.0, |v| v.0);
         let shutter_close = p.float(d, "shutter_close")?.map_or(1.0, |v| v.0);
-        if !(shutter_close > shutter_open) || shutter_open.abs().max(shutter_close.abs()) > 1e6 {
+        if shutter_close <= shutter_open || shutter_open.abs().max(shutter_close.abs()) > 1e6 {
             return Err(d.node_error(
                 node,
                 format!("the shutter ({shutter_open}, {shutter_close}) must open before it closes, within ±10^6"),
