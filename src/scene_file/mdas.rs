@@ -112,3 +112,54 @@ impl Ctx<'_> {
         }
     }
 }
+
+/// A Mitsuba scene's `[mdas]` table: `X.mdas.toml` beside `X.xml`, a TOML
+/// file holding only an `[mdas]` table (docs/scene-format.md). Keys it
+/// leaves out take the defaults of a TOML scene's table, except `spp`,
+/// which defaults to `spp` (the file's `<sampler>` `sample_count`, when it
+/// has one). `None` when there is no such file.
+pub(super) fn sidecar(
+    scene: &Path,
+    film: Film,
+    spp: Option<f32>,
+) -> Result<Option<(MdasParams, PathBuf)>> {
+    #[derive(serde::Deserialize)]
+    #[serde(deny_unknown_fields)]
+    struct Sidecar {
+        mdas: Option<S<RawMdas>>,
+    }
+    let path = scene.with_extension("mdas.toml");
+    if !path.exists() {
+        return Ok(None);
+    }
+    let bytes =
+        crate::scene::read_input(&path, MAX_SCENE_BYTES).map_err(|error| SceneError::Io {
+            path: path.clone(),
+            error,
+        })?;
+    let text = String::from_utf8(bytes).map_err(|_| SceneError::Invalid {
+        file: path.clone(),
+        line: 1,
+        column: 1,
+        message: "not UTF-8 text".into(),
+    })?;
+    let ctx = Ctx {
+        text: &text,
+        file: &path,
+    };
+    let raw: Sidecar = toml::from_str(&text).map_err(|e| ctx.toml_error(&e))?;
+    let Some(table) = raw.mdas else {
+        return Err(ctx.error(
+            0..0,
+            "this file beside a Mitsuba scene holds no [mdas] table",
+        ));
+    };
+    let mut params = ctx.mdas(&table, film)?;
+    let has_spp = table.get_ref().keys().any(|k| k.get_ref() == "spp");
+    if let (false, Some(spp)) = (has_spp, spp) {
+        params.spp = spp;
+        params = params.resolved(film);
+        crate::integrator::mdas::validate(&params).map_err(|e| ctx.error(0..0, e.to_string()))?;
+    }
+    Ok(Some((params, path)))
+}

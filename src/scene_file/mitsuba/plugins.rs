@@ -399,11 +399,24 @@ impl Builder {
                 }
             }
         };
-        let mut mdas = MdasParams::for_film(sensor.film);
-        if let Some(spp) = sensor.spp {
-            mdas.spp = spp as f32;
-            mdas = mdas.resolved(sensor.film);
-        }
+        let spp = sensor.spp.map(|s| s as f32);
+        let mut inputs = self.inputs;
+        let mdas = match crate::scene_file::mdas::sidecar(file, sensor.film, spp)? {
+            Some((params, path)) => {
+                inputs.push(path);
+                params
+            }
+            None => {
+                let mut mdas = MdasParams::for_film(sensor.film);
+                if let Some(spp) = spp {
+                    mdas.spp = spp;
+                    mdas = mdas.resolved(sensor.film);
+                    crate::integrator::mdas::validate(&mdas)
+                        .map_err(|e| invalid(&sensor.at, format!("sample_count: {e}")))?;
+                }
+                mdas
+            }
+        };
         Ok(SceneFile {
             scene: Scene {
                 film: sensor.film,
@@ -418,7 +431,7 @@ impl Builder {
             visibility: Visibility::Bvh,
             voxel: VoxelParams::default(),
             mdas,
-            inputs: self.inputs,
+            inputs,
             warnings: self.warnings,
         })
     }

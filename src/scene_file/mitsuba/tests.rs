@@ -371,3 +371,30 @@ fn emitters_without_a_bsdf_reflect_nothing_and_meshes_without_normals_are_smooth
     assert!(s.scene.meshes[1].normals.is_empty());
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn an_mdas_table_beside_the_file_sets_mdas_parameters() {
+    let dir = std::env::temp_dir().join(format!("mdas-mitsuba-side-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("scene.xml");
+    std::fs::write(&path, scene("")).unwrap();
+    let side = dir.join("scene.mdas.toml");
+    std::fs::write(&side, "[mdas]\nalpha = 3\n").unwrap();
+    let s = super::super::load(&path).unwrap();
+    assert_eq!(s.mdas.alpha, 3.0);
+    assert_eq!(
+        s.mdas.spp, 12.0,
+        "spp defaults to the sampler's sample_count"
+    );
+    assert_eq!(s.inputs, vec![side.clone()]);
+    std::fs::write(&side, "[mdas]\nspp = 5\nalpha = 3\n").unwrap();
+    assert_eq!(super::super::load(&path).unwrap().mdas.spp, 5.0);
+    std::fs::write(&side, "[mdas]\nalpha = 3\nbogus = 1\n").unwrap();
+    let e = super::super::load(&path).unwrap_err();
+    assert!(
+        e.to_string()
+            .contains("scene.mdas.toml:3:1: unknown field 'bogus'"),
+        "{e}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
