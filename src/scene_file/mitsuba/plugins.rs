@@ -197,6 +197,7 @@ impl Builder {
                     if radiance.is_some() {
                         return Err(d.node_error(child, "a shape takes one emitter"));
                     }
+                    no_nested(d, child)?;
                     let mut e = Props::read(d, child)?;
                     radiance = Some(emission(d, &mut e, "radiance")?);
                     e.finish(d, "emitter 'area'", &["radiance"])?;
@@ -458,6 +459,23 @@ fn sphere(center: Vec3, radius: f32) -> TriMesh {
     }
 }
 
+/// Refuses a nested object where a plugin takes none (a texture for an
+/// emitter's radiance, say): it would otherwise be ignored.
+pub(super) fn no_nested(d: &Doc, node: Node) -> Result<()> {
+    match plugin_children(d, node)?.first() {
+        None => Ok(()),
+        Some(c) if c.tag_name().name() == "texture" => Err(unsupported_texture(d, *c)),
+        Some(c) => Err(d.node_error(
+            *c,
+            format!(
+                "<{}> in a <{}> that takes no nested objects",
+                c.tag_name().name(),
+                node.tag_name().name()
+            ),
+        )),
+    }
+}
+
 /// The element children of a plugin that are not properties.
 pub(super) fn plugin_children<'a, 'i>(
     _d: &Doc<'a, 'i>,
@@ -482,12 +500,7 @@ fn bsdf<'a, 'i>(d: &Doc<'a, 'i>, node: Node<'a, 'i>) -> Result<Bsdf> {
     let kind = d.need_attr(node, "type")?;
     match kind.as_str() {
         "diffuse" => {
-            if let Some(t) = plugin_children(d, node)?.first() {
-                if t.tag_name().name() == "texture" {
-                    return Err(unsupported_texture(d, *t));
-                }
-                return Err(d.node_error(*t, "a diffuse BSDF takes no nested objects"));
-            }
+            no_nested(d, node)?;
             let mut p = Props::read(d, node)?;
             let albedo = match p.color(d, "reflectance")? {
                 None => DVec3::splat(0.5),
@@ -543,9 +556,7 @@ fn emission<'a, 'i>(d: &Doc<'a, 'i>, p: &mut Props<'a, 'i>, key: &str) -> Result
 fn emitter<'a, 'i>(d: &Doc<'a, 'i>, node: Node<'a, 'i>) -> Result<Light> {
     let kind = d.need_attr(node, "type")?;
     let mut p = Props::read(d, node)?;
-    if let Some(c) = plugin_children(d, node)?.first() {
-        return Err(d.node_error(*c, format!("<{}> in an emitter", c.tag_name().name())));
-    }
+    no_nested(d, node)?;
     let to_world = p.transform(d, "to_world")?.map(|t| t.0);
     let light = match kind.as_str() {
         "point" => {

@@ -2,7 +2,7 @@
 //! (+z forward, +y up, +x to the image's left) and field-of-view axes
 //! turned into mdas's camera (DESIGN.md "Camera").
 
-use super::plugins::{f32v, plugin_children, Builder, Sensor};
+use super::plugins::{f32v, no_nested, plugin_children, Builder, Sensor};
 use super::props::Props;
 use super::{Doc, Result};
 use crate::film::Film;
@@ -185,8 +185,13 @@ impl Builder {
             if child.tag_name().name() != "rfilter" {
                 return Err(d.node_error(child, "only an <rfilter> may be nested in a film"));
             }
+            no_nested(d, child)?;
             box_filter = d.need_attr(child, "type")? == "box";
-            Props::read(d, child)?.finish(d, "an rfilter", &[])?;
+            if box_filter {
+                Props::read(d, child)?.finish(d, "rfilter 'box'", &[])?;
+            }
+            // Another filter's properties are not read: the filter is
+            // replaced by the box (with the warning below).
         }
         if !box_filter {
             self.warnings.push(format!(
@@ -274,6 +279,7 @@ fn sampler<'a, 'i>(d: &Doc<'a, 'i>, node: Node<'a, 'i>) -> Result<Option<i64>> {
         "ldsampler",
     ];
     let kind = d.need_attr(node, "type")?;
+    no_nested(d, node)?;
     if !TYPES.contains(&kind.as_str()) {
         return Err(d.attr_error(node, "type", format!("unknown sampler '{kind}'")));
     }
