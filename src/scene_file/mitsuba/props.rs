@@ -335,17 +335,26 @@ impl<'a, 'i> Props<'a, 'i> {
         Some((item.1, item.2.clone()))
     }
 
-    fn wrong_type(
+    /// Property `name` as the `want` that `read` takes from its value
+    /// (`None` from `read`: a value of another type, an error).
+    fn typed<T>(
+        &mut self,
         doc: &Doc<'a, 'i>,
-        node: Node<'a, 'i>,
         name: &str,
-        v: &Value,
         want: &str,
-    ) -> crate::scene_file::SceneError {
-        doc.node_error(
-            node,
-            format!("property '{name}' is a {}, expected {want}", v.type_name()),
-        )
+        read: impl Fn(Value) -> Option<T>,
+    ) -> Result<Option<(T, Node<'a, 'i>)>> {
+        let Some((node, value)) = self.take(name) else {
+            return Ok(None);
+        };
+        let type_name = value.type_name();
+        match read(value) {
+            Some(v) => Ok(Some((v, node))),
+            None => Err(doc.node_error(
+                node,
+                format!("property '{name}' is a {type_name}, expected {want}"),
+            )),
+        }
     }
 
     /// A number (`<float>` or `<integer>`).
@@ -354,12 +363,11 @@ impl<'a, 'i> Props<'a, 'i> {
         doc: &Doc<'a, 'i>,
         name: &str,
     ) -> Result<Option<(f64, Node<'a, 'i>)>> {
-        match self.take(name) {
-            None => Ok(None),
-            Some((n, Value::Float(v))) => Ok(Some((v, n))),
-            Some((n, Value::Integer(v))) => Ok(Some((v as f64, n))),
-            Some((n, v)) => Err(Self::wrong_type(doc, n, name, &v, "a <float>")),
-        }
+        self.typed(doc, name, "a <float>", |v| match v {
+            Value::Float(x) => Some(x),
+            Value::Integer(i) => Some(i as f64),
+            _ => None,
+        })
     }
 
     pub(super) fn integer(
@@ -367,19 +375,18 @@ impl<'a, 'i> Props<'a, 'i> {
         doc: &Doc<'a, 'i>,
         name: &str,
     ) -> Result<Option<(i64, Node<'a, 'i>)>> {
-        match self.take(name) {
-            None => Ok(None),
-            Some((n, Value::Integer(v))) => Ok(Some((v, n))),
-            Some((n, v)) => Err(Self::wrong_type(doc, n, name, &v, "an <integer>")),
-        }
+        self.typed(doc, name, "an <integer>", |v| match v {
+            Value::Integer(i) => Some(i),
+            _ => None,
+        })
     }
 
     pub(super) fn boolean(&mut self, doc: &Doc<'a, 'i>, name: &str) -> Result<Option<bool>> {
-        match self.take(name) {
-            None => Ok(None),
-            Some((_, Value::Boolean(v))) => Ok(Some(v)),
-            Some((n, v)) => Err(Self::wrong_type(doc, n, name, &v, "a <boolean>")),
-        }
+        let b = self.typed(doc, name, "a <boolean>", |v| match v {
+            Value::Boolean(b) => Some(b),
+            _ => None,
+        })?;
+        Ok(b.map(|b| b.0))
     }
 
     pub(super) fn string(
@@ -387,11 +394,10 @@ impl<'a, 'i> Props<'a, 'i> {
         doc: &Doc<'a, 'i>,
         name: &str,
     ) -> Result<Option<(String, Node<'a, 'i>)>> {
-        match self.take(name) {
-            None => Ok(None),
-            Some((n, Value::Str(v))) => Ok(Some((v, n))),
-            Some((n, v)) => Err(Self::wrong_type(doc, n, name, &v, "a <string>")),
-        }
+        self.typed(doc, name, "a <string>", |v| match v {
+            Value::Str(s) => Some(s),
+            _ => None,
+        })
     }
 
     /// A colour: `<rgb>`, a constant `<spectrum>`, or a `<float>` (grey).
@@ -400,12 +406,11 @@ impl<'a, 'i> Props<'a, 'i> {
         doc: &Doc<'a, 'i>,
         name: &str,
     ) -> Result<Option<(DVec3, Node<'a, 'i>)>> {
-        match self.take(name) {
-            None => Ok(None),
-            Some((n, Value::Color(v))) => Ok(Some((v, n))),
-            Some((n, Value::Float(v))) => Ok(Some((DVec3::splat(v), n))),
-            Some((n, v)) => Err(Self::wrong_type(doc, n, name, &v, "an <rgb>")),
-        }
+        self.typed(doc, name, "an <rgb>", |v| match v {
+            Value::Color(c) => Some(c),
+            Value::Float(x) => Some(DVec3::splat(x)),
+            _ => None,
+        })
     }
 
     pub(super) fn vector(
@@ -413,11 +418,10 @@ impl<'a, 'i> Props<'a, 'i> {
         doc: &Doc<'a, 'i>,
         name: &str,
     ) -> Result<Option<(DVec3, Node<'a, 'i>)>> {
-        match self.take(name) {
-            None => Ok(None),
-            Some((n, Value::Vector(v))) => Ok(Some((v, n))),
-            Some((n, v)) => Err(Self::wrong_type(doc, n, name, &v, "a <point> or <vector>")),
-        }
+        self.typed(doc, name, "a <point> or <vector>", |v| match v {
+            Value::Vector(p) => Some(p),
+            _ => None,
+        })
     }
 
     pub(super) fn transform(
@@ -425,11 +429,10 @@ impl<'a, 'i> Props<'a, 'i> {
         doc: &Doc<'a, 'i>,
         name: &str,
     ) -> Result<Option<(DMat4, Node<'a, 'i>)>> {
-        match self.take(name) {
-            None => Ok(None),
-            Some((n, Value::Transform(v))) => Ok(Some((v, n))),
-            Some((n, v)) => Err(Self::wrong_type(doc, n, name, &v, "a <transform>")),
-        }
+        self.typed(doc, name, "a <transform>", |v| match v {
+            Value::Transform(m) => Some(m),
+            _ => None,
+        })
     }
 
     /// Refuses the properties nobody took: `what` names the plugin

@@ -125,30 +125,20 @@ impl Builder {
         } else {
             (0.0, 1.0)
         };
-        let supported: &[&str] = if thin_lens {
-            &[
-                "fov",
-                "fov_axis",
-                "to_world",
-                "near_clip",
-                "far_clip",
-                "shutter_open",
-                "shutter_close",
-                "aperture_radius",
-                "focus_distance",
-            ]
-        } else {
-            &[
-                "fov",
-                "fov_axis",
-                "to_world",
-                "near_clip",
-                "far_clip",
-                "shutter_open",
-                "shutter_close",
-            ]
-        };
-        p.finish(d, &what, supported)?;
+        const PERSPECTIVE: [&str; 7] = [
+            "fov",
+            "fov_axis",
+            "to_world",
+            "near_clip",
+            "far_clip",
+            "shutter_open",
+            "shutter_close",
+        ];
+        let mut supported = PERSPECTIVE.to_vec();
+        if thin_lens {
+            supported.extend(["aperture_radius", "focus_distance"]);
+        }
+        p.finish(d, &what, &supported)?;
         if position.abs().max_element() > MAX_COORDINATE as f64 {
             return Err(d.node_error(node, "the camera lies beyond ±10^9"));
         }
