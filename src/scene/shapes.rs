@@ -91,30 +91,6 @@ impl TriMesh {
         })
     }
 
-    /// Smooth vertex normals as Mitsuba computes them for a mesh file
-    /// without any: each face's unit normal added to its vertices weighted
-    /// by the face's angle there (Thürmer and Wüthrich 1998), normalized;
-    /// a vertex of degenerate faces only keeps a zero normal (the
-    /// geometric normal shades there).
-    pub fn angle_weighted_normals(&self) -> Vec<Vec3> {
-        let mut sum = vec![Vec3::ZERO; self.positions.len()];
-        for t in 0..self.indices.len() {
-            let Some(n) = self.face_normal(t).try_normalize() else {
-                continue;
-            };
-            let idx = self.indices[t];
-            let p = self.triangle(t);
-            for k in 0..3 {
-                let (a, b) = (p[(k + 1) % 3] - p[k], p[(k + 2) % 3] - p[k]);
-                let angle = a.angle_between(b);
-                if angle.is_finite() {
-                    sum[idx[k] as usize] += angle * n;
-                }
-            }
-        }
-        sum.into_iter().map(Vec3::normalize_or_zero).collect()
-    }
-
     /// Apply an affine map to every vertex. A mirroring map (negative
     /// determinant) would turn the normals inside out, so the winding is
     /// reversed to keep them on the same side of the surface.

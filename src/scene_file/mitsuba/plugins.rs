@@ -293,7 +293,7 @@ impl Builder {
             }
         }
         if smooth {
-            mesh.normals = mesh.angle_weighted_normals();
+            mesh.normals = angle_weighted_normals(&mesh);
         }
         if let Some(message) =
             far_vertex(&mesh).or_else(|| degenerate(&mesh, &what, to_world.is_some()))
@@ -457,6 +457,30 @@ fn sphere(center: Vec3, radius: f32) -> TriMesh {
         normals: unit.positions.iter().map(|p| p.normalize()).collect(),
         indices: unit.indices,
     }
+}
+
+/// Smooth vertex normals as Mitsuba computes them for a mesh file
+/// without any: each face's unit normal added to its vertices weighted
+/// by the face's angle there (Thürmer and Wüthrich 1998), normalized;
+/// a vertex of degenerate faces only keeps a zero normal (the
+/// geometric normal shades there).
+fn angle_weighted_normals(mesh: &TriMesh) -> Vec<Vec3> {
+    let mut sum = vec![Vec3::ZERO; mesh.positions.len()];
+    for t in 0..mesh.indices.len() {
+        let Some(n) = mesh.face_normal(t).try_normalize() else {
+            continue;
+        };
+        let idx = mesh.indices[t];
+        let p = mesh.triangle(t);
+        for k in 0..3 {
+            let (a, b) = (p[(k + 1) % 3] - p[k], p[(k + 2) % 3] - p[k]);
+            let angle = a.angle_between(b);
+            if angle.is_finite() {
+                sum[idx[k] as usize] += angle * n;
+            }
+        }
+    }
+    sum.into_iter().map(Vec3::normalize_or_zero).collect()
 }
 
 /// Refuses a nested object where a plugin takes none (a texture for an
