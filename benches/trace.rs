@@ -40,6 +40,7 @@ fn material(name: &str, albedo: Vec3, emission: Vec3) -> Material {
         emission,
         checker: None,
         one_sided: false,
+        uv_checker: None,
     }
 }
 
@@ -49,6 +50,7 @@ fn mesh(name: &str, m: TriMesh, material: u32) -> Mesh {
         positions: m.positions,
         indices: m.indices,
         normals: m.normals,
+        uvs: Vec::new(),
         material,
         motion: Vec::new(),
     }

@@ -81,6 +81,7 @@ fn material(name: &str, albedo: Vec3) -> Material {
         emission: Vec3::ZERO,
         checker: None,
         one_sided: false,
+        uv_checker: None,
     }
 }
 
@@ -90,6 +91,7 @@ fn mesh(name: &str, m: TriMesh, material: u32, motion: Vec<Keyframe>) -> Mesh {
         positions: m.positions,
         indices: m.indices,
         normals: m.normals,
+        uvs: Vec::new(),
         material,
         motion,
     }
@@ -603,7 +605,7 @@ fn struct_sizes_match_wgsl() {
     use mdas::accel::*;
     use std::mem::size_of;
     assert_eq!(size_of::<SceneUniforms>(), 128);
-    assert_eq!(size_of::<GpuMaterial>(), 48);
+    assert_eq!(size_of::<GpuMaterial>(), 80);
     assert_eq!(size_of::<GpuEmitter>(), 16);
     assert_eq!(size_of::<GpuLight>(), 48);
     assert_eq!(size_of::<GpuInstance>(), 16);
@@ -897,6 +899,7 @@ fn scene_bindings_read_back_in_wgsl() {
             scale: 0.25,
         }),
         one_sided: true,
+        uv_checker: None,
     });
     let lamp = scene.materials.len() as u32 - 1;
     scene.meshes.push(mesh(
@@ -1056,7 +1059,10 @@ fn shading_normals_read_back_in_wgsl() {
             assert_eq!(got, None, "mesh {m} triangle {t}");
         }
     }
-    assert_eq!(with_normals, built.normals.len() / 3);
+    assert_eq!(
+        with_normals,
+        built.normals.len() / mdas::accel::build::RECORD_ROWS
+    );
 
     #[repr(C)]
     #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]

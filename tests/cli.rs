@@ -1456,7 +1456,7 @@ fn hostile_inputs_fail_cleanly() {
             "xml_texture.xml",
             14,
             7,
-            "textures are not supported",
+            "unsupported texture 'bitmap'",
         ),
         (
             "xml_environment.xml",

@@ -1318,3 +1318,76 @@ fn a_one_sided_diffuse_surface_is_black_from_behind() {
         }
     }
 }
+
+/// Issue 51: Mitsuba's `checkerboard` texture in texture space. A 4 × 4
+/// rectangle at z = 0 seen head-on and lit head-on by a directional light
+/// of irradiance E (as `sidedness`), its reflectance a checkerboard with
+/// `to_uv` = scale (3, 2), then translate (0.1, 0.35): at world (x, y) the
+/// texture coordinates are ((x/2 + 1)/2, (y/2 + 1)/2), (u', v') = (3u +
+/// 0.1, 2v + 0.35), and the pixel is exactly ρ/π·E with ρ = color0 where
+/// frac(u') > ½ equals frac(v') > ½, else color1. Checked at every pixel
+/// whose footprint lies inside one cell (its four corners agree).
+#[test]
+fn a_uv_checkerboard_follows_mitsubas_texture_coordinates() {
+    let text = r#"<scene version="3.0.0">
+  <integrator type="direct"/>
+  <sensor type="perspective">
+    <float name="fov" value="40"/>
+    <transform name="to_world"><lookat origin="0, 0, 5" target="0, 0, 0" up="0, 1, 0"/></transform>
+    <film type="hdrfilm"><integer name="width" value="48"/><integer name="height" value="48"/><rfilter type="box"/></film>
+  </sensor>
+  <emitter type="directional"><vector name="direction" x="0" y="0" z="-1"/><rgb name="irradiance" value="3.14159265"/></emitter>
+  <shape type="rectangle">
+    <transform name="to_world"><scale value="2"/></transform>
+    <bsdf type="diffuse"><texture type="checkerboard" name="reflectance">
+      <rgb name="color0" value="0.8, 0.6, 0.4"/><rgb name="color1" value="0.1, 0.2, 0.3"/>
+      <transform name="to_uv"><scale x="3" y="2"/><translate x="0.1" y="0.35"/></transform>
+    </texture></bsdf>
+  </shape>
+</scene>
+"#;
+    let scene = scene_file::parse_mitsuba(text, Path::new("checker.xml")).unwrap();
+    let r = render(&scene, 4, 0);
+    let half = 5.0 * (20f64).to_radians().tan(); // world half-width at z = 0
+    let color0 = |x: f64, y: f64| {
+        let (u, v) = ((x / 2.0 + 1.0) / 2.0, (y / 2.0 + 1.0) / 2.0);
+        let (u, v) = (3.0 * u + 0.1, 2.0 * v + 0.35);
+        (u - u.floor() > 0.5) == (v - v.floor() > 0.5)
+    };
+    let world = |i: f64, j: f64| (half * (2.0 * i / 48.0 - 1.0), half * (1.0 - 2.0 * j / 48.0));
+    let (mut checked, mut seen) = (0, [false; 2]);
+    for j in 0..48 {
+        for i in 0..48 {
+            let corners = [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)]
+                .map(|(di, dj)| world(i as f64 + di, j as f64 + dj));
+            if corners
+                .iter()
+                .any(|(x, y)| x.abs() >= 2.0 || y.abs() >= 2.0)
+            {
+                continue;
+            }
+            let cells = corners.map(|(x, y)| color0(x, y));
+            if cells.iter().any(|c| *c != cells[0]) {
+                continue;
+            }
+            let rho = if cells[0] {
+                [0.8, 0.6, 0.4]
+            } else {
+                [0.1, 0.2, 0.3]
+            };
+            let got = r.image[j * 48 + i];
+            for c in 0..3 {
+                assert!(
+                    (got[c] as f64 - rho[c]).abs() <= 1e-5,
+                    "pixel ({i}, {j}): {got:?}, expected ρ = {rho:?}"
+                );
+            }
+            checked += 1;
+            seen[cells[0] as usize] = true;
+        }
+    }
+    assert!(
+        checked > 500 && seen == [true, true],
+        "{checked} pixels checked"
+    );
+}

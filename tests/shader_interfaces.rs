@@ -448,7 +448,7 @@ fn mirrors() -> BTreeMap<(&'static str, &'static str), Layout> {
             visibility, voxel_directions, voxel_skip, voxel_objects,
         })),
         ((scene, "Material"), host!(GpuMaterial {
-            albedo, checker_scale, emission, one_sided, albedo2, _pad1,
+            albedo, checker_scale, emission, one_sided, albedo2, checker_uv, to_uv0, to_uv1,
         })),
         ((scene, "Emitter"), host!(GpuEmitter { prim, cdf, pmf, area })),
         ((scene, "Light"), host!(GpuLight {

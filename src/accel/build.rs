@@ -39,15 +39,18 @@
 //! BLAS plus one (see bvh.wgsl); [`BuiltScene::stack_depth`] is that bound
 //! and [`BuiltScene::new`] fails if it exceeds [`super::BVH_STACK_SIZE`].
 //!
-//! **Shading normals.** A triangle of a mesh with shading normals
-//! ([`crate::scene::Mesh::normals`]) has a record of three rows in
-//! [`BuiltScene::normals`], its corners' normals in the space of its
-//! vertices; `v2.w` holds the record's index + 1 (0: none, the geometric
-//! normal shades). On the device the records follow the triangles in the
-//! same buffer (`triangle_shading_normal` in scene.wgsl).
+//! **Shading normals and texture coordinates.** A triangle of a mesh with
+//! shading normals ([`crate::scene::Mesh::normals`]) or texture
+//! coordinates ([`crate::scene::Mesh::uvs`]) has a record of
+//! [`RECORD_ROWS`] rows in [`BuiltScene::normals`]: its corners' normals
+//! in the space of its vertices with their u in `w`, then (v0, v1, v2, 0)
+//! (zero normals where the mesh has none: the geometric normal shades;
+//! zero uvs where it has no coordinates); `v2.w` holds the record's index
+//! + 1 (0: none). On the device the records follow the triangles in the
+//! same buffer (`triangle_shading_normal`, `triangle_uv` in scene.wgsl).
 
 use anyhow::{bail, Result};
-use glam::{Vec3, Vec3A};
+use glam::{Vec2, Vec3, Vec3A};
 use obvhs::{
     aabb::Aabb,
     cwbvh::{builder, node::CwBvhNode, CwBvh},
@@ -59,6 +62,10 @@ use std::time::{Duration, Instant};
 use super::layout::{GpuInstance, GpuKeyframe};
 use crate::scene::motion::{self, Rigid};
 use crate::scene::{Keyframe, Scene};
+
+/// Rows of a triangle's record of normals and texture coordinates (module
+/// docs; `RECORD_ROWS` in scene.wgsl).
+pub const RECORD_ROWS: usize = 4;
 
 /// obvhs build parameters for every BLAS and the TLAS (see module docs).
 pub const BUILD_PARAMS: BvhBuildParams = BvhBuildParams::fast_build();
@@ -72,8 +79,9 @@ pub struct BuiltScene {
     /// instance, v2.xyz | bitcast (shading-normal record + 1, or 0). World
     /// space for the static instance, object space for moving ones.
     pub triangles: Vec<[f32; 4]>,
-    /// Three rows per triangle with shading normals: n0.xyz | 0, n1, n2
-    /// (unit, in the space of the triangle's vertices).
+    /// [`RECORD_ROWS`] rows per triangle with shading normals or texture
+    /// coordinates: n0.xyz | u0, n1 | u1, n2 | u2 (unit or zero normals,
+    /// in the space of the triangle's vertices), then v0, v1, v2, 0.
     pub normals: Vec<[f32; 4]>,
     /// Per global triangle: (mesh index in the scene, triangle index in
     /// that mesh).
@@ -133,8 +141,9 @@ struct Group {
     /// Scene mesh of each triangle and its index there.
     source: Vec<[u32; 2]>,
     tris: Vec<Triangle>,
-    /// Corner shading normals of each triangle, if it has them.
-    normals: Vec<Option<[Vec3; 3]>>,
+    /// Corner shading normals and texture coordinates of each triangle,
+    /// if it has either.
+    normals: Vec<Option<([Vec3; 3], [Vec2; 3])>>,
     motion: Vec<Keyframe>,
 }
 
@@ -234,9 +243,12 @@ impl BuiltScene {
                 let Triangle { v0, v1, v2 } = group.tris[p as usize];
                 let material = scene.meshes[mesh as usize].material;
                 let record = match group.normals[p as usize] {
-                    Some(ns) => {
-                        out.normals.extend(ns.map(|n| [n.x, n.y, n.z, 0.0]));
-                        u32::try_from(out.normals.len() / 3)?
+                    Some((ns, uvs)) => {
+                        for k in 0..3 {
+                            out.normals.push([ns[k].x, ns[k].y, ns[k].z, uvs[k].x]);
+                        }
+                        out.normals.push([uvs[0].y, uvs[1].y, uvs[2].y, 0.0]);
+                        u32::try_from(out.normals.len() / RECORD_ROWS)?
                     }
                     None => 0,
                 };
@@ -307,8 +319,21 @@ impl BuiltScene {
     /// triangle `prim`, if it has them.
     pub fn triangle_normals(&self, prim: u32) -> Option<[Vec3; 3]> {
         let record = self.triangles[3 * prim as usize + 2][3].to_bits() as usize;
-        let rows = self.normals.get(3 * record.checked_sub(1)?..3 * record)?;
-        Some([0, 1, 2].map(|i| Vec3::new(rows[i][0], rows[i][1], rows[i][2])))
+        let rows = self
+            .normals
+            .get(RECORD_ROWS * record.checked_sub(1)?..RECORD_ROWS * record)?;
+        let ns = [0, 1, 2].map(|i| Vec3::new(rows[i][0], rows[i][1], rows[i][2]));
+        ns.iter().any(|n| *n != Vec3::ZERO).then_some(ns)
+    }
+
+    /// Texture coordinates of the corners of global triangle `prim`, if its
+    /// mesh has them.
+    pub fn triangle_uvs(&self, prim: u32) -> Option<[Vec2; 3]> {
+        let record = self.triangles[3 * prim as usize + 2][3].to_bits() as usize;
+        let rows = self
+            .normals
+            .get(RECORD_ROWS * record.checked_sub(1)?..RECORD_ROWS * record)?;
+        Some([0, 1, 2].map(|i| Vec2::new(rows[i][3], rows[3][i])))
     }
 
     /// Stored (world or object space) vertices of global triangle `prim`.
@@ -406,6 +431,20 @@ fn groups(scene: &Scene) -> Result<Vec<Group>> {
         if let Some(n) = mesh.normals.iter().find(|n| !n.is_finite()) {
             bail!("mesh '{}' has a non-finite shading normal {n}", mesh.name);
         }
+        if !mesh.uvs.is_empty() && mesh.uvs.len() != mesh.positions.len() {
+            bail!(
+                "mesh '{}' has {} texture coordinates for {} vertices",
+                mesh.name,
+                mesh.uvs.len(),
+                mesh.positions.len()
+            );
+        }
+        if let Some(uv) = mesh.uvs.iter().find(|uv| !uv.is_finite()) {
+            bail!(
+                "mesh '{}' has non-finite texture coordinates {uv}",
+                mesh.name
+            );
+        }
         let mut group = if mesh.motion.is_empty() {
             None
         } else {
@@ -434,7 +473,15 @@ fn groups(scene: &Scene) -> Result<Vec<Group>> {
                 v2: vertex(idx[2])?,
             });
             target.source.push([m as u32, t as u32]);
-            target.normals.push(shading_normals(&mesh.normals, *idx));
+            let ns = shading_normals(&mesh.normals, *idx);
+            let uvs = (!mesh.uvs.is_empty()).then(|| idx.map(|i| mesh.uvs[i as usize]));
+            target.normals.push(match (ns, uvs) {
+                (None, None) => None,
+                (ns, uvs) => Some((
+                    ns.unwrap_or([Vec3::ZERO; 3]),
+                    uvs.unwrap_or([Vec2::ZERO; 3]),
+                )),
+            });
         }
         if let Some(g) = group.filter(|g| !g.tris.is_empty()) {
             moving.push(g);

@@ -114,8 +114,21 @@ impl GpuScene {
                 checker_scale: m.checker.map_or(0.0, |c| c.scale),
                 emission: m.emission.into(),
                 one_sided: m.one_sided as u32,
-                albedo2: m.checker.map_or(m.albedo, |c| c.albedo2).into(),
-                ..Default::default()
+                albedo2: match (m.checker, m.uv_checker) {
+                    (Some(c), _) => c.albedo2,
+                    (None, Some(c)) => c.albedo2,
+                    (None, None) => m.albedo,
+                }
+                .into(),
+                checker_uv: m.uv_checker.is_some() as u32,
+                to_uv0: m.uv_checker.map_or([0.0; 4], |c| {
+                    let [a, b, t] = c.to_uv[0];
+                    [a, b, t, 0.0]
+                }),
+                to_uv1: m.uv_checker.map_or([0.0; 4], |c| {
+                    let [a, b, t] = c.to_uv[1];
+                    [a, b, t, 0.0]
+                }),
             })
             .collect();
         let lights: Vec<GpuLight> = scene.lights.iter().map(gpu_light).collect();
@@ -133,8 +146,8 @@ impl GpuScene {
         let geometry = [built.triangles.as_slice(), built.normals.as_slice()].concat();
         gpu.check_binding_size(
             &format!(
-                "mdas.scene.triangles ({n} triangles, 48 bytes each, {} with shading normals, 48 more each)",
-                built.normals.len() / 3
+                "mdas.scene.triangles ({n} triangles, 48 bytes each, {} with shading normals or texture coordinates, 64 more each)",
+                built.normals.len() / super::build::RECORD_ROWS
             ),
             std::mem::size_of_val(geometry.as_slice()) as u64,
         )?;

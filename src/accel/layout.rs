@@ -66,7 +66,12 @@ pub struct GpuMaterial {
     pub one_sided: u32,
     /// Second checker colour (equals `albedo` without a checker).
     pub albedo2: [f32; 3],
-    pub _pad1: f32,
+    /// 1: the checker is in texture space (`to_uv0`, `to_uv1`,
+    /// [`crate::scene::UvChecker`]) instead of the world-space one.
+    pub checker_uv: u32,
+    /// Rows of the UV checker's map (u', v') = M·(u, v, 1); `w` unused.
+    pub to_uv0: [f32; 4],
+    pub to_uv1: [f32; 4],
 }
 
 /// `Emitter` (binding 6): one emissive triangle of the light-selection
@@ -132,7 +137,7 @@ pub struct GpuKeyframe {
 
 const _: () = {
     assert!(std::mem::size_of::<SceneUniforms>() == 128);
-    assert!(std::mem::size_of::<GpuMaterial>() == 48);
+    assert!(std::mem::size_of::<GpuMaterial>() == 80);
     assert!(std::mem::size_of::<GpuEmitter>() == 16);
     assert!(std::mem::size_of::<GpuLight>() == 48);
     assert!(std::mem::size_of::<GpuInstance>() == 16);

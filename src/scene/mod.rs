@@ -21,7 +21,7 @@ pub mod ply;
 pub mod shapes;
 
 use crate::film::Film;
-use glam::{Quat, Vec3};
+use glam::{Quat, Vec2, Vec3};
 
 /// Pinhole or thin-lens camera (DESIGN.md "Camera").
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -51,6 +51,17 @@ pub struct Checker {
     pub scale: f32,
 }
 
+/// Mitsuba's `checkerboard` texture as a material's albedo: at texture
+/// coordinates (u, v) (the mesh's [`Mesh::uvs`]), (u', v') =
+/// `to_uv`·(u, v, 1), and the albedo is the material's where
+/// (frac(u') > ½) = (frac(v') > ½), `albedo2` elsewhere.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct UvChecker {
+    pub albedo2: Vec3,
+    /// Rows of the 2×3 affine map from (u, v, 1).
+    pub to_uv: [[f32; 3]; 2],
+}
+
 /// Lambertian material with optional one-sided emission (emitted toward
 /// the side the geometric normal faces) and optional checker texture.
 /// Reflection is two-sided unless `one_sided`.
@@ -60,6 +71,9 @@ pub struct Material {
     pub albedo: Vec3,
     pub emission: Vec3,
     pub checker: Option<Checker>,
+    /// A checkerboard in texture space (Mitsuba scenes), instead of
+    /// `checker`.
+    pub uv_checker: Option<UvChecker>,
     /// The back side reflects nothing, as a Mitsuba `diffuse` BSDF not
     /// wrapped in `twosided`: seen from behind its shading normal (the
     /// geometric one without vertex normals), as in Mitsuba's shading
@@ -90,6 +104,10 @@ pub struct Mesh {
     /// Shading normals, one per position, or empty (see
     /// [`shapes::TriMesh::normals`]).
     pub normals: Vec<Vec3>,
+    /// Texture coordinates, one per position, or empty: what a material's
+    /// UV checkerboard ([`UvChecker`]) reads (a Mitsuba scene's rectangles,
+    /// cubes and PLY files with `u v`).
+    pub uvs: Vec<Vec2>,
     pub material: u32,
     /// Keyframes sorted by time; empty = static.
     pub motion: Vec<Keyframe>,

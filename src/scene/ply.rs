@@ -9,7 +9,7 @@
 //! (v1 − v0) × (v2 − v0), as everywhere else (DESIGN.md "Materials").
 
 use super::shapes::TriMesh;
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use ply_rs_bw::parser::{Parser, Reader};
 use ply_rs_bw::ply::{ElementDef, Property, PropertyAccess, PropertyAccessResult, PropertyType};
 use std::path::Path;
@@ -17,9 +17,12 @@ use std::path::Path;
 /// The largest PLY file read (as [`super::obj::MAX_OBJ_BYTES`]).
 pub const MAX_PLY_BYTES: u64 = 1 << 30;
 
+/// A PLY mesh and its texture coordinates (one per position, or none).
+pub type PlyMesh = (TriMesh, Vec<Vec2>);
+
 /// Read a PLY file as one mesh. The error is a sentence naming the file,
 /// for the scene loader to place at the element that named it.
-pub fn load_ply(path: &Path) -> Result<TriMesh, String> {
+pub fn load_ply(path: &Path) -> Result<PlyMesh, String> {
     let bytes = super::read_input(path, MAX_PLY_BYTES)
         .map_err(|e| format!("cannot read mesh file '{}': {e}", path.display()))?;
     // The parser is a dependency: a panic in it is an error, not a crash
@@ -35,7 +38,16 @@ pub fn load_ply(path: &Path) -> Result<TriMesh, String> {
 struct Vertex {
     p: [f32; 3],
     n: [f32; 3],
+    uv: [f32; 2],
 }
+
+/// The names a PLY file may give its texture coordinates (Mitsuba's).
+const UV_NAMES: [[&str; 2]; 4] = [
+    ["u", "v"],
+    ["s", "t"],
+    ["texture_u", "texture_v"],
+    ["texture_s", "texture_t"],
+];
 
 fn scalar(p: &Property) -> Option<f64> {
     Some(match *p {
@@ -64,6 +76,8 @@ impl PropertyAccess for Vertex {
             "nx" => &mut self.n[0],
             "ny" => &mut self.n[1],
             "nz" => &mut self.n[2],
+            "u" | "s" | "texture_u" | "texture_s" => &mut self.uv[0],
+            "v" | "t" | "texture_v" | "texture_t" => &mut self.uv[1],
             _ => return PropertyAccessResult::Ignored,
         };
         match scalar(&property) {
@@ -118,7 +132,7 @@ fn has(def: &ElementDef, name: &str) -> bool {
 }
 
 /// Parse a PLY file's bytes.
-pub fn parse_ply(bytes: &[u8]) -> Result<TriMesh, String> {
+pub fn parse_ply(bytes: &[u8]) -> Result<PlyMesh, String> {
     let mut reader = Reader::new(std::io::Cursor::new(bytes));
     let header = Parser::<Skip>::new()
         .read_header(&mut reader)
@@ -138,6 +152,20 @@ pub fn parse_ply(bytes: &[u8]) -> Result<TriMesh, String> {
     if normal_count != 0 && normal_count != 3 {
         return Err("the PLY 'vertex' element has some of 'nx', 'ny', 'nz' but not all".into());
     }
+    let uv_pairs = UV_NAMES
+        .iter()
+        .filter(|[u, v]| has(vertex_def, u) || has(vertex_def, v))
+        .collect::<Vec<_>>();
+    let has_uv = match uv_pairs[..] {
+        [] => false,
+        [[u, v]] if has(vertex_def, u) && has(vertex_def, v) => true,
+        _ => {
+            return Err(
+                "the PLY 'vertex' element names its texture coordinates inconsistently (one pair of u v, s t, texture_u texture_v or texture_s texture_t)"
+                    .into(),
+            )
+        }
+    };
     let Some(face_def) = header.elements.get("face") else {
         return Err("the PLY file has no 'face' element (point clouds are not meshes)".into());
     };
@@ -233,11 +261,24 @@ pub fn parse_ply(bytes: &[u8]) -> Result<TriMesh, String> {
     } else {
         Vec::new()
     };
-    Ok(TriMesh {
-        positions,
-        indices,
-        normals,
-    })
+    let uvs = if has_uv {
+        vertices.iter().map(|v| Vec2::from(v.uv)).collect()
+    } else {
+        Vec::new()
+    };
+    if let Some((i, uv)) = uvs.iter().enumerate().find(|(_, uv)| !uv.is_finite()) {
+        return Err(format!(
+            "vertex {i} has texture coordinates {uv}: not finite"
+        ));
+    }
+    Ok((
+        TriMesh {
+            positions,
+            indices,
+            normals,
+        },
+        uvs,
+    ))
 }
 
 #[cfg(test)]
@@ -253,7 +294,8 @@ mod tests {
 
     #[test]
     fn an_ascii_quad_is_two_triangles_with_normalized_normals() {
-        let m = parse_ply(ASCII_QUAD.as_bytes()).unwrap();
+        let (m, uvs) = parse_ply(ASCII_QUAD.as_bytes()).unwrap();
+        assert_eq!(uvs, vec![Vec2::ZERO, Vec2::X, Vec2::ONE, Vec2::Y]);
         assert_eq!(m.positions.len(), 4);
         assert_eq!(m.indices, vec![[0, 1, 2], [0, 2, 3]]);
         assert_eq!(m.normals[0], Vec3::Z, "(0, 0, 2) is normalized");
@@ -309,7 +351,8 @@ mod tests {
     #[test]
     fn binary_files_of_both_byte_orders_read_the_same() {
         for big in [false, true] {
-            let m = parse_ply(&binary(big)).unwrap();
+            let (m, uvs) = parse_ply(&binary(big)).unwrap();
+            assert!(uvs.is_empty());
             assert_eq!(
                 m.positions,
                 vec![
@@ -345,6 +388,10 @@ mod tests {
             (
                 ASCII_QUAD.replace("vertex_indices", "colour_list"),
                 "vertex_indices",
+            ),
+            (
+                ASCII_QUAD.replace("property float v\n", "property float t\n"),
+                "inconsistently",
             ),
         ];
         for (text, want) in cases {

@@ -62,6 +62,7 @@ impl Ctx<'_> {
                         positions: mesh.positions,
                         indices: mesh.indices,
                         normals: Vec::new(),
+                        uvs: Vec::new(),
                         material: materials.len() as u32,
                         motion: Vec::new(),
                     });
@@ -71,6 +72,7 @@ impl Ctx<'_> {
                         emission: radiance,
                         checker: None,
                         one_sided: false,
+                        uv_checker: None,
                     });
                 }
             }
@@ -243,6 +245,7 @@ impl Ctx<'_> {
             },
             checker,
             one_sided: false,
+            uv_checker: None,
         })
     }
 }

@@ -76,6 +76,7 @@ fn split_parts(
             positions: mesh.positions[lo as usize..hi as usize].to_vec(),
             indices: tris.iter().map(|t| t.map(|i| i - lo)).collect(),
             normals,
+            uvs: Vec::new(),
             material: *material,
             motion: motion.to_vec(),
         });
@@ -392,6 +393,7 @@ impl Ctx<'_> {
             positions,
             indices,
             normals,
+            uvs: Vec::new(),
             material,
             motion,
         }])
@@ -460,6 +462,7 @@ impl Ctx<'_> {
                         emission,
                         checker: None,
                         one_sided: false,
+                        uv_checker: None,
                     });
                     scene_material[m] = Some(i);
                     i

@@ -117,6 +117,7 @@ SCENES = {
     "ply_sphere": (64, "area-light direct lighting (perspective), disk light"),
     "path_cornell": (320, "path, max_depth 4 (2 indirect bounces), area light"),
     "path_mixed": (448, "path, max_depth 3 (1 indirect bounce), area + point + directional"),
+    "checker": (256, "area-light direct lighting, checkerboard textures (rectangle, cube, PLY u v)"),
 }
 
 # Self-test mutants: scene -> (label, XML text, replacement). Mitsuba renders

@@ -31,7 +31,7 @@ struct SceneUniforms {
   light_count: u32, instance_count: u32, tlas_root: u32, triangle_count: u32,
   visibility: u32 /* VISIBILITY_* */, voxel_directions: u32, voxel_skip: u32, voxel_objects: u32,  // shared/voxel.wgsl
 }
-struct Material { albedo: vec3<f32>, checker_scale: f32 /* 0 = no checker */, emission: vec3<f32>, one_sided: u32 /* 1: the back reflects nothing */, albedo2: vec3<f32>, _pad1: f32 }
+struct Material { albedo: vec3<f32>, checker_scale: f32 /* 0 = no checker */, emission: vec3<f32>, one_sided: u32 /* 1: the back reflects nothing */, albedo2: vec3<f32>, checker_uv: u32 /* 1: to_uv0/1 map texture coordinates */, to_uv0: vec4<f32>, to_uv1: vec4<f32> }
 struct Emitter { prim: u32, cdf: f32, pmf: f32, area: f32 }  // emissive triangles, selection pmf ∝ luminance(emission)·area; cdf inclusive, last = 1 exactly
 struct Light { kind: u32 /* 0 point, 1 directional */, _pad0: u32, _pad1: u32, _pad2: u32, position: vec3<f32> /* or direction light travels, normalized */, _pad3: f32, intensity: vec3<f32> /* or irradiance */, _pad4: f32 }
 struct Instance { node_root: u32, prim_offset: u32, key_offset: u32, key_count: u32 /* 0 = static, identity */ }
@@ -192,12 +192,30 @@ fn triangle_world(prim: u32, time: f32) -> array<vec3<f32>, 3> {
 // (weights of v1 and v2), world space at scene time `time`: its corner
 // normals interpolated and normalized. `ng` (the unit geometric normal)
 // where the triangle has none or the interpolation vanishes.
+// Rows of a triangle's record of normals and texture coordinates
+// (src/accel/build.rs): n_k.xyz | u_k for the three corners, then
+// (v0, v1, v2, 0).
+const RECORD_ROWS: u32 = 4u;
+
+// Texture coordinates at barycentrics `bary` (of v1, v2) of `prim`; (0, 0)
+// where its mesh has none.
+fn triangle_uv(prim: u32, bary: vec2<f32>) -> vec2<f32> {
+  let record = bitcast<u32>(triangles[3u * prim + 2u].w);
+  if record == 0u {
+    return vec2<f32>(0.0);
+  }
+  let base = 3u * scene.triangle_count + RECORD_ROWS * (record - 1u);
+  let w = vec3<f32>(1.0 - bary.x - bary.y, bary.x, bary.y);
+  let u = vec3<f32>(triangles[base].w, triangles[base + 1u].w, triangles[base + 2u].w);
+  return vec2<f32>(dot(w, u), dot(w, triangles[base + 3u].xyz));
+}
+
 fn triangle_shading_normal(prim: u32, bary: vec2<f32>, time: f32, ng: vec3<f32>) -> vec3<f32> {
   let record = bitcast<u32>(triangles[3u * prim + 2u].w);
   if record == 0u {
     return ng;
   }
-  let base = 3u * (scene.triangle_count + record - 1u);
+  let base = 3u * scene.triangle_count + RECORD_ROWS * (record - 1u);
   var n = triangles[base].xyz * (1.0 - bary.x - bary.y) + triangles[base + 1u].xyz * bary.x
     + triangles[base + 2u].xyz * bary.y;
   let inst = triangle_instance(prim);

@@ -66,7 +66,16 @@ struct Surface {
     emitted: vec3<f32>,  // L_e toward the ray: the emission if the front side is seen, else 0
 }
 
-fn albedo_at(m: Material, x: vec3<f32>) -> vec3<f32> {
+// The albedo at x (a hit of triangle `prim` at barycentrics `bary`): the
+// world-space checker, or Mitsuba's checkerboard in texture space (the
+// material's albedo where frac(u') > 1/2 equals frac(v') > 1/2).
+fn albedo_at(m: Material, x: vec3<f32>, prim: u32, bary: vec2<f32>) -> vec3<f32> {
+    if (m.checker_uv != 0u) {
+        let uv = vec3<f32>(triangle_uv(prim, bary), 1.0);
+        let t = vec2<f32>(dot(m.to_uv0.xyz, uv), dot(m.to_uv1.xyz, uv));
+        let f = t - floor(t);
+        return select(m.albedo2, m.albedo, (f.x > 0.5) == (f.y > 0.5));
+    }
     if (m.checker_scale > 0.0) {
         let c = floor(x / m.checker_scale);
         let parity = i32(c.x + c.y + c.z) & 1;
@@ -90,7 +99,7 @@ fn surface_at(hit: Hit, dir: vec3<f32>, time: f32) -> Surface {
     // behind, where — as in Mitsuba's shading frame — the shading normal
     // decides which side the ray sees (the geometric normal without
     // vertex normals).
-    let rho = select(vec3<f32>(0.0), albedo_at(m, x), dot(ns, dir) < 0.0 || m.one_sided == 0u);
+    let rho = select(vec3<f32>(0.0), albedo_at(m, x, hit.prim, hit.bary), dot(ns, dir) < 0.0 || m.one_sided == 0u);
     return Surface(x, side * ng, side * ns, rho, select(vec3<f32>(0.0), m.emission, front));
 }
 

@@ -10,10 +10,10 @@ use crate::integrand::spec::ManyLightSpec;
 use crate::integrand::IntegrandSpec;
 use crate::integrator::mdas::MdasParams;
 use crate::scene::shapes::{self, TriMesh};
-use crate::scene::{obj, ply, Camera, Light, Material, Mesh, Scene};
+use crate::scene::{obj, ply, Camera, Light, Material, Mesh, Scene, UvChecker};
 use crate::scene_file::shapes::{degenerate, far_vertex};
 use crate::scene_file::{SceneError, SceneFile, MAX_COORDINATE, MAX_EMISSION};
-use glam::{Affine3A, DVec3, Vec3};
+use glam::{Affine3A, DMat4, DVec3, Vec2, Vec3};
 use roxmltree::Node;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -28,14 +28,17 @@ pub const DISK_SEGMENTS: u32 = 256;
 /// A BSDF of the subset: Lambertian, one- or two-sided.
 #[derive(Clone, Copy, Debug)]
 struct Bsdf {
+    /// The reflectance (a checkerboard's `color0`).
     albedo: Vec3,
     one_sided: bool,
+    uv_checker: Option<UvChecker>,
 }
 
 /// Mitsuba's BSDF of a shape without one: `diffuse`, reflectance 0.5.
 const DEFAULT_BSDF: Bsdf = Bsdf {
     albedo: Vec3::splat(0.5),
     one_sided: true,
+    uv_checker: None,
 };
 
 /// The sensor as read, with where it was (for later errors).
@@ -139,7 +142,10 @@ impl Builder {
 
     fn material(&mut self, bsdf: Bsdf, emission: Vec3, name: String) -> u32 {
         if let Some(i) = self.materials.iter().position(|m| {
-            m.albedo == bsdf.albedo && m.one_sided == bsdf.one_sided && m.emission == emission
+            m.albedo == bsdf.albedo
+                && m.one_sided == bsdf.one_sided
+                && m.uv_checker == bsdf.uv_checker
+                && m.emission == emission
         }) {
             return i as u32;
         }
@@ -149,6 +155,7 @@ impl Builder {
             emission,
             checker: None,
             one_sided: bsdf.one_sided,
+            uv_checker: bsdf.uv_checker,
         });
         self.materials.len() as u32 - 1
     }
@@ -214,14 +221,14 @@ impl Builder {
         let to_world = p.transform(d, "to_world")?.map(|t| t.0);
         let flip = p.boolean(d, "flip_normals")?.unwrap_or(false);
         let mut file_mesh = |p: &mut Props<'a, 'i>,
-                             load: fn(&Path) -> std::result::Result<TriMesh, String>|
-         -> Result<(TriMesh, bool)> {
+                             load: fn(&Path) -> std::result::Result<ply::PlyMesh, String>|
+         -> Result<(TriMesh, Vec<Vec2>, bool)> {
             let (name, n) = p
                 .string(d, "filename")?
                 .ok_or_else(|| d.node_error(node, format!("{what} needs 'filename'")))?;
             let path = d.file.parent().unwrap_or(Path::new("")).join(&name);
             self.inputs.push(path.clone());
-            let mut mesh = load(&path).map_err(|e| d.attr_error(n, "value", e))?;
+            let (mut mesh, uvs) = load(&path).map_err(|e| d.attr_error(n, "value", e))?;
             // As Mitsuba: a file's vertex normals shade unless
             // `face_normals`; a file without them gets smooth ones (made
             // after the transform, as Mitsuba does: the angles change
@@ -231,24 +238,30 @@ impl Builder {
                 mesh.normals.clear();
             }
             let smooth = !face_normals && mesh.normals.is_empty();
-            Ok((mesh, smooth))
+            Ok((mesh, uvs, smooth))
         };
         let mut smooth = false;
+        let mut uvs = Vec::new();
         // Mitsuba's meshes keep their winding under a mirroring to_world,
         // its analytic shapes (rectangle, disk, sphere) turn their normal
         // with the inverse transpose, as TriMesh::transform does.
         let (mut mesh, mesh_like, supported): (TriMesh, bool, &[&str]) = match kind.as_str() {
-            "rectangle" => (
-                shapes::quad([
-                    Vec3::new(-1.0, -1.0, 0.0),
-                    Vec3::new(1.0, -1.0, 0.0),
-                    Vec3::new(1.0, 1.0, 0.0),
-                    Vec3::new(-1.0, 1.0, 0.0),
-                ]),
-                false,
-                &["to_world", "flip_normals"],
-            ),
-            "cube" => (shapes::cuboid(Vec3::splat(-1.0), Vec3::ONE), true, &["to_world", "flip_normals"]),
+            "rectangle" => {
+                // Mitsuba's texture coordinates: ((x + 1)/2, (y + 1)/2).
+                uvs = vec![Vec2::ZERO, Vec2::X, Vec2::ONE, Vec2::Y];
+                let corners = uvs.iter().map(|uv| (2.0 * *uv - Vec2::ONE).extend(0.0));
+                let corners: Vec<Vec3> = corners.collect();
+                (
+                    shapes::quad([corners[0], corners[1], corners[2], corners[3]]),
+                    false,
+                    &["to_world", "flip_normals"],
+                )
+            }
+            "cube" => {
+                let (m, cube_uvs) = cube();
+                uvs = cube_uvs;
+                (m, true, &["to_world", "flip_normals"])
+            }
             "disk" => (shapes::disk(Vec3::ZERO, Vec3::Z, 1.0, DISK_SEGMENTS), false, &["to_world", "flip_normals"]),
             "sphere" => {
                 let center = p.vector(d, "center")?.map_or(DVec3::ZERO, |c| c.0);
@@ -261,9 +274,16 @@ impl Builder {
                 (m, false, &["to_world", "flip_normals", "center", "radius"])
             }
             "obj" | "ply" => {
-                let load = if kind == "obj" { obj::load_obj } else { ply::load_ply };
-                let (m, s) = file_mesh(&mut p, load)?;
+                // OBJ texture coordinates are not read (a checkerboard on
+                // an OBJ is refused below).
+                let load: fn(&Path) -> std::result::Result<ply::PlyMesh, String> = if kind == "obj" {
+                    |path| obj::load_obj(path).map(|m| (m, Vec::new()))
+                } else {
+                    ply::load_ply
+                };
+                let (m, file_uvs, s) = file_mesh(&mut p, load)?;
                 smooth = s;
+                uvs = file_uvs;
                 (m, true, &["to_world", "flip_normals", "filename", "face_normals"])
             }
             other => {
@@ -311,10 +331,17 @@ impl Builder {
             (None, Some(_)) => Bsdf {
                 albedo: Vec3::ZERO,
                 one_sided: true,
+                uv_checker: None,
             },
             (None, None) => DEFAULT_BSDF,
         };
         let material = self.material(bsdf, radiance.unwrap_or(Vec3::ZERO), name.clone());
+        if bsdf.uv_checker.is_some() && uvs.is_empty() {
+            return Err(d.node_error(
+                node,
+                format!("a checkerboard texture needs texture coordinates, and this {kind} has none in mdas (rectangles, cubes and PLY files with u v have them; spheres, disks and OBJ files do not)"),
+            ));
+        }
         let TriMesh {
             positions,
             indices,
@@ -325,6 +352,7 @@ impl Builder {
             positions,
             indices,
             normals,
+            uvs,
             material,
             motion: Vec::new(),
         });
@@ -500,6 +528,43 @@ pub(super) fn no_nested(d: &Doc, node: Node) -> Result<()> {
     }
 }
 
+/// Mitsuba's `cube`: [−1, 1]³ as six faces of four vertices each, every
+/// face's corners in Mitsuba's order with texture coordinates (0, 1),
+/// (1, 1), (1, 0), (0, 0), and triangles (0, 1, 2), (3, 0, 2) per face
+/// (read off Mitsuba 3.9.1's cube: `mi.traverse` of its mesh).
+fn cube() -> (TriMesh, Vec<Vec2>) {
+    const FACES: [[[f32; 3]; 4]; 6] = [
+        [
+            [1., -1., -1.],
+            [1., -1., 1.],
+            [-1., -1., 1.],
+            [-1., -1., -1.],
+        ],
+        [[1., 1., -1.], [-1., 1., -1.], [-1., 1., 1.], [1., 1., 1.]],
+        [[1., -1., -1.], [1., 1., -1.], [1., 1., 1.], [1., -1., 1.]],
+        [[1., -1., 1.], [1., 1., 1.], [-1., 1., 1.], [-1., -1., 1.]],
+        [
+            [-1., -1., 1.],
+            [-1., 1., 1.],
+            [-1., 1., -1.],
+            [-1., -1., -1.],
+        ],
+        [
+            [1., 1., -1.],
+            [1., -1., -1.],
+            [-1., -1., -1.],
+            [-1., 1., -1.],
+        ],
+    ];
+    let corner_uvs = [Vec2::Y, Vec2::ONE, Vec2::X, Vec2::ZERO];
+    let positions = FACES.iter().flatten().map(|&p| Vec3::from(p)).collect();
+    let indices = (0..6u32)
+        .flat_map(|f| [[4 * f, 4 * f + 1, 4 * f + 2], [4 * f + 3, 4 * f, 4 * f + 2]])
+        .collect();
+    let uvs = (0..6).flat_map(|_| corner_uvs).collect();
+    (TriMesh::new(positions, indices), uvs)
+}
+
 /// The element children of a plugin that are not properties.
 pub(super) fn plugin_children<'a, 'i>(
     _d: &Doc<'a, 'i>,
@@ -512,9 +577,10 @@ pub(super) fn plugin_children<'a, 'i>(
 }
 
 fn unsupported_texture(d: &Doc, node: Node) -> SceneError {
+    let kind = node.attribute("type").unwrap_or("?");
     d.node_error(
         node,
-        "textures are not supported (mdas's materials are a constant reflectance; a checkerboard texture needs texture coordinates that mdas does not carry)",
+        format!("unsupported texture '{kind}' here (mdas reads one texture: a 'checkerboard' as a diffuse BSDF's reflectance)"),
     )
 }
 
@@ -524,21 +590,59 @@ fn bsdf<'a, 'i>(d: &Doc<'a, 'i>, node: Node<'a, 'i>) -> Result<Bsdf> {
     let kind = d.need_attr(node, "type")?;
     match kind.as_str() {
         "diffuse" => {
-            no_nested(d, node)?;
+            let nested = plugin_children(d, node)?;
+            let texture = match nested[..] {
+                [] => None,
+                [t] if t.tag_name().name() == "texture" => Some(t),
+                _ => return Err(d.node_error(nested[0], "a diffuse BSDF takes one <texture> at most")),
+            };
             let mut p = Props::read(d, node)?;
-            let albedo = match p.color(d, "reflectance")? {
-                None => DVec3::splat(0.5),
-                Some((c, n)) => {
-                    if !(c.min_element() >= 0.0 && c.max_element() <= 1.0) {
-                        return Err(d.attr_error(n, "value", format!("reflectance must be in [0, 1] per channel, found {c}")));
+            let reflectance = |c: DVec3, n: Node<'a, 'i>| {
+                if c.min_element() >= 0.0 && c.max_element() <= 1.0 {
+                    Ok(c)
+                } else {
+                    Err(d.attr_error(n, "value", format!("reflectance must be in [0, 1] per channel, found {c}")))
+                }
+            };
+            let (albedo, uv_checker) = match (p.color(d, "reflectance")?, texture) {
+                (Some(_), Some(t)) => return Err(d.node_error(t, "the reflectance is given twice (a value and a texture)")),
+                (None, None) => (DVec3::splat(0.5), None),
+                (Some((c, n)), None) => (reflectance(c, n)?, None),
+                (None, Some(t)) => {
+                    if d.attr(t, "name")?.as_deref() != Some("reflectance") {
+                        return Err(d.attr_error(t, "name", "a diffuse BSDF's texture must be its 'reflectance'"));
                     }
-                    c
+                    if d.need_attr(t, "type")? != "checkerboard" {
+                        return Err(unsupported_texture(d, t));
+                    }
+                    no_nested(d, t)?;
+                    let mut tp = Props::read(d, t)?;
+                    let mut color = |key: &str, default: f64| -> Result<DVec3> {
+                        match tp.color(d, key)? {
+                            None => Ok(DVec3::splat(default)),
+                            Some((c, n)) => reflectance(c, n),
+                        }
+                    };
+                    // Mitsuba's defaults: color0 0.4, color1 0.2.
+                    let (c0, c1) = (color("color0", 0.4)?, color("color1", 0.2)?);
+                    let m = tp.transform(d, "to_uv")?.map_or(DMat4::IDENTITY, |m| m.0);
+                    tp.finish(d, "texture 'checkerboard'", &["color0", "color1", "to_uv"])?;
+                    // (u, v) as the point (u, v, 0): the 2×3 affine part.
+                    let row = |r: usize| [m.col(0)[r] as f32, m.col(1)[r] as f32, m.col(3)[r] as f32];
+                    (
+                        c0,
+                        Some(UvChecker {
+                            albedo2: f32v(c1),
+                            to_uv: [row(0), row(1)],
+                        }),
+                    )
                 }
             };
             p.finish(d, "bsdf 'diffuse'", &["reflectance"])?;
             Ok(Bsdf {
                 albedo: f32v(albedo),
                 one_sided: true,
+                uv_checker,
             })
         }
         "twosided" => {

@@ -398,3 +398,51 @@ fn an_mdas_table_beside_the_file_sets_mdas_parameters() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn checkerboards_read_mitsubas_texture_and_its_coordinates() {
+    let checker = |shape: &str| {
+        scene(&format!(
+            r#"<shape type="{shape}"><bsdf type="diffuse"><texture type="checkerboard" name="reflectance">
+                 <rgb name="color1" value="0.1, 0.2, 0.3"/>
+                 <transform name="to_uv"><scale x="3" y="2"/><rotate z="1" angle="90"/><translate x="0.5"/></transform>
+               </texture></bsdf></shape>"#
+        ))
+    };
+    let s = load(&checker("rectangle"));
+    let m = &s.scene.materials[0];
+    assert_eq!(m.albedo, Vec3::splat(0.4), "Mitsuba's color0 default");
+    let c = m.uv_checker.unwrap();
+    assert_eq!(c.albedo2, Vec3::new(0.1, 0.2, 0.3));
+    // Scale, then a quarter turn, then translate: (u, v) → (−2v + 0.5, 3u).
+    let close2 = |a: [f32; 3], b: [f32; 3]| a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-6);
+    assert!(
+        close2(c.to_uv[0], [0.0, -2.0, 0.5]) && close2(c.to_uv[1], [3.0, 0.0, 0.0]),
+        "{c:?}"
+    );
+    let mesh = &s.scene.meshes[0];
+    assert_eq!(mesh.uvs.len(), 4);
+    for (p, uv) in mesh.positions.iter().zip(&mesh.uvs) {
+        assert_eq!(
+            *uv,
+            (p.truncate() + glam::Vec2::ONE) / 2.0,
+            "rectangle uv = ((x+1)/2, (y+1)/2)"
+        );
+    }
+    // Mitsuba's cube: 24 vertices, every face's corners (0,1) (1,1) (1,0) (0,0).
+    let cube = &load(&checker("cube")).scene.meshes[0];
+    assert_eq!(
+        (cube.positions.len(), cube.indices.len(), cube.uvs.len()),
+        (24, 12, 24)
+    );
+    for shape in ["sphere", "disk"] {
+        assert!(
+            error(&checker(shape)).contains("needs texture coordinates"),
+            "{shape}"
+        );
+    }
+    let bitmap = scene(
+        r#"<shape type="cube"><bsdf type="diffuse"><texture type="bitmap" name="reflectance"/></bsdf></shape>"#,
+    );
+    assert!(error(&bitmap).contains("unsupported texture 'bitmap'"));
+}
