@@ -45,9 +45,10 @@
 //! [`RECORD_ROWS`] rows in [`BuiltScene::normals`]: its corners' normals
 //! in the space of its vertices with their u in `w`, then (v0, v1, v2, 0)
 //! (zero normals where the mesh has none: the geometric normal shades;
-//! zero uvs where it has no coordinates); `v2.w` holds the record's index
-//! + 1 (0: none). On the device the records follow the triangles in the
-//! same buffer (`triangle_shading_normal`, `triangle_uv` in scene.wgsl).
+//! zero uvs where it has no coordinates); `v2.w` holds one more than the
+//! record's index (0: none). On the device the records follow the
+//! triangles in the same buffer (`triangle_shading_normal`, `triangle_uv`
+//! in scene.wgsl).
 
 use anyhow::{bail, Result};
 use glam::{Vec2, Vec3, Vec3A};

@@ -26,6 +26,7 @@
 //! thin lens with area lights), the error says so rather than render
 //! something else.
 
+mod bsdf;
 mod plugins;
 mod props;
 mod sensor;

@@ -2,7 +2,8 @@
 //! BSDFs, shapes, emitters and the integrator, and the integrand they
 //! make together.
 
-use super::props::{Props, PROPERTY_TAGS};
+use super::bsdf::{bsdf, Bsdf, DEFAULT_BSDF};
+use super::props::{f32v, no_nested, plugin_children, unsupported_texture, Props};
 use super::{Doc, Result};
 use crate::accel::voxel::{Visibility, VoxelParams};
 use crate::film::Film;
@@ -10,10 +11,10 @@ use crate::integrand::spec::ManyLightSpec;
 use crate::integrand::IntegrandSpec;
 use crate::integrator::mdas::MdasParams;
 use crate::scene::shapes::{self, TriMesh};
-use crate::scene::{obj, ply, Camera, Light, Material, Mesh, Scene, UvChecker};
+use crate::scene::{obj, ply, Camera, Light, Material, Mesh, Scene};
 use crate::scene_file::shapes::{degenerate, far_vertex};
 use crate::scene_file::{SceneError, SceneFile, MAX_COORDINATE, MAX_EMISSION};
-use glam::{Affine3A, DMat4, DVec3, Vec2, Vec3};
+use glam::{Affine3A, DVec3, Vec2, Vec3};
 use roxmltree::Node;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -24,22 +25,6 @@ use std::path::{Path, PathBuf};
 pub const SPHERE_SEGMENTS: u32 = 128;
 pub const SPHERE_RINGS: u32 = 64;
 pub const DISK_SEGMENTS: u32 = 256;
-
-/// A BSDF of the subset: Lambertian, one- or two-sided.
-#[derive(Clone, Copy, Debug)]
-struct Bsdf {
-    /// The reflectance (a checkerboard's `color0`).
-    albedo: Vec3,
-    one_sided: bool,
-    uv_checker: Option<UvChecker>,
-}
-
-/// Mitsuba's BSDF of a shape without one: `diffuse`, reflectance 0.5.
-const DEFAULT_BSDF: Bsdf = Bsdf {
-    albedo: Vec3::splat(0.5),
-    one_sided: true,
-    uv_checker: None,
-};
 
 /// The sensor as read, with where it was (for later errors).
 pub(super) struct Sensor {
@@ -81,10 +66,6 @@ fn invalid(at: &(PathBuf, usize, usize), message: impl Into<String>) -> SceneErr
         column: at.2,
         message: message.into(),
     }
-}
-
-pub(super) fn f32v(v: DVec3) -> Vec3 {
-    v.as_vec3()
 }
 
 impl Builder {
@@ -511,23 +492,6 @@ fn angle_weighted_normals(mesh: &TriMesh) -> Vec<Vec3> {
     sum.into_iter().map(Vec3::normalize_or_zero).collect()
 }
 
-/// Refuses a nested object where a plugin takes none (a texture for an
-/// emitter's radiance, say): it would otherwise be ignored.
-pub(super) fn no_nested(d: &Doc, node: Node) -> Result<()> {
-    match plugin_children(d, node)?.first() {
-        None => Ok(()),
-        Some(c) if c.tag_name().name() == "texture" => Err(unsupported_texture(d, *c)),
-        Some(c) => Err(d.node_error(
-            *c,
-            format!(
-                "<{}> in a <{}> that takes no nested objects",
-                c.tag_name().name(),
-                node.tag_name().name()
-            ),
-        )),
-    }
-}
-
 /// Mitsuba's `cube`: [−1, 1]³ as six faces of four vertices each, every
 /// face's corners in Mitsuba's order with texture coordinates (0, 1),
 /// (1, 1), (1, 0), (0, 0), and triangles (0, 1, 2), (3, 0, 2) per face
@@ -563,105 +527,6 @@ fn cube() -> (TriMesh, Vec<Vec2>) {
         .collect();
     let uvs = (0..6).flat_map(|_| corner_uvs).collect();
     (TriMesh::new(positions, indices), uvs)
-}
-
-/// The element children of a plugin that are not properties.
-pub(super) fn plugin_children<'a, 'i>(
-    _d: &Doc<'a, 'i>,
-    node: Node<'a, 'i>,
-) -> Result<Vec<Node<'a, 'i>>> {
-    Ok(node
-        .children()
-        .filter(|c| c.is_element() && !PROPERTY_TAGS.contains(&c.tag_name().name()))
-        .collect())
-}
-
-fn unsupported_texture(d: &Doc, node: Node) -> SceneError {
-    let kind = node.attribute("type").unwrap_or("?");
-    d.node_error(
-        node,
-        format!("unsupported texture '{kind}' here (mdas reads one texture: a 'checkerboard' as a diffuse BSDF's reflectance)"),
-    )
-}
-
-/// `<bsdf type="diffuse">` (one-sided, as Mitsuba's) or a `twosided`
-/// wrapping one.
-fn bsdf<'a, 'i>(d: &Doc<'a, 'i>, node: Node<'a, 'i>) -> Result<Bsdf> {
-    let kind = d.need_attr(node, "type")?;
-    match kind.as_str() {
-        "diffuse" => {
-            let nested = plugin_children(d, node)?;
-            let texture = match nested[..] {
-                [] => None,
-                [t] if t.tag_name().name() == "texture" => Some(t),
-                _ => return Err(d.node_error(nested[0], "a diffuse BSDF takes one <texture> at most")),
-            };
-            let mut p = Props::read(d, node)?;
-            let reflectance = |c: DVec3, n: Node<'a, 'i>| {
-                if c.min_element() >= 0.0 && c.max_element() <= 1.0 {
-                    Ok(c)
-                } else {
-                    Err(d.attr_error(n, "value", format!("reflectance must be in [0, 1] per channel, found {c}")))
-                }
-            };
-            let (albedo, uv_checker) = match (p.color(d, "reflectance")?, texture) {
-                (Some(_), Some(t)) => return Err(d.node_error(t, "the reflectance is given twice (a value and a texture)")),
-                (None, None) => (DVec3::splat(0.5), None),
-                (Some((c, n)), None) => (reflectance(c, n)?, None),
-                (None, Some(t)) => {
-                    if d.attr(t, "name")?.as_deref() != Some("reflectance") {
-                        return Err(d.attr_error(t, "name", "a diffuse BSDF's texture must be its 'reflectance'"));
-                    }
-                    if d.need_attr(t, "type")? != "checkerboard" {
-                        return Err(unsupported_texture(d, t));
-                    }
-                    no_nested(d, t)?;
-                    let mut tp = Props::read(d, t)?;
-                    let mut color = |key: &str, default: f64| -> Result<DVec3> {
-                        match tp.color(d, key)? {
-                            None => Ok(DVec3::splat(default)),
-                            Some((c, n)) => reflectance(c, n),
-                        }
-                    };
-                    // Mitsuba's defaults: color0 0.4, color1 0.2.
-                    let (c0, c1) = (color("color0", 0.4)?, color("color1", 0.2)?);
-                    let m = tp.transform(d, "to_uv")?.map_or(DMat4::IDENTITY, |m| m.0);
-                    tp.finish(d, "texture 'checkerboard'", &["color0", "color1", "to_uv"])?;
-                    // (u, v) as the point (u, v, 0): the 2×3 affine part.
-                    let row = |r: usize| [m.col(0)[r] as f32, m.col(1)[r] as f32, m.col(3)[r] as f32];
-                    (
-                        c0,
-                        Some(UvChecker {
-                            albedo2: f32v(c1),
-                            to_uv: [row(0), row(1)],
-                        }),
-                    )
-                }
-            };
-            p.finish(d, "bsdf 'diffuse'", &["reflectance"])?;
-            Ok(Bsdf {
-                albedo: f32v(albedo),
-                one_sided: true,
-                uv_checker,
-            })
-        }
-        "twosided" => {
-            Props::read(d, node)?.finish(d, "bsdf 'twosided'", &[])?;
-            let inner = plugin_children(d, node)?;
-            match inner[..] {
-                [b] if b.tag_name().name() == "bsdf" => Ok(Bsdf {
-                    one_sided: false,
-                    ..bsdf(d, b)?
-                }),
-                _ => Err(d.node_error(node, "a twosided BSDF wraps exactly one <bsdf>")),
-            }
-        }
-        other => Err(d.attr_error(
-            node,
-            "type",
-            format!("unsupported BSDF '{other}' (supported: diffuse, twosided; mdas's materials are Lambertian)"),
-        )),
-    }
 }
 
 /// An emitted colour: finite, non-negative, at most [`MAX_EMISSION`];

@@ -6,7 +6,8 @@
 //! Mitsuba does: each operation applies after the ones before it.
 
 use super::{Doc, Result};
-use glam::{DMat3, DMat4, DVec3, DVec4};
+use crate::scene_file::SceneError;
+use glam::{DMat3, DMat4, DVec3, DVec4, Vec3};
 use roxmltree::Node;
 use std::collections::HashMap;
 
@@ -135,8 +136,7 @@ impl<'a, 'i> Doc<'a, 'i> {
                 _ => Err(self.attr_error(node, "value", format!("'{text}' is not three numbers"))),
             };
         }
-        let c =
-            |a| Ok::<_, crate::scene_file::SceneError>(self.number(node, a)?.unwrap_or(default));
+        let c = |a| Ok::<_, SceneError>(self.number(node, a)?.unwrap_or(default));
         Ok(DVec3::new(c("x")?, c("y")?, c("z")?))
     }
 
@@ -454,4 +454,46 @@ impl<'a, 'i> Props<'a, 'i> {
             )),
         }
     }
+}
+
+/// f64 to f32 for a scene value.
+pub(super) fn f32v(v: DVec3) -> Vec3 {
+    v.as_vec3()
+}
+
+/// The element children of a plugin that are not properties.
+pub(super) fn plugin_children<'a, 'i>(
+    _d: &Doc<'a, 'i>,
+    node: Node<'a, 'i>,
+) -> Result<Vec<Node<'a, 'i>>> {
+    Ok(node
+        .children()
+        .filter(|c| c.is_element() && !PROPERTY_TAGS.contains(&c.tag_name().name()))
+        .collect())
+}
+
+/// Refuses a nested object where a plugin takes none (a texture for an
+/// emitter's radiance, say): it would otherwise be ignored.
+pub(super) fn no_nested(d: &Doc, node: Node) -> Result<()> {
+    match plugin_children(d, node)?.first() {
+        None => Ok(()),
+        Some(c) if c.tag_name().name() == "texture" => Err(unsupported_texture(d, *c)),
+        Some(c) => Err(d.node_error(
+            *c,
+            format!(
+                "<{}> in a <{}> that takes no nested objects",
+                c.tag_name().name(),
+                node.tag_name().name()
+            ),
+        )),
+    }
+}
+
+/// The error for a texture mdas does not read.
+pub(super) fn unsupported_texture(d: &Doc, node: Node) -> SceneError {
+    let kind = node.attribute("type").unwrap_or("?");
+    d.node_error(
+        node,
+        format!("unsupported texture '{kind}' here (mdas reads one texture: a 'checkerboard' as a diffuse BSDF's reflectance)"),
+    )
 }

@@ -2,8 +2,8 @@
 //! (+z forward, +y up, +x to the image's left) and field-of-view axes
 //! turned into mdas's camera (DESIGN.md "Camera").
 
-use super::plugins::{f32v, no_nested, plugin_children, Builder, Sensor};
-use super::props::Props;
+use super::plugins::{Builder, Sensor};
+use super::props::{f32v, no_nested, plugin_children, Props};
 use super::{Doc, Result};
 use crate::film::Film;
 use crate::scene::Camera;
