@@ -51,6 +51,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Render(args) if args.frames.is_some() => cli::frames::run(args, ui),
         Command::Render(args) => cli::render::run(args, ui),
         Command::Reference(args) => cli::reference::run(args, ui),
+        Command::Merge(args) => cli::reference::merge(args, ui),
         Command::Compare(args) => cli::compare::run(args, ui),
         Command::Sweep(args) => cli::sweep::run(args, ui),
         Command::Tune(args) => cli::tune::run(args, ui),

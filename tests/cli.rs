@@ -1695,3 +1695,149 @@ fn a_row_of_equal_triangles_loads_in_near_linear_time() {
     assert!(secs < 8.0, "{n} triangles in a row took {secs:.1} s");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Issue 52 item 3: a reference rendered in 4 parts (`reference --part
+/// I/N`) and merged (`merge`) is the one-process reference: the same cache
+/// entry (a later `reference` hits it), every pixel within 4 f32 ulps
+/// (4·2⁻²⁴ relative; the sums are grouped differently: measured 2.2e-7 at
+/// most). Malformed merges — a part of another reference, a part given
+/// twice, a missing part, a truncated file — fail, naming the problem,
+/// and write nothing.
+#[test]
+fn reference_parts_merge_into_the_one_process_reference() {
+    let dir = temp_dir("parts");
+    let scene = "scenes/area_light_plane.toml";
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    let part = |i: u32, spp: &str, out: &Path| {
+        let o = mdas(&[
+            "-q",
+            "reference",
+            scene,
+            "--spp",
+            spp,
+            "--scale",
+            "0.25",
+            "--part",
+            &format!("{i}/4"),
+            "--cache",
+            &s(&dir.join("unused")),
+            "-o",
+            &s(out),
+        ]);
+        assert!(o.status.success(), "part {i}: {}", stderr(&o));
+    };
+    let parts: Vec<PathBuf> = (1..=4).map(|i| dir.join(format!("p{i}.exr"))).collect();
+    for (i, p) in parts.iter().enumerate() {
+        part(i as u32 + 1, "37", p);
+    }
+    assert!(!dir.join("unused").exists(), "parts write no cache entry");
+    let merged_cache = dir.join("merged");
+    let merge = |files: &[&Path], cache: &Path| {
+        let mut args = vec!["-q".to_string(), "merge".to_string()];
+        args.extend(files.iter().map(|f| s(f)));
+        args.extend(["--cache".to_string(), s(cache)]);
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        mdas(&args)
+    };
+    // Malformed merges first: each fails and writes nothing.
+    let other = dir.join("other.exr");
+    let o = mdas(&[
+        "-q",
+        "reference",
+        scene,
+        "--spp",
+        "36",
+        "--scale",
+        "0.25",
+        "--part",
+        "4/4",
+        "--cache",
+        &s(&dir.join("unused")),
+        "-o",
+        &s(&other),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let truncated = dir.join("truncated.exr");
+    let bytes = std::fs::read(&parts[3]).unwrap();
+    std::fs::write(&truncated, &bytes[..bytes.len() / 2]).unwrap();
+    std::fs::copy(
+        parts[3].with_extension("json"),
+        truncated.with_extension("json"),
+    )
+    .unwrap();
+    let p: Vec<&Path> = parts.iter().map(PathBuf::as_path).collect();
+    for (files, expect) in [
+        (
+            vec![p[0], p[1], p[2], other.as_path()],
+            "parts of different references",
+        ),
+        (
+            vec![p[0], p[1], p[2], p[2], p[3]],
+            "part 3/4 is given twice",
+        ),
+        (vec![p[0], p[1], p[3]], "parts 3/4 are missing"),
+        (vec![p[0], p[1], p[2], truncated.as_path()], "part 4/4"),
+    ] {
+        let o = merge(&files, &merged_cache);
+        assert!(!o.status.success(), "{expect}: merged");
+        assert!(stderr(&o).contains(expect), "{expect}: {}", stderr(&o));
+        assert!(!merged_cache.exists(), "{expect}: wrote the cache");
+    }
+    let o = merge(&p, &merged_cache);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let single_cache = dir.join("single");
+    let o = mdas(&[
+        "-q",
+        "reference",
+        scene,
+        "--spp",
+        "37",
+        "--scale",
+        "0.25",
+        "--cache",
+        &s(&single_cache),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let entry = |cache: &Path| {
+        let mut e: Vec<PathBuf> = std::fs::read_dir(cache)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.extension().is_some_and(|x| x == "exr"))
+            .collect();
+        assert_eq!(e.len(), 1, "{e:?}");
+        e.pop().unwrap()
+    };
+    let (merged, single) = (entry(&merged_cache), entry(&single_cache));
+    assert_eq!(
+        merged.file_name(),
+        single.file_name(),
+        "the same cache entry"
+    );
+    let (_, _, a) = mdas::image_io::read_exr(&merged).unwrap();
+    let (_, _, b) = mdas::image_io::read_exr(&single).unwrap();
+    for (x, y) in a.iter().zip(&b) {
+        for c in 0..3 {
+            assert!(
+                (x[c] - y[c]).abs() <= 4.0 * f32::EPSILON / 2.0 * y[c].abs() + 1e-30,
+                "merged {x:?}, one process {y:?}"
+            );
+        }
+    }
+    // A later reference of the same spec hits the merged entry.
+    let o = mdas(&[
+        "reference",
+        scene,
+        "--spp",
+        "37",
+        "--scale",
+        "0.25",
+        "--cache",
+        &s(&merged_cache),
+    ]);
+    assert!(
+        String::from_utf8_lossy(&o.stdout).contains("(cached)"),
+        "{}",
+        stderr(&o)
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -16,6 +16,8 @@ struct HaltonParams {
     height: u32,
     dims: u32,
     seed: u32,
+    // One past the last sample index of the render (its spp when it starts
+    // at sample 0; a part of a reference starts later).
     spp: u32,
     first_index: u32,
     samples_per_invocation: u32,

@@ -309,8 +309,16 @@ pub(crate) enum Command {
     /// Render a scene and write OUT.exr (linear) and OUT.png (sRGB), or only
     /// OUT.png with `-o OUT.png`.
     Render(render::RenderArgs),
-    /// Render (or fetch from the cache) a high-spp Halton reference image.
+    /// Render (or fetch from the cache) a high-spp Halton reference image;
+    /// with --part I/N, only the I-th share of its samples (for a job
+    /// array; `mdas merge` joins the parts).
     Reference(reference::ReferenceArgs),
+    /// Join the parts of a reference (`mdas reference --part I/N -o
+    /// PART.exr`) into its cache entry: exactly the reference one process
+    /// renders, within f32 rounding. Refuses parts of different references,
+    /// a part given twice, a missing part or a damaged file, and then
+    /// writes nothing.
+    Merge(reference::MergeArgs),
     /// MDAS against Halton at equal time: images, RelMSE heat maps, MDAS
     /// sample density, figure.png and report.json in --out
     /// (docs/comparisons.md).

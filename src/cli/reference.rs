@@ -33,6 +33,65 @@ pub(crate) struct ReferenceArgs {
     /// whose [integrand] asks for voxel visibility gets a BVH reference.
     #[arg(long, value_name = "BACKEND")]
     pub(crate) visibility: Option<VisibilityKind>,
+    /// Render only part I of N: samples ⌊(I−1)·spp/N⌋ up to ⌊I·spp/N⌋ of
+    /// every pixel, written to -o (required) with a record beside it
+    /// (-o's .json), not to the cache; `mdas merge` joins the N parts into
+    /// the cache entry the whole reference would have (scripts/slurm/).
+    #[arg(long, value_name = "I/N", requires = "output")]
+    pub(crate) part: Option<session::parts::Part>,
+}
+
+#[derive(clap::Args)]
+pub(crate) struct MergeArgs {
+    /// The parts (EXR files written by `mdas reference --part I/N -o`),
+    /// each with its .json record beside it.
+    #[arg(required = true)]
+    pub(crate) parts: Vec<PathBuf>,
+    /// Cache directory to write the merged reference into (as `mdas
+    /// reference --cache`).
+    #[arg(long, default_value = ".cache/references")]
+    pub(crate) cache: PathBuf,
+    /// Also copy the merged reference to this path: X.exr (and an sRGB
+    /// X.png beside it) or X.png only.
+    #[arg(short, long)]
+    pub(crate) output: Option<PathBuf>,
+}
+
+/// `mdas merge`.
+pub(crate) fn merge(args: MergeArgs, ui: Ui) -> Result<()> {
+    let MergeArgs {
+        parts,
+        cache,
+        output,
+    } = args;
+    if let Some(out) = &output {
+        check_output(out)?;
+        let inputs: Vec<&Path> = parts.iter().map(PathBuf::as_path).collect();
+        check_not_input(out, &inputs)?;
+    }
+    let (path, film, image) = session::parts::merge_parts(&parts, &cache)?;
+    ui.result(format!(
+        "reference {}×{} merged from {} parts: {}\n",
+        film.width,
+        film.height,
+        parts.len(),
+        path.display()
+    ));
+    let mut files = vec![path.display().to_string()];
+    if let Some(out) = output {
+        files.extend(
+            session::write_outputs(&out, film, &image)?
+                .iter()
+                .map(|f| f.display().to_string()),
+        );
+    }
+    ui.json(&serde_json::json!({
+        "path": path.display().to_string(),
+        "width": film.width,
+        "height": film.height,
+        "parts": parts.len(),
+        "files": files,
+    }))
 }
 
 /// What `reference --json` prints.
@@ -61,6 +120,7 @@ pub(crate) fn run(args: ReferenceArgs, ui: Ui) -> Result<()> {
         output,
         sampler,
         visibility,
+        part,
     } = args;
     if let Some(out) = &output {
         check_output(out)?;
@@ -86,6 +146,46 @@ pub(crate) fn run(args: ReferenceArgs, ui: Ui) -> Result<()> {
     );
     let b = bar.clone();
     let spec = ReferenceSpec { spp, scale, seed };
+    if let (Some(part), Some(out)) = (part, &output) {
+        let (film, warnings) = session::parts::reference_part(
+            gpu,
+            loaded,
+            &scene,
+            spec,
+            IntegrandOverrides {
+                sampler,
+                visibility,
+                ..IntegrandOverrides::default()
+            },
+            part,
+            &cache,
+            out,
+            Some(Box::new(move |done, _| b.set_position(done as u64))),
+        )?;
+        bar.finish_and_clear();
+        for w in &warnings {
+            eprintln!("warning: {w}");
+        }
+        let range = part.range(spp);
+        ui.result(format!(
+            "reference part {}/{} ({}×{}, samples {}..{} of {spp}): {}\n",
+            part.index,
+            part.count,
+            film.width,
+            film.height,
+            range.start,
+            range.end,
+            out.display()
+        ));
+        return ui.json(&serde_json::json!({
+            "part": part.index,
+            "parts": part.count,
+            "first": range.start,
+            "end": range.end,
+            "path": out.display().to_string(),
+            "record": session::reference_record_path(out).display().to_string(),
+        }));
+    }
     let session::Reference {
         film,
         image,

@@ -66,6 +66,7 @@ pub struct HaltonParams {
     pub height: u32,
     pub dims: u32,
     pub seed: u32,
+    /// One past the last sample index of the render.
     pub spp: u32,
     pub first_index: u32,
     pub samples_per_invocation: u32,
@@ -102,6 +103,9 @@ pub type Progress = Box<dyn FnMut(u32, u32)>;
 pub struct Halton {
     pub spp: u32,
     pub seed: u32,
+    /// Index of the first sample of each pixel: the render takes samples
+    /// `first..first + spp` of the sequence ([`Halton::with_first_sample`]).
+    pub first: u32,
     /// Samples per invocation: `None` chooses by adapter (module docs).
     per_invocation: Option<u32>,
     progress: Option<Progress>,
@@ -112,6 +116,7 @@ impl Halton {
         Halton {
             spp,
             seed,
+            first: 0,
             per_invocation: None,
             progress: None,
         }
@@ -133,6 +138,14 @@ impl Halton {
             .per_invocation
             .unwrap_or_else(|| default_samples_per_invocation(gpu));
         within_loop_budget(n, integrand)
+    }
+
+    /// Takes samples `first..first + spp` of each pixel's sequence instead
+    /// of `0..spp`: a share of a larger render (`mdas reference --part`),
+    /// whose shares together take exactly the samples of the whole.
+    pub fn with_first_sample(mut self, first: u32) -> Self {
+        self.first = first;
+        self
     }
 
     /// Reports progress every few dispatches (waiting for the GPU to do so).
@@ -223,6 +236,14 @@ impl Integrator for Halton {
         if self.spp == 0 {
             bail!("spp must be at least 1");
         }
+        let Some(end) = self.first.checked_add(self.spp) else {
+            bail!(
+                "samples {}..{} + {} are beyond the sequence's 2^32",
+                self.first,
+                self.first,
+                self.spp
+            );
+        };
         let pixels = film.width as u64 * film.height as u64;
         if pixels == 0 {
             bail!("empty film {}×{}", film.width, film.height);
@@ -260,8 +281,8 @@ impl Integrator for Halton {
                         height: film.height,
                         dims,
                         seed: self.seed,
-                        spp: self.spp,
-                        first_index: c * per_chunk,
+                        spp: end,
+                        first_index: self.first + c * per_chunk,
                         samples_per_invocation: spi,
                         slots,
                         row_invocations,

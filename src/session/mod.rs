@@ -6,9 +6,11 @@
 //!   `--scale`, the MDAS grid scaled with it, the integrand on the GPU,
 //!   integrand overrides, frame sequences);
 //! - [`reference`]: high-spp Halton references and their cache;
+//! - [`parts`]: references rendered in parts and merged exactly;
 //! - [`outputs`]: output paths and the images written to them.
 
 pub mod outputs;
+pub mod parts;
 pub mod prepare;
 pub mod reference;
 

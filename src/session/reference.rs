@@ -255,27 +255,13 @@ pub fn reference_of_loaded(
     cache_dir: &Path,
     progress: Option<crate::integrator::halton::Progress>,
 ) -> Result<Reference> {
-    let (mut overrides, sampler_note) = reference_overrides(&scene.integrand, overrides);
-    let mut notes: Vec<String> = sampler_note.into_iter().collect();
-    if overrides.visibility.is_none() && scene.visibility.is_voxel() {
-        overrides.visibility = Some(VisibilityKind::Bvh);
-        notes
-            .push("the scene's voxel visibility is approximate: its reference uses the BVH".into());
-    }
-    // An override the scene cannot take fails here, cached entry or not.
-    let applied = overrides.apply(&scene.integrand, scene_path)?;
-    let mut warnings = scene.warnings.clone();
-    warnings.extend(applied.light_warnings(&scene.scene));
-    let extra = overrides.cache_key(&scene.integrand)?
-        + &overrides.visibility_key(&scene)
-        + shading_key(&scene);
-    let path = reference_cache_path_keyed(cache_dir, scene_path, &scene.inputs, spec, &extra)?;
-    if path.is_dir() {
-        bail!(
-            "the reference cache entry {} is a directory; remove it",
-            path.display()
-        );
-    }
+    let Plan {
+        overrides,
+        extra,
+        path,
+        warnings,
+        notes,
+    } = plan(&scene, scene_path, spec, overrides, cache_dir)?;
     let film = scaled_film(scene.scene.film, spec.scale)?;
     let mut cache = CacheUse::Rendered;
     if path.exists() {
@@ -303,8 +289,6 @@ pub fn reference_of_loaded(
     let render = halton.render(gpu, prepared.integrand.as_ref())?;
     check_finite(&render)?;
     let attributes = render_attributes("halton", spec.seed, &render, scene_path);
-    // The record of how it was made, with the pixels' checksum, lands with
-    // the images as one unit: an entry is never seen without its record.
     let record = serde_json::json!({
         "pixels_sha256": pixels_sha256(&render.image),
         "width": render.film.width,
@@ -321,23 +305,7 @@ pub fn reference_of_loaded(
             None,
         )?,
     });
-    let text = serde_json::to_string_pretty(&record)?;
-    let (w, h) = (render.film.width, render.film.height);
-    let mut writes = crate::atomic::AtomicWrites::new();
-    // A damaged entry read above is this cache's to replace.
-    crate::atomic::release_input(&path);
-    image_io::stage_exr(&mut writes, &path, w, h, &render.image, &attributes)?;
-    image_io::stage_png(
-        &mut writes,
-        &path.with_extension("png"),
-        w,
-        h,
-        &render.image,
-    )?;
-    writes.stage(&reference_record_path(&path), |t| {
-        std::fs::write(t, text.as_bytes()).map_err(Into::into)
-    })?;
-    writes.commit()?;
+    write_entry(&path, render.film, &render.image, &attributes, &record)?;
     Ok(Reference {
         film: render.film,
         image: render.image,
@@ -346,6 +314,80 @@ pub fn reference_of_loaded(
         warnings,
         notes,
     })
+}
+
+/// What a reference of `scene` under `overrides` is made with and where it
+/// is cached ([`reference_of_loaded`], and the parts of
+/// [`super::parts`]).
+pub(super) struct Plan {
+    pub(super) overrides: IntegrandOverrides,
+    /// The cache key's part beyond the scene and the spec.
+    pub(super) extra: String,
+    /// The cache entry (EXR).
+    pub(super) path: PathBuf,
+    pub(super) warnings: Vec<String>,
+    pub(super) notes: Vec<String>,
+}
+
+pub(super) fn plan(
+    scene: &SceneFile,
+    scene_path: &Path,
+    spec: ReferenceSpec,
+    overrides: IntegrandOverrides,
+    cache_dir: &Path,
+) -> Result<Plan> {
+    let (mut overrides, sampler_note) = reference_overrides(&scene.integrand, overrides);
+    let mut notes: Vec<String> = sampler_note.into_iter().collect();
+    if overrides.visibility.is_none() && scene.visibility.is_voxel() {
+        overrides.visibility = Some(VisibilityKind::Bvh);
+        notes
+            .push("the scene's voxel visibility is approximate: its reference uses the BVH".into());
+    }
+    // An override the scene cannot take fails here, cached entry or not.
+    let applied = overrides.apply(&scene.integrand, scene_path)?;
+    let mut warnings = scene.warnings.clone();
+    warnings.extend(applied.light_warnings(&scene.scene));
+    let extra = overrides.cache_key(&scene.integrand)?
+        + &overrides.visibility_key(&scene)
+        + shading_key(&scene);
+    let path = reference_cache_path_keyed(cache_dir, scene_path, &scene.inputs, spec, &extra)?;
+    if path.is_dir() {
+        bail!(
+            "the reference cache entry {} is a directory; remove it",
+            path.display()
+        );
+    }
+    Ok(Plan {
+        overrides,
+        extra,
+        path,
+        warnings,
+        notes,
+    })
+}
+
+/// Writes a reference cache entry — the EXR, an sRGB PNG beside it and its
+/// JSON `record` — as one unit (the record lands with the images: an
+/// entry is never seen without it).
+pub(super) fn write_entry(
+    path: &Path,
+    film: Film,
+    image: &[[f32; 3]],
+    attributes: &[(&str, image_io::ExrAttribute)],
+    record: &serde_json::Value,
+) -> Result<()> {
+    let text = serde_json::to_string_pretty(record)?;
+    let (w, h) = (film.width, film.height);
+    let mut writes = crate::atomic::AtomicWrites::new();
+    // A damaged entry read above is this cache's to replace.
+    crate::atomic::release_input(path);
+    image_io::stage_exr(&mut writes, path, w, h, image, attributes)?;
+    image_io::stage_png(&mut writes, &path.with_extension("png"), w, h, image)?;
+    writes.stage(&reference_record_path(path), |t| {
+        std::fs::write(t, text.as_bytes()).map_err(Into::into)
+    })?;
+    writes.commit()?;
+    Ok(())
 }
 
 /// The JSON record written beside a cached reference EXR (its provenance:

@@ -1,0 +1,348 @@
+//! References in parts (issue 52 item 3): `mdas reference --part I/N`
+//! renders the I-th share of a reference's samples — samples
+//! ⌊(I − 1)·spp/N⌋ .. ⌊I·spp/N⌋ of every pixel's Halton sequence, with the
+//! same per-pixel shifts ([`Halton::with_first_sample`]) — and writes it
+//! with a record of what it is; `mdas merge` checks that the parts belong
+//! together and cover the samples once, and writes the reference cache
+//! entry the whole render would have written: each pixel the mean of all
+//! its samples (Σ share·mean / spp in f64), the same image as one
+//! process's within f32 rounding (the sums are grouped differently), and a
+//! cache hit for `compare` and `reference` afterwards.
+//!
+//! A part whose render had non-finite samples is refused: its pixels'
+//! means would weigh their finite samples only, and the merge could not
+//! be exact.
+
+use super::outputs::render_attributes;
+use super::prepare::*;
+use super::reference::{
+    pixels_sha256, plan, reference_record_path, write_entry, Plan, ReferenceSpec,
+};
+use crate::film::Film;
+use crate::gpu::Gpu;
+use crate::image_io;
+use crate::integrator::{Halton, Integrator};
+use crate::scene_file::SceneFile;
+use anyhow::{bail, Context, Result};
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+
+/// The format tag of a part's record.
+const PART_FORMAT: &str = "mdas reference part 1";
+
+/// Part `index` (1-based) of `count`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Part {
+    pub index: u32,
+    pub count: u32,
+}
+
+impl std::str::FromStr for Part {
+    type Err = String;
+
+    /// `I/N`, 1 ≤ I ≤ N.
+    fn from_str(s: &str) -> Result<Part, String> {
+        let bad = || format!("'{s}' is not a part I/N with 1 ≤ I ≤ N");
+        let (i, n) = s.split_once('/').ok_or_else(bad)?;
+        let (index, count) = (
+            i.trim().parse::<u32>().map_err(|_| bad())?,
+            n.trim().parse::<u32>().map_err(|_| bad())?,
+        );
+        if index == 0 || index > count {
+            return Err(bad());
+        }
+        Ok(Part { index, count })
+    }
+}
+
+impl Part {
+    /// This part's sample indices of a reference of `spp` samples.
+    pub fn range(&self, spp: u32) -> Range<u32> {
+        let at = |k: u32| (spp as u64 * k as u64 / self.count as u64) as u32;
+        at(self.index - 1)..at(self.index)
+    }
+}
+
+/// Renders `part` of the reference of `scene` (loaded from `scene_path`)
+/// and writes it to `out` (an EXR) with its record (`out` as `.json`).
+pub fn reference_part(
+    gpu: &Gpu,
+    scene: SceneFile,
+    scene_path: &Path,
+    spec: ReferenceSpec,
+    overrides: super::IntegrandOverrides,
+    part: Part,
+    cache_dir: &Path,
+    out: &Path,
+    progress: Option<crate::integrator::halton::Progress>,
+) -> Result<(Film, Vec<String>)> {
+    if part.count > spec.spp {
+        bail!(
+            "{} parts of a {}-spp reference: every part needs a sample (at most {} parts)",
+            part.count,
+            spec.spp,
+            spec.spp
+        );
+    }
+    let Plan {
+        overrides,
+        extra,
+        path,
+        mut warnings,
+        notes,
+    } = plan(&scene, scene_path, spec, overrides, cache_dir)?;
+    warnings.extend(notes);
+    let range = part.range(spec.spp);
+    let prepared = prepare_loaded(gpu, scene, scene_path, spec.scale, overrides)?;
+    let mut halton = Halton::new(range.end - range.start, spec.seed).with_first_sample(range.start);
+    if let Some(p) = progress {
+        halton = halton.with_progress(p);
+    }
+    let render = halton.render(gpu, prepared.integrand.as_ref())?;
+    if render.nonfinite > 0 {
+        bail!(
+            "part {}/{} had {} non-finite samples: its pixel means weigh only their finite samples, so the parts could not be merged exactly (render the reference in one process)",
+            part.index,
+            part.count,
+            render.nonfinite
+        );
+    }
+    let entry = path
+        .file_name()
+        .and_then(|n| n.to_str())
+        .context("the cache entry has no file name")?;
+    let record = serde_json::json!({
+        "format": PART_FORMAT,
+        "cache_entry": entry,
+        "cache_key_extra": extra,
+        "scene": scene_path.display().to_string(),
+        "width": render.film.width,
+        "height": render.film.height,
+        "spp": spec.spp,
+        "seed": spec.seed,
+        "scale": spec.scale,
+        "part": part.index,
+        "parts": part.count,
+        "first": range.start,
+        "end": range.end,
+        "version": env!("CARGO_PKG_VERSION"),
+        "pixels_sha256": pixels_sha256(&render.image),
+        "time_ms": render.times.total(),
+        "provenance": crate::provenance::Provenance::new(
+            gpu,
+            scene_path,
+            prepared.integrand.as_ref(),
+            None,
+        )?,
+    });
+    let attributes = render_attributes("halton", spec.seed, &render, scene_path);
+    let mut writes = crate::atomic::AtomicWrites::new();
+    let (w, h) = (render.film.width, render.film.height);
+    image_io::stage_exr(&mut writes, out, w, h, &render.image, &attributes)?;
+    let text = serde_json::to_string_pretty(&record)?;
+    writes.stage(&reference_record_path(out), |t| {
+        std::fs::write(t, text.as_bytes()).map_err(Into::into)
+    })?;
+    writes.commit()?;
+    Ok((render.film, warnings))
+}
+
+/// One part as read back for a merge.
+struct ReadPart {
+    file: PathBuf,
+    record: serde_json::Value,
+    index: u32,
+    range: Range<u32>,
+}
+
+fn read_part(file: &Path) -> Result<ReadPart> {
+    let record_path = reference_record_path(file);
+    let text = std::fs::read_to_string(&record_path).with_context(|| {
+        format!(
+            "{}: not a reference part (its record {} cannot be read)",
+            file.display(),
+            record_path.display()
+        )
+    })?;
+    let record: serde_json::Value = serde_json::from_str(&text)
+        .with_context(|| format!("{}: its record is not valid JSON", record_path.display()))?;
+    if record["format"] != PART_FORMAT {
+        bail!(
+            "{}: not a reference part (its record is not one of `mdas reference --part`)",
+            file.display()
+        );
+    }
+    let num = |key: &str| -> Result<u32> {
+        record[key]
+            .as_u64()
+            .and_then(|v| u32::try_from(v).ok())
+            .with_context(|| format!("{}: its record has no valid '{key}'", record_path.display()))
+    };
+    let (index, count, spp) = (num("part")?, num("parts")?, num("spp")?);
+    let part = Part { index, count };
+    let range = num("first")?..num("end")?;
+    if index == 0 || index > count || count > spp || part.range(spp) != range {
+        bail!(
+            "{}: its record's samples {}..{} are not part {index}/{count} of {spp}",
+            file.display(),
+            range.start,
+            range.end
+        );
+    }
+    Ok(ReadPart {
+        file: file.to_path_buf(),
+        record,
+        index,
+        range,
+    })
+}
+
+/// Merges the parts `files` into the reference cache entry in `cache_dir`
+/// they are parts of; returns its path, film and image. Nothing is written
+/// unless every part is there once, all belong to the same reference, and
+/// every part's image is whole (its size and checksum as recorded).
+pub fn merge_parts(files: &[PathBuf], cache_dir: &Path) -> Result<(PathBuf, Film, Vec<[f32; 3]>)> {
+    if files.is_empty() {
+        bail!("no parts to merge");
+    }
+    let parts = files
+        .iter()
+        .map(|f| read_part(f))
+        .collect::<Result<Vec<_>>>()?;
+    let first = &parts[0];
+    // Everything that makes two parts parts of one reference: the cache
+    // entry's name hashes the scene, its meshes, the spec and the version.
+    const SAME: [&str; 9] = [
+        "cache_entry",
+        "cache_key_extra",
+        "width",
+        "height",
+        "spp",
+        "seed",
+        "scale",
+        "parts",
+        "version",
+    ];
+    for p in &parts[1..] {
+        if let Some(key) = SAME.iter().find(|k| p.record[**k] != first.record[**k]) {
+            bail!(
+                "{} and {} are parts of different references ({key}: {} against {})",
+                first.file.display(),
+                p.file.display(),
+                first.record[*key],
+                p.record[*key]
+            );
+        }
+    }
+    let count = first.record["parts"].as_u64().unwrap_or(0) as u32;
+    let spp = first.record["spp"].as_u64().unwrap_or(0) as u32;
+    let mut by_index: Vec<Option<&ReadPart>> = vec![None; count as usize];
+    for p in &parts {
+        if let Some(other) = by_index[p.index as usize - 1] {
+            bail!(
+                "part {}/{count} is given twice: {} and {}",
+                p.index,
+                other.file.display(),
+                p.file.display()
+            );
+        }
+        by_index[p.index as usize - 1] = Some(p);
+    }
+    let missing: Vec<String> = (1..=count)
+        .filter(|i| by_index[*i as usize - 1].is_none())
+        .map(|i| format!("{i}/{count}"))
+        .collect();
+    if !missing.is_empty() {
+        bail!("parts {} are missing", missing.join(", "));
+    }
+    let film = Film {
+        width: first.record["width"].as_u64().unwrap_or(0) as u32,
+        height: first.record["height"].as_u64().unwrap_or(0) as u32,
+    };
+    let mut sum = vec![[0f64; 3]; film.width as usize * film.height as usize];
+    for p in &parts {
+        let (w, h, image) =
+            image_io::read_exr(&p.file).with_context(|| format!("part {}/{count}", p.index))?;
+        if (w, h) != (film.width, film.height) {
+            bail!(
+                "{} is {w}×{h}, its record says {}×{}",
+                p.file.display(),
+                film.width,
+                film.height
+            );
+        }
+        if Some(pixels_sha256(&image).as_str()) != p.record["pixels_sha256"].as_str() {
+            bail!(
+                "{}: its pixels do not match the checksum in its record (changed or damaged)",
+                p.file.display()
+            );
+        }
+        let share = (p.range.end - p.range.start) as f64;
+        for (s, v) in sum.iter_mut().zip(&image) {
+            for c in 0..3 {
+                s[c] += share * v[c] as f64;
+            }
+        }
+    }
+    let image: Vec<[f32; 3]> = sum
+        .iter()
+        .map(|s| s.map(|v| (v / spp as f64) as f32))
+        .collect();
+    let entry = first.record["cache_entry"].as_str().unwrap_or("");
+    if entry.is_empty() || entry.contains('/') || entry.contains('\\') {
+        bail!(
+            "{}: its record names no valid cache entry",
+            first.file.display()
+        );
+    }
+    std::fs::create_dir_all(cache_dir)
+        .with_context(|| format!("cannot create cache directory {}", cache_dir.display()))?;
+    let path = cache_dir.join(entry);
+    let record = serde_json::json!({
+        "pixels_sha256": pixels_sha256(&image),
+        "width": film.width,
+        "height": film.height,
+        "spp": spp,
+        "seed": first.record["seed"],
+        "scale": first.record["scale"],
+        "cache_key_extra": first.record["cache_key_extra"],
+        "merged_from": parts.iter().map(|p| &p.record).collect::<Vec<_>>(),
+    });
+    use image_io::ExrAttribute::{Text, F64, I32};
+    let seed = first.record["seed"].as_u64().unwrap_or(0) as u32;
+    let attributes = [
+        ("method", Text("halton".into())),
+        ("spp", F64(spp as f64)),
+        // As render_attributes: seeds are u32, stored as i32 bits.
+        ("seed", I32(seed as i32)),
+        ("merged_parts", I32(count as i32)),
+    ];
+    write_entry(&path, film, &image, &attributes, &record)?;
+    Ok((path, film, image))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parts_parse_and_split_the_samples_exactly_once() {
+        assert_eq!("2/5".parse::<Part>(), Ok(Part { index: 2, count: 5 }));
+        for bad in ["0/4", "5/4", "3", "a/4", "1/0", ""] {
+            assert!(bad.parse::<Part>().is_err(), "{bad}");
+        }
+        for spp in [1, 7, 37, 65536, u32::MAX] {
+            for count in [1, 2, 3, 4, 7].into_iter().filter(|&n| n <= spp) {
+                let ranges: Vec<_> = (1..=count)
+                    .map(|index| Part { index, count }.range(spp))
+                    .collect();
+                assert_eq!(ranges[0].start, 0);
+                assert_eq!(ranges[count as usize - 1].end, spp);
+                for w in ranges.windows(2) {
+                    assert_eq!(w[0].end, w[1].start, "{spp} in {count}");
+                    assert!(w[0].end > w[0].start, "every part has a sample");
+                }
+            }
+        }
+    }
+}
