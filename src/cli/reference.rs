@@ -157,9 +157,11 @@ pub(crate) fn run(args: ReferenceArgs, ui: Ui) -> Result<()> {
                 visibility,
                 ..IntegrandOverrides::default()
             },
-            part,
-            &cache,
-            out,
+            session::parts::PartJob {
+                part,
+                cache_dir: &cache,
+                out,
+            },
             Some(Box::new(move |done, _| b.set_position(done as u64))),
         )?;
         bar.finish_and_clear();

@@ -63,19 +63,33 @@ impl Part {
     }
 }
 
-/// Renders `part` of the reference of `scene` (loaded from `scene_path`)
-/// and writes it to `out` (an EXR) with its record (`out` as `.json`).
+/// Which part to render and where it goes.
+#[derive(Clone, Copy, Debug)]
+pub struct PartJob<'a> {
+    pub part: Part,
+    /// The reference cache the merge will write to (the part names its
+    /// entry; nothing is written there now).
+    pub cache_dir: &'a Path,
+    /// The part's EXR; its record goes beside it as `.json`.
+    pub out: &'a Path,
+}
+
+/// Renders `job.part` of the reference of `scene` (loaded from
+/// `scene_path`) and writes it to `job.out` with its record.
 pub fn reference_part(
     gpu: &Gpu,
     scene: SceneFile,
     scene_path: &Path,
     spec: ReferenceSpec,
     overrides: super::IntegrandOverrides,
-    part: Part,
-    cache_dir: &Path,
-    out: &Path,
+    job: PartJob,
     progress: Option<crate::integrator::halton::Progress>,
 ) -> Result<(Film, Vec<String>)> {
+    let PartJob {
+        part,
+        cache_dir,
+        out,
+    } = job;
     if part.count > spec.spp {
         bail!(
             "{} parts of a {}-spp reference: every part needs a sample (at most {} parts)",

@@ -348,8 +348,8 @@ pub(super) fn plan(
     let mut warnings = scene.warnings.clone();
     warnings.extend(applied.light_warnings(&scene.scene));
     let extra = overrides.cache_key(&scene.integrand)?
-        + &overrides.visibility_key(&scene)
-        + shading_key(&scene);
+        + &overrides.visibility_key(scene)
+        + shading_key(scene);
     let path = reference_cache_path_keyed(cache_dir, scene_path, &scene.inputs, spec, &extra)?;
     if path.is_dir() {
         bail!(
