@@ -8,7 +8,7 @@ CARGO ?= cargo
 SCENE ?= scenes/cornell.toml
 SPP ?= 64
 
-.PHONY: run test lint crosscheck vulkan build bench info clean mutants mutants-wgsl
+.PHONY: run test lint crosscheck slurm-test vulkan build bench info clean mutants mutants-wgsl
 
 vulkan:
 	@./.ci/ensure-vulkan.sh
@@ -58,6 +58,13 @@ lint:
 crosscheck: vulkan
 	$(CARGO) build --profile test --bin mdas
 	MDAS=target/debug/mdas ./.ci/crosscheck.sh
+
+# Opt-in (not in CI): a single-node Slurm cluster on this machine (Debian's
+# slurm-wlm and munge, installed when missing) runs a 4-part reference as a
+# job array with a dependent merge, checked against one process's
+# (scripts/slurm/test.sh, docs/cluster.md).
+slurm-test: vulkan
+	./scripts/slurm/test.sh
 
 # Mutation testing of the CPU code (`.ci/cargo-mutants.sh`): cargo-mutants
 # on the samplers, trees, closed forms, metrics, comparison statistics and

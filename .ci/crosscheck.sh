@@ -14,19 +14,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 VENV=target/mitsuba-venv
-PINS=(mitsuba==3.9.1 drjit==1.5.0 numpy==2.4.6)
-MARKER="$VENV/.crosscheck-pins"
-
-if [ ! -x "$VENV/bin/python" ]; then
-    echo "Creating $VENV ..." >&2
-    python3 -m venv "$VENV"
-fi
-if [ "$(cat "$MARKER" 2>/dev/null || true)" != "${PINS[*]}" ]; then
-    echo "Installing ${PINS[*]} into $VENV ..." >&2
-    rm -f "$MARKER"
-    "$VENV/bin/python" -m pip install --quiet --disable-pip-version-check "${PINS[@]}"
-    echo "${PINS[*]}" > "$MARKER"
-fi
+./.ci/mitsuba-venv.sh
 
 # mdas needs a Vulkan driver (lavapipe on a machine without a GPU); the
 # self-test runs Mitsuba only.

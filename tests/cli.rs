@@ -1698,9 +1698,11 @@ fn a_row_of_equal_triangles_loads_in_near_linear_time() {
 
 /// Issue 52 item 3: a reference rendered in 4 parts (`reference --part
 /// I/N`) and merged (`merge`) is the one-process reference: the same cache
-/// entry (a later `reference` hits it), every pixel within 4 f32 ulps
-/// (4·2⁻²⁴ relative; the sums are grouped differently: measured 2.2e-7 at
-/// most). Malformed merges — a part of another reference, a part given
+/// entry (a later `reference` hits it), every pixel within 16·2⁻²⁴
+/// relative. Each image is within about 10 unit roundoffs (2⁻²⁴) of the
+/// exact mean of its non-negative samples — f32 partial sums of at most 8
+/// samples, a Kahan-compensated sum of those, a division — and the two
+/// group the sums differently; measured 2.2e-7 (3.7 roundoffs) at most. Malformed merges — a part of another reference, a part given
 /// twice, a missing part, a truncated file — fail, naming the problem,
 /// and write nothing.
 #[test]
@@ -1818,7 +1820,7 @@ fn reference_parts_merge_into_the_one_process_reference() {
     for (x, y) in a.iter().zip(&b) {
         for c in 0..3 {
             assert!(
-                (x[c] - y[c]).abs() <= 4.0 * f32::EPSILON / 2.0 * y[c].abs() + 1e-30,
+                (x[c] - y[c]).abs() <= 16.0 * f32::EPSILON / 2.0 * y[c].abs() + 1e-30,
                 "merged {x:?}, one process {y:?}"
             );
         }
