@@ -87,7 +87,10 @@ pub(super) fn reference_cache_path_keyed(
         .with_context(|| format!("cannot read {}", scene_path.display()))?;
     let mut h = Sha256::new();
     h.update(reference_key_text(&bytes));
-    for input in inputs {
+    // A Mitsuba scene's `X.mdas.toml` holds MDAS's parameters only (as a
+    // TOML scene's `[mdas]` table, which the key leaves out too).
+    let mdas_only = |p: &Path| p.to_string_lossy().ends_with(".mdas.toml");
+    for input in inputs.iter().filter(|p| !mdas_only(p)) {
         let bytes =
             std::fs::read(input).with_context(|| format!("cannot read {}", input.display()))?;
         h.update(format!("|input {} bytes|", bytes.len()));

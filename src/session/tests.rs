@@ -260,3 +260,41 @@ fn reference_keys_ignore_the_mdas_table_and_comments() {
     // A file that is not TOML is keyed by its bytes (and does not load).
     assert_ne!(reference_key_text(b"[film"), reference_key_text(b"[film "));
 }
+
+/// A Mitsuba scene's `[mdas]` table beside it (`X.mdas.toml`) changes
+/// MDAS only: editing it keeps the scene's reference cache key, as editing
+/// a TOML scene's `[mdas]` table does; editing an included file does not.
+#[test]
+fn a_mitsuba_scenes_mdas_table_is_not_in_its_reference_key() {
+    let dir = std::env::temp_dir().join(format!("mdas-side-key-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = dir.join("s.xml");
+    std::fs::write(
+        &scene,
+        "<scene version=\"3.0.0\"><integrator type=\"direct\"/>\
+         <sensor type=\"perspective\"><float name=\"fov\" value=\"40\"/></sensor>\
+         <include filename=\"inc.xml\"/></scene>",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("inc.xml"),
+        "<scene version=\"3.0.0\"><shape type=\"cube\"/></scene>",
+    )
+    .unwrap();
+    let spec = ReferenceSpec {
+        spp: 4,
+        scale: 1.0,
+        seed: 0,
+    };
+    let key = || reference_cache_path(&dir, &scene, spec).unwrap();
+    let plain = key();
+    std::fs::write(dir.join("s.mdas.toml"), "[mdas]\nalpha = 3\n").unwrap();
+    assert_eq!(key(), plain, "the [mdas] sidecar is not part of the key");
+    std::fs::write(
+        dir.join("inc.xml"),
+        "<scene version=\"3.0.0\"><shape type=\"rectangle\"/></scene>",
+    )
+    .unwrap();
+    assert_ne!(key(), plain, "an included file is");
+    std::fs::remove_dir_all(&dir).ok();
+}
