@@ -145,24 +145,27 @@ pub(crate) fn run(args: ReferenceArgs, ui: Ui) -> Result<()> {
         .expect("valid template"),
     );
     let b = bar.clone();
+    let progress: Option<mdas::integrator::halton::Progress> =
+        Some(Box::new(move |done, _| b.set_position(done as u64)));
     let spec = ReferenceSpec { spp, scale, seed };
+    let overrides = IntegrandOverrides {
+        sampler,
+        visibility,
+        ..IntegrandOverrides::default()
+    };
     if let (Some(part), Some(out)) = (part, &output) {
         let (film, warnings) = session::parts::reference_part(
             gpu,
             loaded,
             &scene,
             spec,
-            IntegrandOverrides {
-                sampler,
-                visibility,
-                ..IntegrandOverrides::default()
-            },
+            overrides,
             session::parts::PartJob {
                 part,
                 cache_dir: &cache,
                 out,
             },
-            Some(Box::new(move |done, _| b.set_position(done as u64))),
+            progress,
         )?;
         bar.finish_and_clear();
         for w in &warnings {
@@ -195,19 +198,7 @@ pub(crate) fn run(args: ReferenceArgs, ui: Ui) -> Result<()> {
         cache: cache_use,
         warnings,
         notes,
-    } = session::reference_of_loaded(
-        gpu,
-        loaded,
-        &scene,
-        spec,
-        IntegrandOverrides {
-            sampler,
-            visibility,
-            ..IntegrandOverrides::default()
-        },
-        &cache,
-        Some(Box::new(move |done, _| b.set_position(done as u64))),
-    )?;
+    } = session::reference_of_loaded(gpu, loaded, &scene, spec, overrides, &cache, progress)?;
     bar.finish_and_clear();
     for w in warnings.iter().chain(&notes) {
         eprintln!("warning: {w}");

@@ -75,7 +75,8 @@ pub struct PartJob<'a> {
 }
 
 /// Renders `job.part` of the reference of `scene` (loaded from
-/// `scene_path`) and writes it to `job.out` with its record.
+/// `scene_path`) and writes it to `job.out` with an sRGB PNG and its
+/// record beside it.
 pub fn reference_part(
     gpu: &Gpu,
     scene: SceneFile,
@@ -150,14 +151,8 @@ pub fn reference_part(
         )?,
     });
     let attributes = render_attributes("halton", spec.seed, &render, scene_path);
-    let mut writes = crate::atomic::AtomicWrites::new();
-    let (w, h) = (render.film.width, render.film.height);
-    image_io::stage_exr(&mut writes, out, w, h, &render.image, &attributes)?;
-    let text = serde_json::to_string_pretty(&record)?;
-    writes.stage(&reference_record_path(out), |t| {
-        std::fs::write(t, text.as_bytes()).map_err(Into::into)
-    })?;
-    writes.commit()?;
+    // As a cache entry: the EXR, a PNG for eyes and the record, as one unit.
+    write_entry(out, render.film, &render.image, &attributes, &record)?;
     Ok((render.film, warnings))
 }
 
