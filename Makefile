@@ -8,7 +8,7 @@ CARGO ?= cargo
 SCENE ?= scenes/cornell.toml
 SPP ?= 64
 
-.PHONY: run test lint crosscheck slurm-test vulkan build bench info clean mutants mutants-wgsl
+.PHONY: run test lint crosscheck browser-test slurm-test vulkan build bench info clean mutants mutants-wgsl
 
 vulkan:
 	@./.ci/ensure-vulkan.sh
@@ -58,6 +58,16 @@ lint:
 crosscheck: vulkan
 	$(CARGO) build --profile test --bin mdas
 	MDAS=target/debug/mdas ./.ci/crosscheck.sh
+
+# The comparison page in a real browser (issue 52): Debian's chromium
+# (installed when missing) driven headless by playwright-core (pinned in
+# tests/browser/package-lock.json) over the index.html of a small compare,
+# sweep and tune and of a 1024×1024 comparison; screenshots checked against
+# the EXRs and map PNGs, the console clean, the large page ready in < 2 s
+# (.ci/browser-test.sh, docs/testing.md). CI runs it after `make crosscheck`.
+browser-test: vulkan
+	$(CARGO) build --profile test --bin mdas
+	MDAS=target/debug/mdas ./.ci/browser-test.sh
 
 # Opt-in (not in CI): a single-node Slurm cluster on this machine (Debian's
 # slurm-wlm and munge, installed when missing) runs a 4-part reference as a

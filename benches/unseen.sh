@@ -21,13 +21,22 @@
 #   N=4 SPPS="8" INTEGRANDS="motion_blur path" benches/unseen.sh
 #   RESUME=1 benches/unseen.sh                keeps the scenes and budgets
 #                                             already measured in OUT
+#   PART=3/8 benches/unseen.sh                only jobs ⌊2·J/8⌋ .. ⌊3·J/8⌋
+#                                             of the J (scene, budget) jobs,
+#                                             no summary (a job array:
+#                                             scripts/slurm/, docs/cluster.md)
 #
 # Outputs in OUT (default out/unseen): scenes/, one tune directory per
-# scene and budget, battery.json and battery.md (the summary).
+# scene and budget, jobs.txt (the settings and every job, which the
+# summary checks are all there), battery.json and battery.md (the summary).
+# MDAS=path/to/mdas uses that binary instead of building one.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-cargo build --release --quiet
-mdas=target/release/mdas
+if [ -z "${MDAS:-}" ]; then
+    cargo build --release --quiet
+    MDAS=target/release/mdas
+fi
+mdas=$MDAS
 out=${OUT:-out/unseen}
 n=${N:-8}
 spps=${SPPS:-8 32}
@@ -42,20 +51,52 @@ flags=${FLAGS:-}
 # Scene seeds, fixed so that a run is reproducible: the first N of these.
 scene_seeds=(101 202 303 404 505 606 707 808 909 1010 1111 1212 1313 1414 1515 1616)
 mkdir -p "$out/scenes"
-for t in $integrands; do
-    for k in "${scene_seeds[@]:0:$n}"; do
-        scene="$out/scenes/$t-$k.toml"
-        $mdas -q scene random --integrand "$t" --seed "$k" -o "$scene"
-        for spp in $spps; do
-            dir="$out/$t-$k-$spp"
-            if [ -n "${RESUME:-}" ] && [ -f "$dir/tune.json" ]; then
-                continue # RESUME=1: a scene and budget already measured
-            fi
-            echo "== $t seed $k, $spp spp $(date -u +%H:%M:%S)"
-            $mdas -q tune "$scene" --spp "$spp" --equal-samples --seeds "$seeds" \
-                --ref-spp "$ref_spp" $(printf -- '--grid %s ' $grid) $flags --out "$dir" \
-                > "$dir.log" 2>&1 || echo "   failed: see $dir.log"
+# Every job, in order, after the settings that make them one battery: a
+# part (PART=I/N) runs its contiguous share, and parts sharing OUT must
+# agree on this list (the summary refuses a battery with a job missing).
+jobs=$(
+    echo "# settings: ref_spp=$ref_spp seeds=$seeds grid=$grid flags=$flags"
+    for t in $integrands; do
+        for k in "${scene_seeds[@]:0:$n}"; do
+            for spp in $spps; do echo "$t $k $spp"; done
         done
     done
-done
+)
+if [ -f "$out/jobs.txt" ] && [ "$(cat "$out/jobs.txt")" != "$jobs" ]; then
+    echo "$out/jobs.txt lists another battery (other settings or jobs): use another OUT" >&2
+    exit 1
+fi
+tmp=$(mktemp "$out/.jobs.XXXXXX")
+echo "$jobs" > "$tmp" && mv "$tmp" "$out/jobs.txt"
+total=$(grep -vc '^#' "$out/jobs.txt")
+first=0 end=$total
+if [ -n "${PART:-}" ]; then
+    i=${PART%/*} count=${PART#*/}
+    if ! [[ $i =~ ^[0-9]+$ && $count =~ ^[0-9]+$ ]] || ((i < 1 || i > count || count > total)); then
+        echo "PART=$PART is not a part I/N with 1 ≤ I ≤ N ≤ $total (jobs)" >&2
+        exit 1
+    fi
+    first=$(( (i - 1) * total / count )) end=$(( i * total / count ))
+fi
+index=0
+failed=0
+while read -r t k spp; do
+    index=$((index + 1))
+    ((index > first && index <= end)) || continue
+    scene="$out/scenes/$t-$k.toml"
+    # Generation is deterministic; parts may write the same scene (atomically).
+    [ -f "$scene" ] || $mdas -q scene random --integrand "$t" --seed "$k" -o "$scene"
+    dir="$out/$t-$k-$spp"
+    if [ -n "${RESUME:-}" ] && [ -f "$dir/tune.json" ]; then
+        continue # RESUME=1: a scene and budget already measured
+    fi
+    echo "== $t seed $k, $spp spp $(date -u +%H:%M:%S)"
+    $mdas -q tune "$scene" --spp "$spp" --equal-samples --seeds "$seeds" \
+        --ref-spp "$ref_spp" $(printf -- '--grid %s ' $grid) $flags --out "$dir" \
+        > "$dir.log" 2>&1 || { echo "   failed: see $dir.log"; failed=$((failed + 1)); }
+done < <(grep -v '^#' "$out/jobs.txt")
+if [ -n "${PART:-}" ]; then
+    echo "part $PART: jobs $((first + 1))..$end of $total done, $failed failed"
+    exit $((failed > 0))
+fi
 python3 benches/unseen_summary.py "$out" | tee "$out/battery.md"

@@ -13,6 +13,31 @@ below ½×, extrapolated along the nearest segment (counted in the table).
 import json, math, os, random, re, sys
 
 out = sys.argv[1] if len(sys.argv) > 1 else "out/unseen"
+# The battery's jobs (benches/unseen.sh writes OUT/jobs.txt; its parts,
+# PART=I/N, share it): every job must have its tune.json, run with the
+# battery's reference spp and seeds, or there is no summary to write.
+jobs_file = os.path.join(out, "jobs.txt")
+if os.path.exists(jobs_file):
+    lines = open(jobs_file).read().splitlines()
+    settings = dict(kv.split("=", 1) for kv in lines[0].removeprefix("# settings: ").split(" ")
+                    if "=" in kv)
+    missing, wrong = [], []
+    for line in lines[1:]:
+        t, k, spp = line.split()
+        path = os.path.join(out, f"{t}-{k}-{spp}", "tune.json")
+        if not os.path.exists(path):
+            missing.append(f"{t}-{k}-{spp}")
+            continue
+        d = json.load(open(path))
+        if (str(d["reference_spp"]) != settings.get("ref_spp")
+                or str(len(d["mdas_seeds"])) != settings.get("seeds")):
+            wrong.append(f"{t}-{k}-{spp}")
+    if missing or wrong:
+        sys.exit(f"{out}: the battery is not whole: "
+                 + (f"{len(missing)} jobs missing ({', '.join(missing[:8])}"
+                    + (", ..." if len(missing) > 8 else "") + ")" if missing else "")
+                 + ("; " if missing and wrong else "")
+                 + (f"run with other settings than jobs.txt: {', '.join(wrong)}" if wrong else ""))
 rows = []
 for name in sorted(os.listdir(out)):
     m = re.fullmatch(r"([a-z_]+)-(\d+)-(\d+(?:\.\d+)?)", name)

@@ -12,6 +12,7 @@
 pub mod accel;
 pub mod analytic;
 pub mod atomic;
+pub mod colormap;
 pub mod compare;
 pub mod film;
 pub mod gpu;
@@ -26,6 +27,7 @@ pub mod scene;
 pub mod scene_file;
 pub mod scene_gen;
 pub mod session;
+pub mod viewer;
 
 #[cfg(test)]
 mod layout_tests;

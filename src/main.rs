@@ -57,6 +57,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Tune(args) => cli::tune::run(args, ui),
         Command::Bench(args) => cli::bench::run(args, ui),
         Command::Scene(args) => cli::scene::run(args, ui),
+        Command::View(args) => cli::view::run(args, ui),
         Command::Info => {
             let gpu = mdas::gpu::Gpu::shared()?;
             ui.result(format!(

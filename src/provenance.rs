@@ -10,17 +10,18 @@ use crate::gpu::Gpu;
 use crate::integrand::Integrand;
 use crate::integrator::mdas::MdasParams;
 use anyhow::{Context, Result};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 use std::path::Path;
 
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Provenance {
     /// The process's arguments, program first.
     pub command_line: Vec<String>,
     /// SHA-256 of the scene file's bytes, hex; absent for an integrand
     /// built in code ([`Provenance::of_integrand`]).
     #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(default)]
     pub scene_sha256: Option<String>,
     /// The integrand's name and dimension count.
     pub integrand: String,
@@ -28,10 +29,12 @@ pub struct Provenance {
     /// MDAS's parameters as run (its seed is the first of its seeds);
     /// absent when the run has no MDAS render.
     #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(default)]
     pub mdas: Option<MdasParams>,
     pub version: String,
     /// `git rev-parse HEAD` at build time, when built from a checkout.
     #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(default)]
     pub git_commit: Option<String>,
     pub adapter: String,
     pub driver: String,
@@ -74,6 +77,28 @@ impl Provenance {
             driver: gpu.info.driver.clone(),
             driver_info: gpu.info.driver_info.clone(),
             timestamp_utc: utc_timestamp(std::time::SystemTime::now()),
+        }
+    }
+}
+
+/// One part of a run merged from parts (`mdas merge`): which part, the
+/// command that rendered it and when.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PartProvenance {
+    /// Part I of N, as `I/N`.
+    pub part: String,
+    pub command_line: Vec<String>,
+    pub timestamp_utc: String,
+}
+
+impl Provenance {
+    /// The provenance of a merge of parts whose first part's provenance is
+    /// `self`: this process's command line and time, the rest unchanged.
+    pub fn merged(&self) -> Provenance {
+        Provenance {
+            command_line: std::env::args().collect(),
+            timestamp_utc: utc_timestamp(std::time::SystemTime::now()),
+            ..self.clone()
         }
     }
 }

@@ -1095,7 +1095,8 @@ fn hostile_inputs_fail_cleanly() {
     std::fs::write(inputs.join("deep.toml"), deep_scene).unwrap();
     let fifo_out = inputs.join("fifo.exr");
     let fifo_ref = inputs.join("fifo_ref.exr");
-    for fifo in [&fifo_out, &fifo_ref] {
+    let fifo_part = inputs.join("fifo_part.json");
+    for fifo in [&fifo_out, &fifo_ref, &fifo_part] {
         let made = Command::new("mkfifo").arg(fifo).status().unwrap();
         assert!(made.success(), "mkfifo {}", fifo.display());
     }
@@ -1377,6 +1378,14 @@ fn hostile_inputs_fail_cleanly() {
             ]),
             env: None,
             expect: vec!["fifo_ref.exr: not a regular file".into()],
+        },
+        Hostile {
+            what: "merge a FIFO as a part record",
+            args: ["merge", &s(&fifo_part), "-o", &s(&out.join("merged"))]
+                .map(String::from)
+                .to_vec(),
+            env: None,
+            expect: vec!["fifo_part.json: not a regular file".into()],
         },
         Hostile {
             what: "compare --spp 1e30 (a budget beyond u64)",
@@ -1841,5 +1850,237 @@ fn reference_parts_merge_into_the_one_process_reference() {
         "{}",
         stderr(&o)
     );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// `sweep --part` and `tune --part` merged equal the one-process run field
+/// for field (issue 52): the renders are deterministic and the records'
+/// f64s read back exactly, so every error statistic is bit for bit; only
+/// what a run measures of itself may differ — its times and what follows
+/// from them (tune's time fit, equal-time ratios, ranking by them and its
+/// flags), the provenance's command line and time, and `merged_from`.
+/// Malformed merges fail with a message and write nothing.
+#[test]
+fn sweep_and_tune_parts_merge_into_the_one_process_run() {
+    let dir = temp_dir("run-parts");
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    let cache = s(&dir.join("cache"));
+    let base = |kind: &str| -> Vec<String> {
+        let mut a: Vec<String> = [
+            "-q",
+            kind,
+            "scenes/area_light_plane.toml",
+            "--scale",
+            "0.125",
+            "--ref-spp",
+            "64",
+            "--seeds",
+            "2",
+            "--cache",
+            &cache,
+        ]
+        .map(String::from)
+        .to_vec();
+        if kind == "sweep" {
+            a.extend(["--spps", "4,8,16", "--repeats", "1"].map(String::from));
+        } else {
+            a.extend(
+                [
+                    "--spp",
+                    "8",
+                    "--equal-samples",
+                    "--grid",
+                    "alpha=0,0.25,1",
+                    "--grid",
+                    "epsilon=0.01,0.1",
+                ]
+                .map(String::from),
+            );
+        }
+        a
+    };
+    let run = |args: Vec<String>| {
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let o = mdas(&args);
+        assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+    };
+    let with = |mut a: Vec<String>, more: &[&str]| {
+        a.extend(more.iter().map(|m| m.to_string()));
+        a
+    };
+    let merge = |parts: &[PathBuf], out: &Path| {
+        let mut a = vec!["-q".to_string(), "merge".to_string()];
+        a.extend(parts.iter().map(|p| s(p)));
+        a.extend(["-o".to_string(), s(out)]);
+        let a: Vec<&str> = a.iter().map(String::as_str).collect();
+        mdas(&a)
+    };
+    let json = |p: PathBuf| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(&p).unwrap()).unwrap()
+    };
+    for (kind, n, record, own) in [
+        ("sweep", 3, "sweep.json", &["time_ms"][..]),
+        (
+            "tune",
+            4,
+            "tune.json",
+            &[
+                "time_ms",
+                "halton_fit",
+                "flags",
+                "equal_time_halton_spp",
+                "equal_time_halton_relmse",
+                "equal_time_ratio",
+            ][..],
+        ),
+    ] {
+        let one = dir.join(format!("{kind}-one"));
+        run(with(base(kind), &["--out", &s(&one)]));
+        let parts: Vec<PathBuf> = (1..=n).map(|i| dir.join(format!("{kind}-{i}"))).collect();
+        for (i, p) in parts.iter().enumerate() {
+            let part = format!("{}/{n}", i + 1);
+            run(with(base(kind), &["--part", &part, "--out", &s(p)]));
+        }
+        // A part of another run: the last part with a third seed.
+        let other = dir.join(format!("{kind}-other"));
+        let last = format!("{n}/{n}");
+        let mut a = with(base(kind), &["--part", &last, "--out", &s(&other)]);
+        let at = a.iter().position(|x| x == "--seeds").unwrap();
+        a[at + 1] = "3".into();
+        run(a);
+        let truncated = dir.join(format!("{kind}-truncated"));
+        std::fs::create_dir_all(&truncated).unwrap();
+        let file = format!("{kind}-part.json");
+        let bytes = std::fs::read(parts[n - 1].join(&file)).unwrap();
+        std::fs::write(truncated.join(&file), &bytes[..bytes.len() / 2]).unwrap();
+        let out = dir.join(format!("{kind}-merged"));
+        let p = &parts;
+        let missing = format!("parts {}/{n} are missing", n - 1);
+        for (files, expect) in [
+            (
+                [&p[..n - 1], std::slice::from_ref(&other)].concat(),
+                "are parts of different runs",
+            ),
+            ([&p[..], &[p[1].clone()]].concat(), "part 2/"),
+            ([&p[..n - 2], &p[n - 1..]].concat(), missing.as_str()),
+            (
+                [&p[..n - 1], std::slice::from_ref(&truncated)].concat(),
+                "not valid JSON",
+            ),
+        ] {
+            let o = merge(&files, &out);
+            assert!(!o.status.success(), "{kind} {expect}: merged");
+            assert!(
+                stderr(&o).contains(expect),
+                "{kind} {expect}: {}",
+                stderr(&o)
+            );
+            assert!(!out.exists(), "{kind} {expect}: wrote the output");
+        }
+        let o = merge(&parts, &out);
+        assert!(o.status.success(), "{kind}: {}", stderr(&o));
+        let (mut a, mut b) = (json(one.join(record)), json(out.join(record)));
+        assert_eq!(b["merged_from"].as_array().map(Vec::len), Some(n), "{kind}");
+        // What a run measures of itself, and the merge's own provenance.
+        fn strip(v: &mut serde_json::Value, own: &[&str]) {
+            match v {
+                serde_json::Value::Object(o) => {
+                    for k in own {
+                        o.remove(*k);
+                    }
+                    o.values_mut().for_each(|x| strip(x, own));
+                }
+                serde_json::Value::Array(x) => x.iter_mut().for_each(|x| strip(x, own)),
+                _ => {}
+            }
+        }
+        for v in [&mut a, &mut b] {
+            strip(v, own);
+            let p = v["provenance"].as_object_mut().unwrap();
+            p.remove("command_line");
+            p.remove("timestamp_utc");
+            v.as_object_mut().unwrap().remove("merged_from");
+        }
+        assert!(
+            a["rows"].as_array().is_some_and(|r| r.len() >= 6),
+            "{kind}: {a}"
+        );
+        assert_eq!(
+            a, b,
+            "{kind}: the merged run differs from the one-process run"
+        );
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// Sizes that are documented maxima but too large for the adapter's
+/// storage buffers are errors that name the key that sized them (issue 54
+/// item 8), not only a buffer label: a 2^24-light set (the documented
+/// maximum; a 1 GiB light tree), 2^22 VPLs (a 256 MiB VPL buffer) and
+/// lgh_levels = 10 (a 1.6 GiB vertex index). Each is over lavapipe's 128 MiB
+/// binding limit, so CI's adapter must refuse them; an adapter that fits
+/// one renders it.
+#[test]
+fn sizes_over_the_adapter_limit_name_their_key() {
+    let dir = temp_dir("adapter-limit");
+    let info = String::from_utf8_lossy(&mdas(&["info"]).stdout).into_owned();
+    let cases: [(&str, &str, &str, &str, &[&str]); 3] = [
+        (
+            "scenes/lights_1m.toml",
+            "resolution = [1000, 1000]",
+            "resolution = [4096, 4096]",
+            "light_set",
+            &["[[light_set]]", "16777216 lights"],
+        ),
+        (
+            "scenes/vpl_atrium.toml",
+            "vpls = 50000",
+            "vpls = 2097152",
+            "vpls",
+            &["[integrand] vpls = 2097152 with vpl_bounces = 2"],
+        ),
+        (
+            "scenes/lights_1m.toml",
+            "sampler = \"tree\"",
+            "sampler = \"lgh\"\nlgh_levels = 10",
+            "lgh_levels",
+            &["[integrand] lgh_levels = 10"],
+        ),
+    ];
+    for (base, from, to, name, expect) in cases {
+        let text = std::fs::read_to_string(base).unwrap();
+        assert!(text.contains(from), "{base} has '{from}'");
+        let scene = dir.join(format!("{name}.toml"));
+        std::fs::write(&scene, text.replacen(from, to, 1)).unwrap();
+        let out = dir.join(format!("{name}.png"));
+        let o = mdas(&[
+            "-q",
+            "render",
+            scene.to_str().unwrap(),
+            "--scale",
+            "0.05",
+            "--spp",
+            "1",
+            "-o",
+            out.to_str().unwrap(),
+        ]);
+        if o.status.success() {
+            assert!(
+                !info.contains("llvmpipe"),
+                "{name}: lavapipe's 128 MiB binding cannot hold it: {info}"
+            );
+            continue;
+        }
+        let e = stderr(&o);
+        assert!(
+            expect.iter().all(|x| e.contains(x)) && !e.contains("panicked"),
+            "{name}: {e}"
+        );
+        assert!(
+            !out.exists(),
+            "{name}: a failed render wrote {}",
+            out.display()
+        );
+    }
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -178,9 +178,12 @@ fn compare_integrand_runs_on_an_integrand_built_in_code() {
         "reference.exr",
         "mdas.exr",
         "halton.exr",
+        "index.html",
     ] {
         assert!(out.join(file).is_file(), "{file} missing");
     }
+    // The page lands with the run and is listed with its files.
+    assert_eq!(report.files["page"], "index.html");
 
     // The sweep on the same subject: a point per method and budget, MDAS's
     // budgets below its initial grid skipped, the reference recorded as

@@ -7,7 +7,9 @@
 # scripts/slurm/submit.sh (sbatch), waits for them, and checks the merged
 # cache entry against a single-process `mdas reference` of the same spec:
 # the same entry name and every pixel within 16·2⁻²⁴ relative (the bound
-# tests/cli.rs states for a merge). Stops the daemons on exit.
+# tests/cli.rs states for a merge); then a 3-part sweep and its merge job
+# through scripts/slurm/submit-run.sh, checked against a one-process sweep
+# field for field but the times. Stops the daemons on exit.
 #   MDAS=path/to/mdas scripts/slurm/test.sh   (default: builds target/release/mdas)
 set -euo pipefail
 cd "$(dirname "$0")/../.."
@@ -108,5 +110,34 @@ bound = 16 * 2.0 ** -24 * np.abs(b)
 worst = np.max(np.abs(a - b) / np.maximum(np.abs(b), 1e-30))
 print(f"merged against one process: worst relative difference {worst:.3g} (bound 16·2^-24 = {16 * 2.0 ** -24:.3g})")
 sys.exit(0 if np.all(np.abs(a - b) <= bound) else 1)
+EOF
+
+# A 3-part sweep through the array and its merge job, against one process:
+# equal field for field but the measured times and the provenance's
+# command line and time (as tests/cli.rs checks without Slurm).
+args=(--scale 0.25 --ref-spp "$spp" --spps 2,4,8 --seeds 2 --repeats 1 --cache "$dir/work/cache")
+MDAS=$MDAS SBATCH_OPTIONS="--chdir=$dir/work" scripts/slurm/submit-run.sh sweep "$scene" 3 \
+    "$dir/work/sweep-parts" "$dir/work/sweep-merged" "${args[@]}"
+deadline=$((SECONDS + 600))
+while [ -n "$(squeue -h)" ]; do
+    if [ $SECONDS -gt $deadline ]; then
+        squeue; echo "FAIL: the sweep jobs did not finish in 600 s" >&2; exit 1
+    fi
+    sleep 2
+done
+cat "$dir"/work/mdas-run-*.out "$dir"/work/mdas-merge-run-*.out
+"$MDAS" -q sweep "$scene" "${args[@]}" --out "$dir/work/sweep-one" > /dev/null
+"$python" - "$dir/work/sweep-merged/sweep.json" "$dir/work/sweep-one/sweep.json" <<'EOF'
+import json, sys
+a, b = (json.load(open(p)) for p in sys.argv[1:3])
+assert len(a.pop("merged_from")) == 3, "three parts"
+for d in (a, b):
+    for r in d["rows"]:
+        r.pop("time_ms")
+    for k in ("command_line", "timestamp_utc"):
+        d["provenance"].pop(k)
+if a != b:
+    sys.exit(f"FAIL: the merged sweep differs from one process's:\n{a}\n{b}")
+print(f"merged sweep ({len(a['rows'])} points from 3 parts) equals one process's but its times")
 EOF
 echo "slurm test: PASS"

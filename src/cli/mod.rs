@@ -10,6 +10,7 @@ pub(crate) mod render;
 pub(crate) mod scene;
 pub(crate) mod sweep;
 pub(crate) mod tune;
+pub(crate) mod view;
 
 pub(crate) use anyhow::{bail, Result};
 pub(crate) use clap::{Parser, Subcommand, ValueEnum};
@@ -313,10 +314,12 @@ pub(crate) enum Command {
     /// with --part I/N, only the I-th share of its samples (for a job
     /// array; `mdas merge` joins the parts).
     Reference(reference::ReferenceArgs),
-    /// Join the parts of a reference (`mdas reference --part I/N -o
-    /// PART.exr`) into its cache entry: exactly the reference one process
-    /// renders, within f32 rounding. Refuses parts of different references,
-    /// a part given twice, a missing part or a damaged file, and then
+    /// Join the parts of a run into what one process writes: a reference's
+    /// (`mdas reference --part I/N -o PART.exr`) into its cache entry,
+    /// within f32 rounding; a sweep's or a search's (`mdas sweep|tune
+    /// --part I/N --out DIR`) into sweep.json or tune.json in -o, equal
+    /// field for field but the measured times. Refuses parts of different
+    /// runs, a part given twice, a missing part or a damaged file, and then
     /// writes nothing.
     Merge(reference::MergeArgs),
     /// MDAS against Halton at equal time: images, RelMSE heat maps, MDAS
@@ -342,6 +345,10 @@ pub(crate) enum Command {
     Info,
     /// Scene-file tools: `scene random` generates a random scene for an integrand, the same per seed.
     Scene(scene::SceneArgs),
+    /// Write index.html again in an output directory of compare, sweep or
+    /// tune: one self-contained page (images, maps, figures, provenance)
+    /// to open in a browser (docs/comparisons.md).
+    View(view::ViewArgs),
 }
 
 /// The film scale and the reference of an experiment (`compare`, `sweep`,

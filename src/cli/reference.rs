@@ -43,16 +43,19 @@ pub(crate) struct ReferenceArgs {
 
 #[derive(clap::Args)]
 pub(crate) struct MergeArgs {
-    /// The parts (EXR files written by `mdas reference --part I/N -o`),
-    /// each with its .json record beside it.
+    /// The parts of one run: a reference's EXR files (written by `mdas
+    /// reference --part I/N -o`, each with its .json record beside it), or
+    /// the output directories (or their sweep-part.json / tune-part.json)
+    /// of `mdas sweep --part I/N` or `mdas tune --part I/N`.
     #[arg(required = true)]
     pub(crate) parts: Vec<PathBuf>,
-    /// Cache directory to write the merged reference into (as `mdas
+    /// Cache directory to write a merged reference into (as `mdas
     /// reference --cache`).
     #[arg(long, default_value = ".cache/references")]
     pub(crate) cache: PathBuf,
-    /// Also copy the merged reference to this path: X.exr (and an sRGB
-    /// X.png beside it) or X.png only.
+    /// A reference: also copy the merged reference to this path, X.exr
+    /// (and an sRGB X.png beside it) or X.png only. A sweep or tune: the
+    /// output directory of the merged run (required).
     #[arg(short, long)]
     pub(crate) output: Option<PathBuf>,
 }
@@ -64,6 +67,33 @@ pub(crate) fn merge(args: MergeArgs, ui: Ui) -> Result<()> {
         cache,
         output,
     } = args;
+    use mdas::compare::merge::PartKind;
+    match PartKind::of_all(&parts)? {
+        PartKind::Reference => {}
+        kind => {
+            let Some(out) = output else {
+                bail!("merging {kind:?} parts needs -o, the merged run's output directory");
+            };
+            if kind == PartKind::Sweep {
+                let result = mdas::compare::merge::merge_sweep(&parts, &out)?;
+                ui.result(mdas::compare::sweep::csv(&result.rows));
+                ui.note(format!(
+                    "merged {} parts: wrote sweep.csv, sweep.json, sweep.svg, sweep.png and index.html to {}",
+                    parts.len(),
+                    out.display()
+                ));
+                return ui.json(&result);
+            }
+            let report = mdas::compare::merge::merge_tune(&parts, &out)?;
+            ui.result(mdas::compare::tune::table(&report));
+            ui.note(format!(
+                "merged {} parts: wrote tune.json, tune.csv and index.html to {}",
+                parts.len(),
+                out.display()
+            ));
+            return ui.json(&report);
+        }
+    }
     if let Some(out) = &output {
         check_output(out)?;
         let inputs: Vec<&Path> = parts.iter().map(PathBuf::as_path).collect();

@@ -15,6 +15,12 @@ pub(crate) struct SweepArgs {
     /// a 95% interval drawn as an error bar; the time is the first seed's.
     #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=64))]
     pub(crate) seeds: u32,
+    /// Measure only part I of N: points ⌊(I−1)·P/N⌋ up to ⌊I·P/N⌋ of the
+    /// P points (MDAS's budgets, then Halton's), written as
+    /// sweep-part.json in --out (required); `mdas merge` joins the N parts
+    /// into the sweep one process writes (scripts/slurm/).
+    #[arg(long, value_name = "I/N", requires = "out")]
+    pub(crate) part: Option<session::parts::Part>,
     #[command(flatten)]
     pub(crate) common: ExperimentArgs,
 }
@@ -24,6 +30,7 @@ pub(crate) fn run(args: SweepArgs, ui: Ui) -> Result<()> {
         scene,
         spps,
         seeds,
+        part,
         common,
     } = args;
     let out = common
@@ -40,6 +47,20 @@ pub(crate) fn run(args: SweepArgs, ui: Ui) -> Result<()> {
         spps,
         seeds,
     };
+    if let Some(part) = part {
+        let record = mdas::compare::sweep::sweep_part(Gpu::shared()?, &spec, part)?;
+        ui.result(mdas::compare::sweep::csv(&record.result.rows));
+        ui.note(format!(
+            "wrote part {}/{} (points {}..{} of {}) to {}",
+            part.index,
+            part.count,
+            record.first,
+            record.end,
+            record.points.len(),
+            out.join(mdas::compare::sweep::PART_FILE).display()
+        ));
+        return ui.json(&record);
+    }
     let result = mdas::compare::sweep::sweep(Gpu::shared()?, &spec)?;
     ui.result(mdas::compare::sweep::csv(&result.rows));
     if !result.mdas_skipped.is_empty() {
@@ -49,7 +70,7 @@ pub(crate) fn run(args: SweepArgs, ui: Ui) -> Result<()> {
         ));
     }
     ui.note(format!(
-        "wrote sweep.csv, sweep.json, sweep.svg and sweep.png to {}",
+        "wrote sweep.csv, sweep.json, sweep.svg, sweep.png and index.html to {}",
         out.display()
     ));
     ui.json(&result)

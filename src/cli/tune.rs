@@ -25,6 +25,12 @@ pub(crate) struct TuneArgs {
     /// equal time.
     #[arg(long)]
     pub(crate) equal_samples: bool,
+    /// Measure only part I of N: work items ⌊(I−1)·W/N⌋ up to ⌊I·W/N⌋ of
+    /// the W items (Halton's budgets, then the runnable configurations),
+    /// written as tune-part.json in --out (required); `mdas merge` joins
+    /// the N parts into the search one process writes (scripts/slurm/).
+    #[arg(long, value_name = "I/N", requires = "out")]
+    pub(crate) part: Option<session::parts::Part>,
     #[command(flatten)]
     pub(crate) reference: ReferenceArgs,
     /// First seed of Halton's renders (default 0).
@@ -48,6 +54,7 @@ pub(crate) fn run(args: TuneArgs, ui: Ui) -> Result<()> {
         grid,
         seeds,
         equal_samples,
+        part,
         reference,
         seed,
         out,
@@ -66,8 +73,24 @@ pub(crate) fn run(args: TuneArgs, ui: Ui) -> Result<()> {
         seeds,
         equal_samples,
     };
+    if let Some(part) = part {
+        let record = mdas::compare::tune::tune_part(Gpu::shared()?, &spec, part)?;
+        ui.note(format!(
+            "wrote part {}/{} (items {}..{} of {}) to {}",
+            part.index,
+            part.count,
+            record.first,
+            record.end,
+            record.head.budgets.len() + record.configurations.len(),
+            out.join(mdas::compare::tune::PART_FILE).display()
+        ));
+        return ui.json(&record);
+    }
     let report = mdas::compare::tune::tune(Gpu::shared()?, &spec)?;
     ui.result(mdas::compare::tune::table(&report));
-    ui.note(format!("wrote tune.json and tune.csv to {}", out.display()));
+    ui.note(format!(
+        "wrote tune.json, tune.csv and index.html to {}",
+        out.display()
+    ));
     ui.json(&report)
 }

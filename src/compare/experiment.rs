@@ -591,6 +591,7 @@ fn report(
         ratio_ci95: seeded.ratio_ci95,
     })?;
     files.insert("report".into(), "report.json".into());
+    files.insert("page".into(), crate::viewer::PAGE.into());
     // MDAS at the target: the seed mean (its own run's budget in mode
     // "mdas"; the nearer bracketing run's under a time budget).
     let mdas_relmse = seeded.mdas.relmse;
@@ -688,6 +689,7 @@ fn report(
         }),
     };
     write_report(staged.path(), &report)?;
+    crate::viewer::write_page(staged.path())?;
     staged.commit("report.json")?;
     Ok(report)
 }

@@ -2,9 +2,8 @@
 //! the MDAS sample-density map, each as an EXR of the raw values (the value
 //! in all three channels) and a PNG for eyes.
 //!
-//! **Colormap**: viridis (dark purple → blue → green → yellow), piecewise
-//! linear through 9 of its published control points; NaN (a non-finite
-//! pixel of the render) is drawn magenta.
+//! **Colormap**: viridis ([`crate::colormap`]); NaN (a non-finite pixel
+//! of the render) is drawn magenta.
 //!
 //! **Scale**: logarithmic. RelMSE maps use the fixed range
 //! [`RELMSE_RANGE`] = 10⁻⁶ … 10¹ so maps of different methods and runs
@@ -14,41 +13,13 @@
 //! (`metrics::flip`, values in [0, 1]) use a linear scale over [0, 1]
 //! ([`write_map_linear`]).
 
+pub use crate::colormap::viridis;
 use crate::image_io;
 use anyhow::Result;
 use std::path::Path;
 
 /// Fixed log range of RelMSE heat maps.
 pub const RELMSE_RANGE: (f32, f32) = (1e-6, 1e1);
-
-/// Viridis at t = 0, 1/8, …, 1 (sRGB, 0..=255).
-const VIRIDIS: [[u8; 3]; 9] = [
-    [68, 1, 84],
-    [71, 44, 122],
-    [59, 81, 139],
-    [44, 113, 142],
-    [33, 144, 141],
-    [39, 173, 129],
-    [92, 200, 99],
-    [170, 220, 50],
-    [253, 231, 37],
-];
-
-const NAN_COLOUR: [u8; 3] = [255, 0, 255];
-
-/// Viridis at t ∈ [0, 1] (clamped); NaN → magenta.
-pub fn viridis(t: f32) -> [u8; 3] {
-    if t.is_nan() {
-        return NAN_COLOUR;
-    }
-    let x = t.clamp(0.0, 1.0) * 8.0;
-    let i = (x.floor() as usize).min(7);
-    let f = x - i as f32;
-    std::array::from_fn(|c| {
-        let (a, b) = (VIRIDIS[i][c] as f32, VIRIDIS[i + 1][c] as f32);
-        (a + f * (b - a)).round() as u8
-    })
-}
 
 /// Position of `v` in [lo, hi] on a log scale (0 at or below lo, 1 at or
 /// above hi, NaN for NaN).
@@ -133,15 +104,6 @@ pub fn density_range(density: &[f32]) -> (f32, f32) {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn viridis_ends_and_nan() {
-        assert_eq!(viridis(0.0), VIRIDIS[0]);
-        assert_eq!(viridis(1.0), VIRIDIS[8]);
-        assert_eq!(viridis(-3.0), VIRIDIS[0]);
-        assert_eq!(viridis(0.5), VIRIDIS[4]);
-        assert_eq!(viridis(f32::NAN), NAN_COLOUR);
-    }
 
     #[test]
     fn log_positions() {

@@ -16,6 +16,7 @@ pub mod figure;
 pub mod heatmap;
 pub mod inputs;
 pub mod intervals;
+pub mod merge;
 pub mod outputs;
 pub mod phases;
 pub mod plot;
@@ -26,6 +27,7 @@ pub mod seeds;
 pub mod sweep;
 pub mod timing;
 pub mod tune;
+pub mod tune_report;
 
 pub use equal_time::{
     halton_at_equal_time, measure, search_equal_time, EqualTime, HaltonRun, Measured,

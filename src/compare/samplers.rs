@@ -290,6 +290,7 @@ fn run(gpu: &Gpu, spec: &SamplersSpec) -> Result<Report> {
         ));
     }
     files.list.insert("report".into(), "report.json".into());
+    files.list.insert("page".into(), crate::viewer::PAGE.into());
 
     let reports: Vec<(SamplerKind, SearchReport)> = searches
         .iter()
@@ -398,6 +399,7 @@ fn run(gpu: &Gpu, spec: &SamplersSpec) -> Result<Report> {
         )?),
     };
     write_report(staged.path(), &report)?;
+    crate::viewer::write_page(staged.path())?;
     staged.commit("report.json")?;
     Ok(report)
 }

@@ -34,9 +34,9 @@ pub struct SweepSpec<'a> {
 }
 
 /// One measured point.
-#[derive(Clone, Debug, serde::Serialize)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct SweepRow {
-    pub method: &'static str,
+    pub method: String,
     pub spp: u32,
     pub samples: u64,
     pub time_ms: f64,
@@ -50,7 +50,7 @@ pub struct SweepRow {
 
 /// The points, the MDAS budgets skipped (below its initial samples) and
 /// the run's provenance: `sweep.json`.
-#[derive(Clone, Debug, serde::Serialize)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct SweepResult {
     pub scene: String,
     pub scale: f32,
@@ -64,6 +64,11 @@ pub struct SweepResult {
     pub rows: Vec<SweepRow>,
     pub mdas_skipped: Vec<u32>,
     pub provenance: crate::provenance::Provenance,
+    /// A sweep merged from parts (`mdas merge`): each part's command line,
+    /// time and points; `provenance` is then the first part's, with the
+    /// merge's command line and time.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub merged_from: Option<Vec<crate::provenance::PartProvenance>>,
 }
 
 pub const CSV_HEADER: &str = "method,spp,samples,time_ms,relmse,relmse_lo,relmse_hi,mse,seeds";
@@ -177,59 +182,112 @@ fn sweep_subject(
     plan: Plan,
     staged: StagedDir,
 ) -> Result<SweepResult> {
-    let Plan {
-        mdas_spps,
-        mdas_skipped,
-        mdas_seeds,
-        halton_seeds,
-    } = plan;
+    let points = points(&plan, &spec.spps);
+    let rows = measure_points(gpu, spec, subject, &plan, &points)?;
+    let result = result(gpu, spec, subject, plan, rows)?;
+    write_sweep(staged.path(), &result)?;
+    crate::viewer::write_page(staged.path())?;
+    staged.commit("sweep.json")?;
+    Ok(result)
+}
+
+/// The sweep's points, in the order of its rows: MDAS's budgets, then
+/// Halton's.
+fn points(plan: &Plan, spps: &[u32]) -> Vec<(String, u32)> {
+    let mdas = plan.mdas_spps.iter().map(|&s| ("mdas".to_string(), s));
+    let halton = spps.iter().map(|&s| ("halton".to_string(), s));
+    mdas.chain(halton).collect()
+}
+
+/// Measures `points` (a run of [`points`]), in order.
+fn measure_points(
+    gpu: &Gpu,
+    spec: &SweepSpec,
+    subject: &Subject,
+    plan: &Plan,
+    points: &[(String, u32)],
+) -> Result<Vec<SweepRow>> {
     let (integrand, reference, params) = (subject.integrand, subject.reference, subject.mdas);
     let bar = super::progress::bar(
         spec.setup.progress,
-        (spec.spps.len() + mdas_spps.len()) as u64,
+        points.len() as u64,
         "sweep {bar:40} {pos}/{len} points {msg} [{elapsed_precise} < {eta}]",
     );
-    let mut rows = Vec::new();
-    let mut add = |row: Result<SweepRow>| -> Result<()> {
-        rows.push(row?);
-        bar.inc(1);
-        Ok(())
-    };
+    let mut rows = Vec::with_capacity(points.len());
     // One integrator per method, so pipelines compile once.
     let mut mdas = Mdas::new(params)?;
-    for &spp in &mdas_spps {
-        bar.set_message(format!("mdas {spp} spp"));
-        mdas.set_spp(spp as f32)?;
-        add(point(
-            gpu,
-            spec,
-            integrand,
-            reference,
-            "mdas",
-            spp,
-            &mdas_seeds,
-            &mut mdas,
-            Mdas::set_seed,
-        ))?;
-    }
     let mut halton = Halton::new(1, spec.setup.halton_seed);
-    for &spp in &spec.spps {
-        bar.set_message(format!("halton {spp} spp"));
-        halton.spp = spp;
-        add(point(
-            gpu,
-            spec,
-            integrand,
-            reference,
-            "halton",
-            spp,
-            &halton_seeds,
-            &mut halton,
-            |h, s| h.seed = s,
-        ))?;
+    for (method, spp) in points {
+        let spp = *spp;
+        bar.set_message(format!("{method} {spp} spp"));
+        let row = if method == "mdas" {
+            mdas.set_spp(spp as f32)?;
+            point(
+                gpu,
+                spec,
+                integrand,
+                reference,
+                "mdas",
+                spp,
+                &plan.mdas_seeds,
+                &mut mdas,
+                Mdas::set_seed,
+            )?
+        } else {
+            halton.spp = spp;
+            point(
+                gpu,
+                spec,
+                integrand,
+                reference,
+                "halton",
+                spp,
+                &plan.halton_seeds,
+                &mut halton,
+                |h, s| h.seed = s,
+            )?
+        };
+        rows.push(row);
+        bar.inc(1);
     }
     bar.finish_and_clear();
+    Ok(rows)
+}
 
+/// `sweep.json` of measured `rows`.
+fn result(
+    gpu: &Gpu,
+    spec: &SweepSpec,
+    subject: &Subject,
+    plan: Plan,
+    rows: Vec<SweepRow>,
+) -> Result<SweepResult> {
+    let (reference_spp, reference_exact) = match &subject.reference_source {
+        ReferenceSource::Halton { spp, .. } => (*spp, None),
+        ReferenceSource::Exact(how) => (0, Some(how.clone())),
+    };
+    let (integrand, params) = (subject.integrand, subject.mdas);
+    Ok(SweepResult {
+        scene: subject.name.clone(),
+        scale: spec.setup.scale,
+        reference_spp,
+        reference_seed: spec.setup.ref_seed,
+        reference_exact,
+        repeats: spec.setup.repeats,
+        rows,
+        mdas_skipped: plan.mdas_skipped,
+        provenance: match subject.scene_file {
+            Some(file) => crate::provenance::Provenance::new(gpu, file, integrand, Some(params))?,
+            None => crate::provenance::Provenance::of_integrand(gpu, integrand, Some(params)),
+        },
+        merged_from: None,
+    })
+}
+
+/// Writes `sweep.csv`, `sweep.svg`, `sweep.png` and `sweep.json` of
+/// `result` into `dir` (a run's staging directory).
+pub(crate) fn write_sweep(dir: &std::path::Path, result: &SweepResult) -> Result<()> {
+    let rows = &result.rows;
     let series = |method: &'static str, name: &'static str, colour: &'static str| {
         let rows: Vec<&SweepRow> = rows.iter().filter(|r| r.method == method).collect();
         Series {
@@ -240,9 +298,11 @@ fn sweep_subject(
             labels: rows.iter().map(|r| format!("{} spp", r.spp)).collect(),
         }
     };
-    let title = match subject.scene_file {
-        Some(_) => format!("{} at scale {}", subject.name, spec.setup.scale),
-        None => subject.name.clone(),
+    // A scene file's sweep names its scale; an integrand built in code
+    // has no scene file to digest.
+    let title = match result.provenance.scene_sha256 {
+        Some(_) => format!("{} at scale {}", result.scene, result.scale),
+        None => result.scene.clone(),
     };
     let svg = loglog_svg(
         &title,
@@ -253,41 +313,96 @@ fn sweep_subject(
             series("halton", "Halton", "#1f77b4"),
         ],
     );
-    let text = csv(&rows);
-    image_io::write_atomic(&staged.path().join("sweep.csv"), |t| {
+    let text = csv(rows);
+    image_io::write_atomic(&dir.join("sweep.csv"), |t| {
         std::fs::write(t, text.as_bytes()).map_err(Into::into)
     })?;
     let png = svg_to_png(&svg)?;
-    image_io::write_atomic(&staged.path().join("sweep.svg"), |t| {
+    image_io::write_atomic(&dir.join("sweep.svg"), |t| {
         std::fs::write(t, svg.as_bytes()).map_err(Into::into)
     })?;
-    image_io::write_atomic(&staged.path().join("sweep.png"), |t| {
+    image_io::write_atomic(&dir.join("sweep.png"), |t| {
         std::fs::write(t, &png).map_err(Into::into)
     })?;
-    let (reference_spp, reference_exact) = match &subject.reference_source {
-        ReferenceSource::Halton { spp, .. } => (*spp, None),
-        ReferenceSource::Exact(how) => (0, Some(how.clone())),
+    let json = serde_json::to_string_pretty(result)?;
+    image_io::write_atomic(&dir.join("sweep.json"), |t| {
+        std::fs::write(t, json.as_bytes()).map_err(Into::into)
+    })
+}
+
+/// The file a sweep part writes in its output directory.
+pub const PART_FILE: &str = "sweep-part.json";
+
+/// The format tag of [`SweepPart`].
+pub const PART_FORMAT: &str = "mdas sweep part 1";
+
+/// `sweep-part.json`: part `part` of `parts` of a sweep — its share of
+/// the points (`first..end` of `points`, contiguous) measured as one
+/// process measures them, and everything a merge checks to know that the
+/// parts belong together (`mdas merge`, [`super::merge`]).
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct SweepPart {
+    pub format: String,
+    pub part: u32,
+    pub parts: u32,
+    /// Every point of the whole sweep (method, spp), in its rows' order.
+    pub points: Vec<(String, u32)>,
+    pub first: u32,
+    pub end: u32,
+    /// The sweep's budgets and seeds per point, as given.
+    pub spps: Vec<u32>,
+    pub seeds: u32,
+    /// SHA-256 of the reference's pixels ([`session::pixels_sha256`]).
+    pub reference_sha256: String,
+    /// The sweep as one process writes it, with this part's rows only.
+    pub result: SweepResult,
+}
+
+/// Measures part `part` of the sweep of a scene file — points
+/// ⌊(I − 1)·P/N⌋ .. ⌊I·P/N⌋ of its P points — and writes
+/// [`PART_FILE`] in the setup's output directory.
+pub fn sweep_part(gpu: &Gpu, spec: &SweepSpec, part: session::parts::Part) -> Result<SweepPart> {
+    check_spps(spec)?;
+    let staged = StagedDir::new(&spec.setup.out)?;
+    let prepared = session::prepare(gpu, &spec.setup.scene, spec.setup.scale)?;
+    let integrand = prepared.integrand.as_ref();
+    let params = (spec.setup.mdas_params)(prepared.scene.mdas);
+    let plan = plan(spec, params, integrand)?;
+    let points = points(&plan, &spec.spps);
+    if part.count as usize > points.len() {
+        bail!(
+            "{} parts of a sweep of {} points: every part needs a point (at most {} parts)",
+            part.count,
+            points.len(),
+            points.len()
+        );
+    }
+    let range = part.range(points.len() as u32);
+    let (reference, path, cached) = spec.setup.reference(gpu)?;
+    let reference_sha256 = session::pixels_sha256(&reference);
+    let subject = spec
+        .setup
+        .scene_subject(integrand, params, &reference, path, cached);
+    let mine = &points[range.start as usize..range.end as usize];
+    let rows = measure_points(gpu, spec, &subject, &plan, mine)?;
+    let record = SweepPart {
+        format: PART_FORMAT.into(),
+        part: part.index,
+        parts: part.count,
+        points: points.clone(),
+        first: range.start,
+        end: range.end,
+        spps: spec.spps.clone(),
+        seeds: spec.seeds,
+        reference_sha256,
+        result: result(gpu, spec, &subject, plan, rows)?,
     };
-    let result = SweepResult {
-        scene: subject.name.clone(),
-        scale: spec.setup.scale,
-        reference_spp,
-        reference_seed: spec.setup.ref_seed,
-        reference_exact,
-        repeats: spec.setup.repeats,
-        rows,
-        mdas_skipped,
-        provenance: match subject.scene_file {
-            Some(file) => crate::provenance::Provenance::new(gpu, file, integrand, Some(params))?,
-            None => crate::provenance::Provenance::of_integrand(gpu, integrand, Some(params)),
-        },
-    };
-    let json = serde_json::to_string_pretty(&result)?;
-    image_io::write_atomic(&staged.path().join("sweep.json"), |t| {
+    let json = serde_json::to_string_pretty(&record)?;
+    image_io::write_atomic(&staged.path().join(PART_FILE), |t| {
         std::fs::write(t, json.as_bytes()).map_err(Into::into)
     })?;
-    staged.commit("sweep.json")?;
-    Ok(result)
+    staged.commit(PART_FILE)?;
+    Ok(record)
 }
 
 /// One point: the time of the first seed ([`measure`]), then every seed's
@@ -315,7 +430,7 @@ fn point<I: Integrator>(
     let relmse: Vec<f64> = errors.iter().map(|e| e.relmse).collect();
     let (relmse, relmse_ci95) = mean_ci95(&relmse);
     Ok(SweepRow {
-        method,
+        method: method.into(),
         spp,
         samples: m.render.samples,
         time_ms: m.total_ms(),

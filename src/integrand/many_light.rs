@@ -238,7 +238,8 @@ impl ManyLight {
         let bottoms = (kind == SamplerKind::Tree2).then(|| scene_lights::bottom_levels(scene));
         let sort_ms = start.elapsed().as_secs_f64() * 1e3;
         let mut built =
-            Self::build_sampler(gpu, spec, &prims, bottoms.as_ref(), film, &mut profiler)?;
+            Self::build_sampler(gpu, spec, &prims, bottoms.as_ref(), film, &mut profiler)
+                .map_err(|e| name_light_sets(e, scene, prims.len(), kind))?;
         if bottoms.is_some() {
             // On the GPU path the sort is the first frame's only CPU build.
             *built.cpu_build_ms.get_or_insert(0.0) += sort_ms;
@@ -637,4 +638,29 @@ impl Integrand for ManyLight {
     fn bind_group(&self) -> Option<&wgpu::BindGroup> {
         Some(&self.bind_group)
     }
+}
+
+/// An adapter-limit error of the light structure names the light sets
+/// when they sized it (issue 54 item 8): the buffer's label alone does
+/// not say which key to lower. Errors that already name their
+/// `[integrand]` key (VPLs, the grid hierarchy's levels) pass unchanged.
+fn name_light_sets(
+    e: anyhow::Error,
+    scene: &Scene,
+    lights: usize,
+    kind: SamplerKind,
+) -> anyhow::Error {
+    let from_sets: usize = scene.point_light_sets.iter().map(|s| s.lights.len()).sum();
+    let over_limit = e
+        .chain()
+        .any(|c| c.to_string().contains("per storage buffer"));
+    let named = e.chain().any(|c| c.to_string().starts_with("[integrand]"));
+    if from_sets == 0 || !over_limit || named {
+        return e;
+    }
+    e.context(format!(
+        "[[light_set]]: the scene's light sets generate {from_sets} lights ({lights} lights in \
+         all), more than sampler '{kind}' fits on this adapter; lower a light set's count \
+         (resolution for a grid)"
+    ))
 }

@@ -42,7 +42,11 @@
 //! Coarser levels gather from the level below — a departure from the
 //! paper, which builds every coarser level from the grid lights of the
 //! first level S₁ (§3.1: "we build these levels using the grid lights of
-//! the first level S₁"; issue 49 item 2, its effect not measured yet): a
+//! the first level S₁"). [`build_with`] builds the paper's too
+//! ([`Coarse::FromS1`], CPU only); without shadows it measured no better
+//! (`benches/lgh_bias.rs`: −9.4 % against the cascade's −7.4 % on
+//! `vpl_atrium_points` at α = 1, −1.03 % against −1.15 % on `lights_1m`),
+//! so the GPU keeps the cascade. In the cascade a
 //! grid light of level ℓ − 1 with centre
 //! `y` is scattered like a light at `y` into level ℓ, its moments moved
 //! to the new vertex exactly (`P' = P + WΔ`, `Q' = Q + 2ΔP + WΔ²`,
@@ -467,8 +471,25 @@ fn for_box(lo: [u32; 3], hi: [u32; 3], mut f: impl FnMut([u32; 3])) {
     }
 }
 
+/// How the levels above S₁ are gathered.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Coarse {
+    /// Each level from the one below (what the GPU builds; module docs).
+    Cascade,
+    /// Every level from S₁'s grid lights, as the paper builds them (§3.1:
+    /// "we build these levels using the grid lights of the first level
+    /// S₁"); on the CPU only, for measurement (`benches/lgh_bias.rs`).
+    FromS1,
+}
+
 /// Builds the hierarchy over `prims` with `levels` levels (0: default).
 pub fn build(prims: &[LightPrim], levels: u32) -> Result<Lgh> {
+    build_with(prims, levels, Coarse::Cascade)
+}
+
+/// [`build`] with the coarse levels gathered as `coarse` says. Level 2 is
+/// the same either way (S₁ is the level below it).
+pub fn build_with(prims: &[LightPrim], levels: u32, coarse: Coarse) -> Result<Lgh> {
     let grid = LghGrid::new(prims, levels)?;
     let c = grid.cells();
     let cell_key = |l: &LightPrim| {
@@ -516,23 +537,30 @@ pub fn build(prims: &[LightPrim], levels: u32) -> Result<Lgh> {
         }
         push(&grid, 1, v, acc, &mut lights, &mut index);
     });
-    // Coarser levels gather from the level below.
+    // Coarser levels gather from the level below (or from S₁): a grid
+    // light of level `from` centred in one of vertex v's 8 cells lies at
+    // most one fine cell beyond them.
     for level in 2..=grid.levels {
+        let from = match coarse {
+            Coarse::Cascade => level - 1,
+            Coarse::FromS1 => 1,
+        };
+        let s = 1u32 << (level - from);
         let r = grid.res(level);
-        let fine = grid.res(level - 1);
-        let fine_off = grid.index_offset(level - 1) as usize;
+        let fine = grid.res(from);
+        let fine_off = grid.index_offset(from) as usize;
         for_box([0; 3], [r - 1; 3], |v| {
             let vpos = grid.vertex_pos(level, v);
             let mut acc = GridLight::default();
-            let lo = v.map(|x| (2 * x).saturating_sub(3));
-            let hi = v.map(|x| (2 * x + 3).min(fine - 1));
+            let lo = v.map(|x| (s * x).saturating_sub(s + 1));
+            let hi = v.map(|x| (s * x + s + 1).min(fine - 1));
             for_box(lo, hi, |u| {
-                let slot = index[fine_off + grid.vertex_index(level - 1, u) as usize];
+                let slot = index[fine_off + grid.vertex_index(from, u) as usize];
                 if slot == EMPTY {
                     return;
                 }
                 let g = lights[slot as usize];
-                let upos = grid.vertex_pos(level - 1, u);
+                let upos = grid.vertex_pos(from, u);
                 let (cell, t) = grid.cell_of(level, g.centre(upos));
                 let d = [0, 1, 2].map(|a| v[a].wrapping_sub(cell[a]));
                 if d.iter().any(|&x| x > 1) {

@@ -166,7 +166,12 @@ struct ReadPart {
 
 fn read_part(file: &Path) -> Result<ReadPart> {
     let record_path = reference_record_path(file);
-    let text = std::fs::read_to_string(&record_path).with_context(|| {
+    // A regular file only: a FIFO would block the read.
+    let bytes = crate::scene::read_input(&record_path, 64 << 20);
+    let text = bytes.and_then(|b| {
+        String::from_utf8(b).map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, e))
+    });
+    let text = text.with_context(|| {
         format!(
             "{}: not a reference part (its record {} cannot be read)",
             file.display(),

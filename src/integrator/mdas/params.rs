@@ -16,7 +16,7 @@ use crate::film::Film;
 /// keys come from [`MdasParams::for_film`]; `Default` is a film-agnostic
 /// starting point for code (its 2^(d + 16)-cell initial grid needs a film
 /// of 256×256 pixels or more at a few spp).
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct MdasParams {
     pub bits_per_dim: u32,
     pub extra_image_bits: u32,
@@ -77,7 +77,7 @@ impl Default for MdasParams {
 /// How a full leaf picks the axis of its median split (the plane is the
 /// median of its samples and the candidate along that axis either way;
 /// only axes where the median separates them are eligible).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum SplitRule {
     /// The paper's: the largest extent, film axes scaled by sf × size.
@@ -141,7 +141,7 @@ impl std::fmt::Display for SplitRule {
 /// smooth in film space the box's averaging wins (`scenes/tests/
 /// shadow_edge.toml`, a 6-pixel penumbra: 0.80 × Halton's RelMSE against
 /// 1.00; BENCHMARKS.md, "Per-pixel reconstruction").
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Reconstruction {
     /// The paper's eq. 7: each leaf splats its mean f̄ over every pixel
@@ -206,7 +206,7 @@ impl std::fmt::Display for Reconstruction {
 /// Where each initial sample sits inside its stratum. A cell's l initial
 /// samples are a Latin hypercube: along every axis they take the l equal
 /// strata of the cell once each, in a random order (`initial.wgsl`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum InitialOffsets {
     /// A uniform offset per sample and axis, independent across samples

@@ -650,3 +650,68 @@ fn coarse_gathers_equal_gathers_over_every_fine_vertex() {
     }
     assert!(compared > 100, "{compared} grid lights compared");
 }
+
+/// The paper's construction ([`Coarse::FromS1`]): every coarse level is
+/// gathered from S₁'s grid lights, so its vertex search box must lose
+/// none — each grid light equals, bit for bit, a gather over *every* S₁
+/// vertex in the same order — and level 2 is the cascade's (S₁ is the
+/// level below it), while coarser levels differ from it.
+#[test]
+fn levels_from_s1_gather_every_s1_grid_light() {
+    use rand::rngs::StdRng;
+    use rand::{RngExt, SeedableRng};
+    let mut rng = StdRng::seed_from_u64(71);
+    let prims: Vec<LightPrim> = (0..600)
+        .map(|_| {
+            let p = Vec3::new(rng.random(), rng.random(), rng.random()) * 16.0;
+            let e = Vec3::new(rng.random(), rng.random(), rng.random()) + Vec3::splat(0.1);
+            LightPrim::point(p, e)
+        })
+        .collect();
+    let h = build_with(&prims, 5, Coarse::FromS1).unwrap();
+    let cascade = build(&prims, 5).unwrap();
+    let g = &h.grid;
+    let r1 = g.res(1);
+    let mut compared = 0;
+    let mut differ = 0;
+    for level in 2..=g.levels {
+        let r = g.res(level);
+        for_box([0; 3], [r - 1; 3], |v| {
+            let vpos = g.vertex_pos(level, v);
+            let mut acc = GridLight::default();
+            for_box([0; 3], [r1 - 1; 3], |u| {
+                let Some(fl) = h.light_at(1, u) else {
+                    return;
+                };
+                let upos = g.vertex_pos(1, u);
+                let (cell, t) = g.cell_of(level, fl.centre(upos));
+                let d = [0, 1, 2].map(|a| v[a].wrapping_sub(cell[a]));
+                if d.iter().all(|&x| x <= 1) {
+                    let delta = d[0] + 2 * d[1] + 4 * d[2];
+                    acc.add_grid(LghGrid::trilinear(t, delta), fl, upos - vpos);
+                }
+            });
+            let got = h.light_at(level, v);
+            match got {
+                Some(got) => {
+                    let want = GridLight {
+                        vertex: g.vertex_index(level, v),
+                        level,
+                        ..acc
+                    };
+                    assert_eq!(*got, want, "level {level}, vertex {v:?}");
+                    compared += 1;
+                }
+                None => assert!(acc.w <= 0.0, "level {level}, vertex {v:?} lost its light"),
+            }
+            let other = cascade.light_at(level, v);
+            if level == 2 {
+                assert_eq!(got, other, "level 2 is gathered from S₁ either way");
+            } else if got != other {
+                differ += 1;
+            }
+        });
+    }
+    assert!(compared > 100, "{compared} grid lights compared");
+    assert!(differ > 0, "levels 3-5 from S₁ differ from the cascade");
+}
