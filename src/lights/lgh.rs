@@ -80,7 +80,9 @@
 //! The shading point visits, level by level, the vertices whose grid light
 //! can lie within `2r_ℓ` (a light sits within one cell of its vertex:
 //! `|v − x| < 2r_ℓ + h_ℓ` per axis, all 8 at the top level) and, for
-//! `S_0`, the lights of the level-1 cells within `2r_0 = α·h_1`.
+//! `S_0`, the lights of the level-1 cells within `2r_0 = α·h_1` (per
+//! axis, then each cell's box within that distance, so that a point far
+//! from the lights' bounds reads none).
 //! `U = Σ f` (RGB) and `F = Σ ‖f‖` (luminance) are summed in that order.
 //!
 //! Shadows: `S` shadow samples (`lgh_shadows`) pick candidates with
@@ -681,7 +683,18 @@ impl Lgh {
                 (lo, hi)
             };
             let (rx, ry, rz) = (range(q.x), range(q.y), range(q.z));
+            // A cell farther than 2r_0 = α·h_1 holds no light with B_0 > 0
+            // (1.001: the distances' rounding): skipped, as the WGSL does.
+            let reach0 = 1.001 * params.alpha * g.h1;
             for_box([rx.0, ry.0, rz.0], [rx.1, ry.1, rz.1], |cell| {
+                let box_lo =
+                    g.lo + Vec3::new(cell[0] as f32, cell[1] as f32, cell[2] as f32) * g.h1;
+                let gap = (box_lo - x)
+                    .max(x - (box_lo + Vec3::splat(g.h1)))
+                    .max(Vec3::ZERO);
+                if gap.length() >= reach0 {
+                    return;
+                }
                 let [start, end] = self.cells[(cell[0] + c * (cell[1] + c * cell[2])) as usize];
                 for &i in &self.sorted[start as usize..end as usize] {
                     visit(0, i, Emitter::light(&prims[i as usize], clamp2));

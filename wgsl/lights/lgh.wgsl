@@ -148,9 +148,19 @@ fn lgh_walk(x: vec3<f32>, n: vec3<f32>, ng: vec3<f32>, picking: bool) {
         let last = vec3<f32>(f32(c - 1u));
         let a = vec3<u32>(clamp(floor(q - alpha), vec3<f32>(0.0), last));
         let b = vec3<u32>(clamp(floor(q + alpha), vec3<f32>(0.0), last));
+        // A light lies in its cell's box: a cell farther than 2r_0 = α·h_1
+        // (B_0 = 0 beyond; 1.001 covers the rounding of the distances) is
+        // skipped unread, as when x lies far outside the lights' bounds.
+        let h1 = light_params.lgh_h1;
+        let reach0 = 1.001 * alpha * h1;
         for (var z = a.z; z <= b.z; z++) {
             for (var y = a.y; y <= b.y; y++) {
                 for (var xi = a.x; xi <= b.x; xi++) {
+                    let box_lo = lo + vec3<f32>(f32(xi), f32(y), f32(z)) * h1;
+                    let gap = max(max(box_lo - x, x - (box_lo + vec3<f32>(h1))), vec3<f32>(0.0));
+                    if (length(gap) >= reach0) {
+                        continue;
+                    }
                     let at = light_params.lgh_cells_offset + 2u * (xi + c * (y + c * z));
                     let end = light_index[at + 1u];
                     for (var s = light_index[at]; s < end; s++) {
