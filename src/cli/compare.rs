@@ -31,12 +31,13 @@ pub(crate) struct CompareArgs {
     // which every unbiased sampler converges to.
     #[command(flatten)]
     pub(crate) cuts: CutArgs,
-    /// Compare these light samplers (comma-separated: uniform, power,
-    /// tree_nocut, tree, tree_cone, unbalanced, unbalanced_nocut,
-    /// unbalanced_nocone, tree2, sst, sst_nosub, lgh) under Halton at
-    /// equal time; MDAS with `tree` sets the target (or --time-ms). The
-    /// scene's integrand must be many_light.
-    #[arg(long, value_name = "NAMES", value_delimiter = ',')]
+    // The help lists the registry's kinds (lights::sampler::REGISTRY).
+    #[arg(long, value_name = "NAMES", value_delimiter = ',', help = format!(
+        "Compare these light samplers (comma-separated: {}) under Halton at equal time; \
+         MDAS with `tree` sets the target (or --time-ms). The scene's integrand must be \
+         many_light",
+        SamplerKind::names()
+    ))]
     pub(crate) samplers: Option<Vec<SamplerKind>>,
     /// Seeds per method (MDAS from its seed on, Halton from --seed on,
     /// skipping the reference's; default 3): the report gives each

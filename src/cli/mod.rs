@@ -545,15 +545,33 @@ pub(crate) fn ensure_parent(path: &Path) -> Result<()> {
     Ok(())
 }
 
+/// `--sampler`'s help: `lead`, every kind of the registry with its few
+/// words, `tail`.
+pub(crate) fn sampler_help(lead: &str, tail: &str) -> String {
+    format!("{lead}: {}{tail}", SamplerKind::help())
+}
+
+/// The kinds with cuts, comma-separated.
+fn cut_kinds() -> String {
+    SamplerKind::ALL
+        .into_iter()
+        .filter(|k| k.uses_cut())
+        .map(|k| k.name())
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
 /// Light-cut overrides of a many_light scene's [integrand] (`render`,
 /// `compare`).
 #[derive(clap::Args, Clone, Copy, Debug, Default)]
 pub(crate) struct CutArgs {
-    /// Light-cut size n of a many_light scene (1..=64), overriding its
-    /// [integrand] cut_size; the kinds with cuts (tree, tree_cone,
-    /// unbalanced, unbalanced_nocone, tree2) under --cut-sampling subtrees
-    /// draw n light samples per evaluation.
-    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=64))]
+    // The kinds with cuts come from the registry (lights::sampler::REGISTRY).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=64), help = format!(
+        "Light-cut size n of a many_light scene (1..=64), overriding its [integrand] cut_size; \
+         the kinds with cuts ({}) under --cut-sampling subtrees draw n light samples per \
+         evaluation",
+        cut_kinds()
+    ))]
     pub(crate) cut_size: Option<u32>,
     /// How the kinds with cuts sample the cut, overriding the scene's
     /// cut_sampling: subtrees (one light from each subtree of the cut,

@@ -36,13 +36,11 @@ pub(crate) struct RenderArgs {
     /// size as the render).
     #[arg(long)]
     pub(crate) reference: Option<PathBuf>,
-    /// Light sampler of a many_light scene, overriding its [integrand]
-    /// sampler: uniform, power, tree_nocut, tree, tree_cone, unbalanced,
-    /// unbalanced_nocut, unbalanced_nocone, tree2 (two-level tree:
-    /// perfect per mesh, SAOH on top), sst (stochastic substitute trees; biased), sst_nosub or lgh
-    /// (lighting grid hierarchy; biased) (an error for other integrands;
-    /// docs/light-sampling.md).
-    #[arg(long, value_name = "NAME")]
+    // The help lists the registry's kinds (lights::sampler::REGISTRY).
+    #[arg(long, value_name = "NAME", help = super::sampler_help(
+        "Light sampler of a many_light scene, overriding its [integrand] sampler",
+        " (an error for other integrands; docs/light-sampling.md)",
+    ))]
     pub(crate) sampler: Option<SamplerKind>,
     /// How shadow rays are answered, overriding the scene's [integrand]
     /// visibility: bvh (exact) or voxel (the constant-time voxelization

@@ -81,7 +81,7 @@ use crate::lights::gpu_sampler::{
     cut_capacity, CutLayout, GpuSamplerData, TreeSource, FIRST_BINDING,
 };
 use crate::lights::lgh::gpu::GpuLgh;
-use crate::lights::sampler::{CutSampling, SamplerKind};
+use crate::lights::sampler::{CutSampling, SamplerKind, Structure};
 use crate::lights::scene_lights::{self, light_prims};
 use crate::lights::two_level::gpu::GpuTwoLevel;
 use crate::lights::two_level::BottomLevels;
@@ -168,7 +168,7 @@ pub fn source_for_cuts(triangles: bool, kind: SamplerKind, capacity: u32) -> Wgs
         .include(&GpuSamplerData::wgsl_for_cuts(capacity))
         .constant("ML_TRIANGLES", triangles as u32)
         .constant("ML_SUBSTITUTES", kind.stops_at_substitutes() as u32)
-        .constant("ML_LGH", (kind == SamplerKind::Lgh) as u32)
+        .constant("ML_LGH", (kind.structure() == Structure::Grid) as u32)
         .part(wgsl_file!("many_light.wgsl"))
 }
 
@@ -235,7 +235,8 @@ impl ManyLight {
         // tree2 sorts its bottom levels once per sequence, in object
         // space; the first frame's CPU build time includes it.
         let start = std::time::Instant::now();
-        let bottoms = (kind == SamplerKind::Tree2).then(|| scene_lights::bottom_levels(scene));
+        let bottoms =
+            (kind.structure() == Structure::TwoLevel).then(|| scene_lights::bottom_levels(scene));
         let sort_ms = start.elapsed().as_secs_f64() * 1e3;
         let mut built =
             Self::build_sampler(gpu, spec, &prims, bottoms.as_ref(), film, &mut profiler)
@@ -315,7 +316,7 @@ impl ManyLight {
                 let two_level = self.two_level.as_ref().expect("matched");
                 two_level.build(gpu, &self.sampler.prims, &mut profiler)
             })?,
-            None if self.kind == SamplerKind::Uniform => {
+            None if self.kind.structure() == Structure::Uniform => {
                 if !prims.is_empty() {
                     gpu.queue
                         .write_buffer(&self.sampler.prims, 0, bytemuck::cast_slice(&prims));
@@ -391,7 +392,7 @@ impl ManyLight {
             .interleaved(spec.interleave, spec.frame)
             .sampled(spec.cut_sampling);
         gpu.scoped("many_light set-up", || {
-            if kind == SamplerKind::Lgh {
+            if kind.structure() == Structure::Grid {
                 // The hierarchy is sized on the host and built on the GPU
                 // from the sampler's copy of the lights.
                 let h = GpuLgh::new(gpu, prims, &spec.lgh)?;
@@ -434,7 +435,11 @@ impl ManyLight {
                     cpu_build_ms: None,
                 })
             } else if let Some(plan) = bottoms
-                .filter(|b| kind == SamplerKind::Tree2 && n > 0 && b.light_count() == prims.len())
+                .filter(|b| {
+                    kind.structure() == Structure::TwoLevel
+                        && n > 0
+                        && b.light_count() == prims.len()
+                })
                 .and_then(BottomLevels::gpu_plan)
             {
                 // tree2 whose groups keep their shape and no VPLs: the
@@ -460,7 +465,7 @@ impl ManyLight {
                 // CPU-built structures (BVH, two-level tree, alias table)
                 // are part of the set-up time, measured on the wall clock.
                 let start = std::time::Instant::now();
-                let sampler = if kind == SamplerKind::Tree2 && n > 0 {
+                let sampler = if kind.structure() == Structure::TwoLevel && n > 0 {
                     // One bottom level per light group of the scene, and
                     // the frame's VPLs as one more.
                     let tree = bottoms
@@ -603,7 +608,7 @@ impl Integrand for ManyLight {
     }
 
     fn dims(&self) -> u32 {
-        if self.kind == SamplerKind::Lgh {
+        if self.kind.structure() == Structure::Grid {
             if self.triangles {
                 9
             } else {

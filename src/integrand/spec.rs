@@ -4,7 +4,7 @@
 //! come from the integrand modules (e.g. [`super::path::max_bounces_limit`]).
 
 use crate::lights::lgh::LghParams;
-use crate::lights::sampler::{CutSampling, SamplerKind};
+use crate::lights::sampler::{CutSampling, SamplerKind, Structure};
 use crate::lights::substitute::SubstituteParams;
 use crate::lights::vpl::VplSpec;
 
@@ -198,7 +198,7 @@ impl ManyLightSpec {
     /// lights run out); `lgh` traces its shadow samples (plus one toward an
     /// emissive triangle when the scene has them); the others one.
     pub fn light_samples_per_eval(&self, kind: SamplerKind) -> f64 {
-        if kind == SamplerKind::Lgh {
+        if kind.structure() == Structure::Grid {
             self.lgh.shadow_samples as f64
         } else if kind.uses_cut() && self.cut_sampling == CutSampling::Subtrees {
             self.cut_size as f64 / (self.interleave.max(1) as f64).powi(2)

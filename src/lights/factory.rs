@@ -6,7 +6,7 @@ use super::bvh::{self, LightBvh};
 use super::cut::{Importance, LightTree, TreeSampler};
 use super::importance::Shading;
 use super::perfect::{self, PerfectTree};
-use super::sampler::{LightSample, LightSampler, SamplerKind};
+use super::sampler::{LightSample, LightSampler, SamplerKind, Structure};
 use super::substitute::{self, SstSampler, SubstituteParams};
 use super::two_level;
 use super::LightPrim;
@@ -75,32 +75,28 @@ pub fn new_sampler(
         return Box::new(UniformSampler { count: 0 });
     }
     let cut_at = cut_at.filter(|_| kind.uses_cut());
-    match kind {
-        SamplerKind::Uniform => Box::new(UniformSampler {
+    match kind.structure() {
+        Structure::Uniform => Box::new(UniformSampler {
             count: prims.len() as u32,
         }),
-        SamplerKind::Power => Box::new(PowerSampler::new(prims)),
-        SamplerKind::Tree | SamplerKind::TreeNoCut | SamplerKind::TreeCone => {
+        Structure::Power => Box::new(PowerSampler::new(prims)),
+        Structure::PerfectTree => {
             tree::<PerfectTree>(perfect::build(prims).unwrap(), kind.importance(), cut_at)
         }
-        SamplerKind::Unbalanced | SamplerKind::UnbalancedNoCut | SamplerKind::UnbalancedNoCone => {
-            tree::<LightBvh>(
-                bvh::build(prims, kind.bvh_cost()).unwrap(),
-                kind.importance(),
-                cut_at,
-            )
+        Structure::Bvh(cost) => {
+            tree::<LightBvh>(bvh::build(prims, cost).unwrap(), kind.importance(), cut_at)
         }
         // Without group information: one group, the perfect tree's order
         // (`two_level::build` with the scene's groups is what renders use).
-        SamplerKind::Tree2 => tree::<LightBvh>(
+        Structure::TwoLevel => tree::<LightBvh>(
             two_level::build(prims, std::slice::from_ref(&(0..prims.len() as u32))).unwrap(),
             kind.importance(),
             cut_at,
         ),
-        SamplerKind::Sst | SamplerKind::SstNoSub => Box::new(SstSampler {
+        Structure::SubstituteTree => Box::new(SstSampler {
             tree: substitute::build(prims).unwrap(),
             params: kind.stops_at_substitutes().then(SubstituteParams::default),
         }),
-        SamplerKind::Lgh => unreachable!("asserted above"),
+        Structure::Grid => unreachable!("asserted above"),
     }
 }

@@ -26,7 +26,7 @@ use super::lgh::gpu::GpuLgh;
 use super::lgh::{self, GridLight};
 pub use super::light_params::LightParams;
 use super::perfect::{self, PerfectTree};
-use super::sampler::{CutSampling, SamplerKind};
+use super::sampler::{CutSampling, SamplerKind, Structure};
 use super::substitute::{self, Substitute, SubstituteParams, SubstituteTree};
 use super::two_level;
 use super::two_level::gpu::GpuTwoLevel;
@@ -189,20 +189,16 @@ impl GpuSamplerData {
             })
         };
         if n > 0 {
-            match kind {
-                SamplerKind::Uniform => {}
-                SamplerKind::Power => {
+            match kind.structure() {
+                Structure::Uniform => {}
+                Structure::Power => {
                     let power = PowerSampler::new(prims);
                     params.alias_count = power.table.len() as u32;
                     alias = Some(gpu.buffer_from(&label("alias"), &power.table, STORAGE)?);
                     let bits: Vec<u32> = power.pmf.iter().map(|p| p.to_bits()).collect();
                     index = Some(gpu.buffer_from(&label("index"), &bits, STORAGE)?);
                 }
-                SamplerKind::Tree
-                | SamplerKind::TreeNoCut
-                | SamplerKind::TreeCone
-                | SamplerKind::Sst
-                | SamplerKind::SstNoSub => {
+                Structure::PerfectTree | Structure::SubstituteTree => {
                     let p = n.next_power_of_two();
                     params.leaf_count = p;
                     params.levels = p.trailing_zeros() + 1;
@@ -305,7 +301,7 @@ impl GpuSamplerData {
                         }
                     }
                 }
-                SamplerKind::Lgh => {
+                Structure::Grid => {
                     let Some(TreeSource::Lgh(h)) = tree else {
                         bail!("sampler 'lgh' needs its grid hierarchy (GpuLgh)");
                     };
@@ -319,12 +315,10 @@ impl GpuSamplerData {
                     index = Some(h.index.clone());
                     lgh_lights = Some(h.lights.clone());
                 }
-                SamplerKind::Unbalanced
-                | SamplerKind::UnbalancedNoCut
-                | SamplerKind::UnbalancedNoCone
-                | SamplerKind::Tree2 => {
+                Structure::Bvh(_) | Structure::TwoLevel => {
+                    let two_level = kind.structure() == Structure::TwoLevel;
                     if let Some(TreeSource::TwoLevelGpu(t)) = tree {
-                        if kind != SamplerKind::Tree2 {
+                        if !two_level {
                             bail!("sampler '{kind}' needs a light BVH, got a two-level tree");
                         }
                         if t.light_count() != n {
@@ -342,7 +336,7 @@ impl GpuSamplerData {
                         let b = match tree {
                             Some(TreeSource::Bvh(b)) => b,
                             // tree2 without groups: one group (factory.rs).
-                            None if kind == SamplerKind::Tree2 => {
+                            None if two_level => {
                                 built =
                                     two_level::build(prims, std::slice::from_ref(&(0..n))).unwrap();
                                 &built

@@ -21,6 +21,10 @@
 //!
 //! A sampler's pmf is an f64 product of the f32 probabilities the
 //! sampling decisions use, so `sample(s, u).pmf == pmf(s, light)` exactly.
+//!
+//! The kinds are the lines of the registry (`registry!` below, which
+//! generates [`SamplerKind`] and [`REGISTRY`]): a kind over an existing
+//! [`Structure`] is one line (docs/architecture.md shows the diff).
 
 use super::importance::Shading;
 
@@ -64,67 +68,156 @@ pub trait LightSampler {
     fn pmf(&self, s: &Shading, light: u32) -> f64;
 }
 
-/// Which sampler; the names are the CLI's and the scene file's.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum SamplerKind {
+/// The light structure a kind samples: what the CPU factory
+/// ([`super::factory::new_sampler`]) and the GPU upload
+/// (`gpu_sampler::GpuSamplerData::new`) build for it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Structure {
+    /// No structure: every light with probability 1/N.
     Uniform,
+    /// An alias table over the lights' power.
     Power,
-    TreeNoCut,
-    Tree,
-    TreeCone,
-    Unbalanced,
-    UnbalancedNoCut,
-    UnbalancedNoCone,
-    Tree2,
-    Sst,
-    SstNoSub,
-    Lgh,
+    /// The perfect light tree (`perfect.rs`), implicit layout.
+    PerfectTree,
+    /// The perfect tree sorted with normal codes, a substitute per node
+    /// (`substitute.rs`).
+    SubstituteTree,
+    /// An unbalanced BVH over the lights built with this split cost
+    /// (`bvh.rs`), explicit children.
+    Bvh(Cost),
+    /// The two-level tree (`two_level.rs`), in the BVH's layout.
+    TwoLevel,
+    /// The lighting grid hierarchy (`lgh.rs`): sums, picks no light.
+    Grid,
 }
 
+/// One row of the registry: everything that decides what a kind is.
+#[derive(Clone, Copy, Debug)]
+pub struct Entry {
+    pub kind: SamplerKind,
+    /// The name in scene files, on the command line and in reports.
+    pub name: &'static str,
+    pub structure: Structure,
+    /// Samples from per-block cuts.
+    pub cut: bool,
+    /// The node importance uses orientation cones.
+    pub cones: bool,
+    /// A descent stops at a suitable node's substitute.
+    pub substitutes: bool,
+    /// The estimate is biased.
+    pub biased: bool,
+    /// A few words for `--help`.
+    pub help: &'static str,
+}
+
+/// The sampler registry: one line per kind, generating [`SamplerKind`]
+/// (its variants in the lines' order, which is `light_params.kind` in the
+/// WGSL) and [`REGISTRY`]. A kind that combines a structure, cuts, cones
+/// and substitutes as the existing ones do is one line here: every
+/// predicate, both factories, the WGSL's kind predicates and `--help`
+/// read its row, and the suites that run on every kind test it.
+macro_rules! registry {
+    ($($kind:ident: $name:literal, $structure:expr,
+       [cut $cut:literal, cones $cones:literal, substitutes $subs:literal, biased $biased:literal],
+       $help:literal;)*) => {
+        /// Which sampler; the names are the CLI's and the scene file's
+        /// ([`REGISTRY`]).
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+        pub enum SamplerKind {
+            $($kind,)*
+        }
+
+        /// Every kind's row, in [`SamplerKind`]'s order.
+        pub const REGISTRY: &[Entry] = &[$(Entry {
+            kind: SamplerKind::$kind,
+            name: $name,
+            structure: $structure,
+            cut: $cut,
+            cones: $cones,
+            substitutes: $subs,
+            biased: $biased,
+            help: $help,
+        },)*];
+    };
+}
+
+#[rustfmt::skip]
+registry! {
+    Uniform: "uniform", Structure::Uniform,
+        [cut false, cones false, substitutes false, biased false], "every light alike";
+    Power: "power", Structure::Power,
+        [cut false, cones false, substitutes false, biased false], "by power, an alias table";
+    TreeNoCut: "tree_nocut", Structure::PerfectTree,
+        [cut false, cones false, substitutes false, biased false], "the perfect light tree from its root";
+    Tree: "tree", Structure::PerfectTree,
+        [cut true, cones false, substitutes false, biased false],
+        "real-time stochastic lightcuts: a cut per block, one light per cut subtree";
+    TreeCone: "tree_cone", Structure::PerfectTree,
+        [cut true, cones true, substitutes false, biased false], "tree with orientation cones";
+    Unbalanced: "unbalanced", Structure::Bvh(Cost::Saoh),
+        [cut true, cones true, substitutes false, biased false], "a SAOH light BVH with cuts";
+    UnbalancedNoCut: "unbalanced_nocut", Structure::Bvh(Cost::Saoh),
+        [cut false, cones true, substitutes false, biased false], "the SAOH light BVH from its root";
+    UnbalancedNoCone: "unbalanced_nocone", Structure::Bvh(Cost::Sah),
+        [cut true, cones false, substitutes false, biased false], "a cone-free SAH light BVH with cuts";
+    Tree2: "tree2", Structure::TwoLevel,
+        [cut true, cones true, substitutes false, biased false], "two-level tree: perfect per mesh, SAOH on top";
+    Sst: "sst", Structure::SubstituteTree,
+        [cut false, cones true, substitutes true, biased true], "stochastic substitute trees; biased";
+    SstNoSub: "sst_nosub", Structure::SubstituteTree,
+        [cut false, cones true, substitutes false, biased false], "the substitute tree without substitution";
+    Lgh: "lgh", Structure::Grid,
+        [cut false, cones false, substitutes false, biased true], "lighting grid hierarchy; biased";
+}
+
+/// How many kinds pick lights.
+const PICKER_COUNT: usize = {
+    let (mut i, mut k) = (0, 0);
+    while i < REGISTRY.len() {
+        if !matches!(REGISTRY[i].structure, Structure::Grid) {
+            k += 1;
+        }
+        i += 1;
+    }
+    k
+};
+
 impl SamplerKind {
-    /// Every kind: the pickers, then `lgh`.
-    pub const ALL: [SamplerKind; 12] = {
-        let mut all = [SamplerKind::Lgh; 12];
+    /// Every kind, in the registry's order.
+    pub const ALL: [SamplerKind; REGISTRY.len()] = {
+        let mut all = [SamplerKind::Uniform; REGISTRY.len()];
         let mut i = 0;
-        while i < Self::PICKERS.len() {
-            all[i] = Self::PICKERS[i];
+        while i < REGISTRY.len() {
+            all[i] = REGISTRY[i].kind;
             i += 1;
         }
         all
     };
 
     /// The kinds that pick one light per sample with a probability (the
-    /// [`LightSampler`] contract): all but `lgh`, which sums over grid
-    /// lights ([`super::lgh`]).
-    pub const PICKERS: [SamplerKind; 11] = [
-        SamplerKind::Uniform,
-        SamplerKind::Power,
-        SamplerKind::TreeNoCut,
-        SamplerKind::Tree,
-        SamplerKind::TreeCone,
-        SamplerKind::Unbalanced,
-        SamplerKind::UnbalancedNoCut,
-        SamplerKind::UnbalancedNoCone,
-        SamplerKind::Tree2,
-        SamplerKind::Sst,
-        SamplerKind::SstNoSub,
-    ];
+    /// [`LightSampler`] contract): all but those over the grid hierarchy
+    /// (`lgh`), which sums over grid lights ([`super::lgh`]).
+    pub const PICKERS: [SamplerKind; PICKER_COUNT] = {
+        let mut out = [SamplerKind::Uniform; PICKER_COUNT];
+        let (mut i, mut k) = (0, 0);
+        while i < REGISTRY.len() {
+            if !matches!(REGISTRY[i].structure, Structure::Grid) {
+                out[k] = REGISTRY[i].kind;
+                k += 1;
+            }
+            i += 1;
+        }
+        assert!(k == out.len(), "PICKERS counts every kind that picks");
+        out
+    };
+
+    /// The kind's registry row.
+    pub fn entry(self) -> &'static Entry {
+        &REGISTRY[self as usize]
+    }
 
     pub fn name(self) -> &'static str {
-        match self {
-            SamplerKind::Uniform => "uniform",
-            SamplerKind::Power => "power",
-            SamplerKind::TreeNoCut => "tree_nocut",
-            SamplerKind::Tree => "tree",
-            SamplerKind::TreeCone => "tree_cone",
-            SamplerKind::Unbalanced => "unbalanced",
-            SamplerKind::UnbalancedNoCut => "unbalanced_nocut",
-            SamplerKind::UnbalancedNoCone => "unbalanced_nocone",
-            SamplerKind::Tree2 => "tree2",
-            SamplerKind::Sst => "sst",
-            SamplerKind::SstNoSub => "sst_nosub",
-            SamplerKind::Lgh => "lgh",
-        }
+        self.entry().name
     }
 
     /// All names, comma-separated.
@@ -132,14 +225,28 @@ impl SamplerKind {
         Self::ALL.map(|k| k.name()).join(", ")
     }
 
+    /// Every name with its help, for `--help`.
+    pub fn help() -> String {
+        REGISTRY
+            .iter()
+            .map(|e| format!("{} ({})", e.name, e.help))
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+
     /// The value of `light_params.kind` in WGSL (the index in [`Self::ALL`]).
     pub fn index(self) -> u32 {
-        Self::ALL.iter().position(|&k| k == self).unwrap() as u32
+        self as u32
+    }
+
+    /// The structure the kind samples.
+    pub fn structure(self) -> Structure {
+        self.entry().structure
     }
 
     /// Whether the kind picks one light per sample ([`Self::PICKERS`]).
     pub fn picks_lights(self) -> bool {
-        self != SamplerKind::Lgh
+        self.structure() != Structure::Grid
     }
 
     /// Whether the kind samples a light tree (the perfect tree, the
@@ -150,25 +257,14 @@ impl SamplerKind {
 
     /// Whether the kind samples from per-block cuts.
     pub fn uses_cut(self) -> bool {
-        matches!(
-            self,
-            SamplerKind::Tree
-                | SamplerKind::TreeCone
-                | SamplerKind::Unbalanced
-                | SamplerKind::UnbalancedNoCone
-                | SamplerKind::Tree2
-        )
+        self.entry().cut
     }
 
     /// Whether the kind samples a perfect tree (the substitute tree is one).
     pub fn uses_perfect_tree(self) -> bool {
         matches!(
-            self,
-            SamplerKind::Tree
-                | SamplerKind::TreeNoCut
-                | SamplerKind::TreeCone
-                | SamplerKind::Sst
-                | SamplerKind::SstNoSub
+            self.structure(),
+            Structure::PerfectTree | Structure::SubstituteTree
         )
     }
 
@@ -176,13 +272,13 @@ impl SamplerKind {
     /// normal codes, a [`Substitute`](super::substitute::Substitute) per
     /// node).
     pub fn uses_substitute_tree(self) -> bool {
-        matches!(self, SamplerKind::Sst | SamplerKind::SstNoSub)
+        self.structure() == Structure::SubstituteTree
     }
 
     /// Whether a descent stops at a suitable node's substitute (`sst`;
     /// `sst_nosub` descends to a light like the perfect tree).
     pub fn stops_at_substitutes(self) -> bool {
-        self == SamplerKind::Sst
+        self.entry().substitutes
     }
 
     /// Whether the kind's estimate is biased: `sst` (a sample may be a
@@ -190,32 +286,18 @@ impl SamplerKind {
     /// the samples that stop at a light, so its light pmfs sum to less than
     /// one) and `lgh` (grid lights stand in for the lights).
     pub fn is_biased(self) -> bool {
-        matches!(self, SamplerKind::Sst | SamplerKind::Lgh)
+        self.entry().biased
     }
 
     /// Whether the kind samples a tree in the unbalanced BVH's layout
     /// (explicit children): the BVH kinds and `tree2`.
     pub fn uses_bvh(self) -> bool {
-        matches!(
-            self,
-            SamplerKind::Unbalanced
-                | SamplerKind::UnbalancedNoCut
-                | SamplerKind::UnbalancedNoCone
-                | SamplerKind::Tree2
-        )
+        matches!(self.structure(), Structure::Bvh(_) | Structure::TwoLevel)
     }
 
     /// Whether the kind's node importance uses orientation cones.
     pub fn uses_cones(self) -> bool {
-        matches!(
-            self,
-            SamplerKind::TreeCone
-                | SamplerKind::Unbalanced
-                | SamplerKind::UnbalancedNoCut
-                | SamplerKind::Tree2
-                | SamplerKind::Sst
-                | SamplerKind::SstNoSub
-        )
+        self.entry().cones
     }
 
     /// The node importance of the tree kinds.
@@ -227,12 +309,13 @@ impl SamplerKind {
         }
     }
 
-    /// The split cost of the BVH kinds' build.
+    /// The split cost of the kind's BVH build (a BVH kind's own; else SAOH
+    /// with cones, SAH without, as the two-level tree's top is built).
     pub fn bvh_cost(self) -> Cost {
-        if self.uses_cones() {
-            Cost::Saoh
-        } else {
-            Cost::Sah
+        match self.structure() {
+            Structure::Bvh(cost) => cost,
+            _ if self.uses_cones() => Cost::Saoh,
+            _ => Cost::Sah,
         }
     }
 }
@@ -307,6 +390,50 @@ impl FromStr for SamplerKind {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The registry's rows are consistent: unique names in snake case,
+    /// substitutes only on the substitute tree, cuts only on trees, the
+    /// biased kinds exactly those that stop at substitutes or sum over the
+    /// grid, and the pickers every kind but the grid's.
+    #[test]
+    fn registry_rows_are_consistent() {
+        for (i, e) in REGISTRY.iter().enumerate() {
+            assert_eq!(e.kind as usize, i, "{}", e.name);
+            assert!(
+                e.name
+                    .chars()
+                    .all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_'),
+                "{}",
+                e.name
+            );
+            assert!(
+                REGISTRY[..i].iter().all(|f| f.name != e.name),
+                "{} twice",
+                e.name
+            );
+            assert!(
+                !e.substitutes || e.structure == Structure::SubstituteTree,
+                "{}",
+                e.name
+            );
+            assert!(
+                !e.cut || e.kind.uses_tree(),
+                "{} cuts without a tree",
+                e.name
+            );
+            assert_eq!(
+                e.biased,
+                e.substitutes || e.structure == Structure::Grid,
+                "{}",
+                e.name
+            );
+            assert_eq!(
+                SamplerKind::PICKERS.contains(&e.kind),
+                e.structure != Structure::Grid
+            );
+            assert!(!e.help.is_empty() && SamplerKind::help().contains(e.help));
+        }
+    }
 
     #[test]
     fn names_round_trip() {
