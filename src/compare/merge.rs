@@ -96,6 +96,84 @@ impl PartKind {
     }
 }
 
+/// What a merge needs of a part record's kind.
+trait PartRecord: DeserializeOwned {
+    /// The file a part writes in its directory, and its format tag.
+    const FILE: &'static str;
+    const FORMAT: &'static str;
+    /// The record's fields that are each part's own (dotted paths): all
+    /// others must be equal across the parts of one run.
+    const OWN: &'static [&'static str];
+    fn part(&self) -> Part;
+    fn provenance(&self) -> &crate::provenance::Provenance;
+}
+
+impl PartRecord for SweepPart {
+    const FILE: &'static str = sweep::PART_FILE;
+    const FORMAT: &'static str = sweep::PART_FORMAT;
+    const OWN: &'static [&'static str] = &[
+        "part",
+        "first",
+        "end",
+        "result.rows",
+        "result.provenance.command_line",
+        "result.provenance.timestamp_utc",
+    ];
+    fn part(&self) -> Part {
+        Part {
+            index: self.part,
+            count: self.parts,
+        }
+    }
+    fn provenance(&self) -> &crate::provenance::Provenance {
+        &self.result.provenance
+    }
+}
+
+impl PartRecord for TunePart {
+    const FILE: &'static str = tune::PART_FILE;
+    const FORMAT: &'static str = tune::PART_FORMAT;
+    // The reference's path may differ between machines; its pixels'
+    // SHA-256 may not.
+    const OWN: &'static [&'static str] = &[
+        "part",
+        "first",
+        "end",
+        "halton",
+        "measured",
+        "head.reference_path",
+        "head.provenance.command_line",
+        "head.provenance.timestamp_utc",
+    ];
+    fn part(&self) -> Part {
+        Part {
+            index: self.part,
+            count: self.parts,
+        }
+    }
+    fn provenance(&self) -> &crate::provenance::Provenance {
+        &self.head.provenance
+    }
+}
+
+/// Reads the parts at `paths` and checks that they are the parts
+/// 1..=N of one run ([`check_parts`]); returns them and their index order.
+fn read_parts<T: PartRecord>(paths: &[PathBuf]) -> Result<Vec<Read<T>>> {
+    let mut parts = paths
+        .iter()
+        .map(|p| read_part::<T>(p, T::FILE, T::FORMAT))
+        .collect::<Result<Vec<_>>>()?;
+    if parts.is_empty() {
+        bail!("no parts to merge");
+    }
+    let order: Vec<u32> = check_parts(&parts, |r| (r.part().index, r.part().count), T::OWN)?
+        .iter()
+        .map(|p| p.record.part().index)
+        .collect();
+    parts.sort_by_key(|p| order.iter().position(|&i| i == p.record.part().index));
+    Ok(parts)
+}
+
 /// The record file of a part given as its directory or its file.
 fn record_file(path: &Path, part_file: &str) -> PathBuf {
     if path.is_dir() {
@@ -269,14 +347,16 @@ fn check_share(file: &Path, part: Part, first: u32, end: u32, total: usize) -> R
 }
 
 /// Each part's command line and time.
-fn merged_from<'a>(
-    parts: impl Iterator<Item = (Part, &'a crate::provenance::Provenance)>,
-) -> Vec<PartProvenance> {
+fn merged_from<T: PartRecord>(parts: &[Read<T>]) -> Vec<PartProvenance> {
     parts
-        .map(|(part, p)| PartProvenance {
-            part: format!("{}/{}", part.index, part.count),
-            command_line: p.command_line.clone(),
-            timestamp_utc: p.timestamp_utc.clone(),
+        .iter()
+        .map(|p| {
+            let (part, prov) = (p.record.part(), p.record.provenance());
+            PartProvenance {
+                part: format!("{}/{}", part.index, part.count),
+                command_line: prov.command_line.clone(),
+                timestamp_utc: prov.timestamp_utc.clone(),
+            }
         })
         .collect()
 }
@@ -285,30 +365,11 @@ fn merged_from<'a>(
 /// sweep one process measures, written to `out` as `sweep` writes it.
 /// Nothing is written unless every check passes.
 pub fn merge_sweep(paths: &[PathBuf], out: &Path) -> Result<SweepResult> {
-    let parts = paths
-        .iter()
-        .map(|p| read_part::<SweepPart>(p, sweep::PART_FILE, sweep::PART_FORMAT))
-        .collect::<Result<Vec<_>>>()?;
-    if parts.is_empty() {
-        bail!("no parts to merge");
-    }
-    let own = [
-        "part",
-        "first",
-        "end",
-        "result.rows",
-        "result.provenance.command_line",
-        "result.provenance.timestamp_utc",
-    ];
-    let ordered = check_parts(&parts, |r| (r.part, r.parts), &own)?;
+    let ordered = read_parts::<SweepPart>(paths)?;
     let mut rows = Vec::new();
     for p in &ordered {
         let r = &p.record;
-        let part = Part {
-            index: r.part,
-            count: r.parts,
-        };
-        check_share(&p.file, part, r.first, r.end, r.points.len())?;
+        check_share(&p.file, r.part(), r.first, r.end, r.points.len())?;
         let expected = &r.points[r.first as usize..r.end as usize];
         let got: Vec<(String, u32)> = r
             .result
@@ -328,16 +389,7 @@ pub fn merge_sweep(paths: &[PathBuf], out: &Path) -> Result<SweepResult> {
     let result = SweepResult {
         rows,
         provenance: first.result.provenance.merged(),
-        merged_from: Some(merged_from(ordered.iter().map(|p| {
-            let r = &p.record;
-            (
-                Part {
-                    index: r.part,
-                    count: r.parts,
-                },
-                &r.result.provenance,
-            )
-        }))),
+        merged_from: Some(merged_from(&ordered)),
         ..first.result.clone()
     };
     let staged = StagedDir::new(out)?;
@@ -351,33 +403,18 @@ pub fn merge_sweep(paths: &[PathBuf], out: &Path) -> Result<SweepResult> {
 /// search one process runs — fitted, ranked and written to `out` as `tune`
 /// writes it. Nothing is written unless every check passes.
 pub fn merge_tune(paths: &[PathBuf], out: &Path) -> Result<TuneReport> {
-    let parts = paths
-        .iter()
-        .map(|p| read_part::<TunePart>(p, tune::PART_FILE, tune::PART_FORMAT))
-        .collect::<Result<Vec<_>>>()?;
-    if parts.is_empty() {
-        bail!("no parts to merge");
-    }
-    let own = [
-        "part",
-        "first",
-        "end",
-        "halton",
-        "measured",
-        "head.reference_path",
-        "head.provenance.command_line",
-        "head.provenance.timestamp_utc",
-    ];
-    let ordered = check_parts(&parts, |r| (r.part, r.parts), &own)?;
+    let ordered = read_parts::<TunePart>(paths)?;
     let (mut halton, mut measured) = (Vec::new(), Vec::new());
     for p in &ordered {
         let r = &p.record;
-        let part = Part {
-            index: r.part,
-            count: r.parts,
-        };
         let (budgets, configs) = (&r.head.budgets, &r.configurations);
-        check_share(&p.file, part, r.first, r.end, budgets.len() + configs.len())?;
+        check_share(
+            &p.file,
+            r.part(),
+            r.first,
+            r.end,
+            budgets.len() + configs.len(),
+        )?;
         let b = budgets.len();
         let (first, end) = (r.first as usize, r.end as usize);
         let want_spps = &budgets[first.min(b)..end.min(b)];
@@ -396,16 +433,7 @@ pub fn merge_tune(paths: &[PathBuf], out: &Path) -> Result<TuneReport> {
     let first = &ordered[0].record;
     let mut head = first.head.clone();
     head.provenance = head.provenance.merged();
-    let from = merged_from(ordered.iter().map(|p| {
-        let r = &p.record;
-        (
-            Part {
-                index: r.part,
-                count: r.parts,
-            },
-            &r.head.provenance,
-        )
-    }));
+    let from = merged_from(&ordered);
     let report = tune::finish(head, halton, measured, Some(from));
     let staged = StagedDir::new(out)?;
     super::tune_report::write_tune(staged.path(), &report)?;
