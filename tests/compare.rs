@@ -260,7 +260,11 @@ fn compare_integrand_runs_on_an_integrand_built_in_code() {
         &subject(exact.leak()),
     )
     .unwrap();
-    let mut labels: Vec<&str> = tune.rows.iter().map(|r| r.label.as_str()).collect();
+    let mut labels: Vec<&str> = tune
+        .rows
+        .iter()
+        .map(|r| r.measured.label.as_str())
+        .collect();
     labels.sort_unstable();
     assert_eq!(labels, ["reconstruction=box", "reconstruction=pixel"]);
     assert_eq!(tune.reference_exact.as_deref(), Some("polygon areas"));
@@ -270,7 +274,7 @@ fn compare_integrand_runs_on_an_integrand_built_in_code() {
     assert!(tune
         .rows
         .iter()
-        .all(|r| r.relmse > 0.0 && r.equal_samples_ratio.is_finite()));
+        .all(|r| r.measured.relmse > 0.0 && r.equal_samples_ratio.is_finite()));
     for file in ["tune.csv", "tune.json"] {
         assert!(tune_out.join(file).is_file(), "{file} missing");
     }

@@ -25,20 +25,12 @@ pub struct HaltonPoint {
     pub time_ms: f64,
 }
 
-/// One configuration's figures.
+/// One configuration's figures: its measurements (written inline in
+/// `tune.json`) and its ratios to Halton.
 #[derive(Clone, Debug, Serialize)]
 pub struct TuneRow {
-    pub label: String,
-    pub values: BTreeMap<String, f64>,
-    pub params: MdasParams,
-    pub relmse: f64,
-    pub relmse_ci95: [f64; 2],
-    pub relative_bias: [f64; 3],
-    pub relative_bias_ci95: [[f64; 2]; 3],
-    pub mse_bias2: f64,
-    pub mse_variance: f64,
-    /// Fastest render (ms).
-    pub time_ms: f64,
+    #[serde(flatten)]
+    pub measured: Measured,
     /// RelMSE over Halton's at the same spp.
     pub equal_samples_ratio: f64,
     /// Halton's spp at this time from the fit, its RelMSE there, and the
@@ -122,20 +114,11 @@ pub fn finish(
             equal_time_halton_spp: halton_spp,
             equal_time_halton_relmse: halton_relmse,
             equal_time_ratio: halton_relmse.map(|h| m.relmse / h),
-            label: m.label,
-            values: m.values,
-            params: m.params,
-            relmse: m.relmse,
-            relmse_ci95: m.relmse_ci95,
-            relative_bias: m.relative_bias,
-            relative_bias_ci95: m.relative_bias_ci95,
-            mse_bias2: m.mse_bias2,
-            mse_variance: m.mse_variance,
-            time_ms: m.time_ms,
+            measured: m,
         });
     }
     rank(&mut rows, head.equal_samples);
-    let best_table = rows.first().map(|r| mdas_table(&r.params));
+    let best_table = rows.first().map(|r| mdas_table(&r.measured.params));
     TuneReport {
         scene: head.scene,
         scale: head.scale,
@@ -232,9 +215,10 @@ fn rank(rows: &mut [TuneRow], equal_samples: bool) {
     rows.sort_by(|a, b| {
         let key = |r: &TuneRow| {
             if equal_samples {
-                (0, r.relmse)
+                (0, r.measured.relmse)
             } else {
-                r.equal_time_ratio.map_or((1, r.relmse), |x| (0, x))
+                r.equal_time_ratio
+                    .map_or((1, r.measured.relmse), |x| (0, x))
             }
         };
         let (ka, kb) = (key(a), key(b));
@@ -276,16 +260,16 @@ pub fn csv(rows: &[TuneRow]) -> String {
         s += &format!(
             "{},\"{}\",{},{},{},{},{},{},{},{},{},{},{}\n",
             i + 1,
-            r.label,
-            r.relmse,
-            r.relmse_ci95[0],
-            r.relmse_ci95[1],
-            r.relative_bias[0],
-            r.relative_bias[1],
-            r.relative_bias[2],
-            r.mse_bias2,
-            r.mse_variance,
-            r.time_ms,
+            r.measured.label,
+            r.measured.relmse,
+            r.measured.relmse_ci95[0],
+            r.measured.relmse_ci95[1],
+            r.measured.relative_bias[0],
+            r.measured.relative_bias[1],
+            r.measured.relative_bias[2],
+            r.measured.mse_bias2,
+            r.measured.mse_variance,
+            r.measured.time_ms,
             r.equal_samples_ratio,
             r.equal_time_ratio
                 .map_or_else(String::new, |x| x.to_string())
@@ -314,7 +298,7 @@ pub fn table(report: &TuneReport) -> String {
     let w = report
         .rows
         .iter()
-        .map(|r| r.label.chars().count())
+        .map(|r| r.measured.label.chars().count())
         .max()
         .unwrap_or(6)
         .max(13);
@@ -327,16 +311,19 @@ pub fn table(report: &TuneReport) -> String {
         out += &format!(
             "{:>4} {:<w$} {:>11.4e} {:>23} {:>22} {:>9.2} {:>8.3} {:>8}\n",
             i + 1,
-            r.label,
-            r.relmse,
-            format!("[{:.3e}, {:.3e}]", r.relmse_ci95[0], r.relmse_ci95[1]),
+            r.measured.label,
+            r.measured.relmse,
+            format!(
+                "[{:.3e}, {:.3e}]",
+                r.measured.relmse_ci95[0], r.measured.relmse_ci95[1]
+            ),
             format!(
                 "{}/{}/{}",
-                pct(r.relative_bias[0]),
-                pct(r.relative_bias[1]),
-                pct(r.relative_bias[2])
+                pct(r.measured.relative_bias[0]),
+                pct(r.measured.relative_bias[1]),
+                pct(r.measured.relative_bias[2])
             ),
-            r.time_ms,
+            r.measured.time_ms,
             r.equal_samples_ratio,
             r.equal_time_ratio
                 .map_or_else(|| "–".into(), |x| format!("{x:.3}"))
@@ -378,16 +365,18 @@ mod tests {
     #[test]
     fn ranking_puts_rows_without_a_ratio_last() {
         let row = |label: &str, relmse: f64, ratio: Option<f64>| TuneRow {
-            label: label.into(),
-            values: BTreeMap::new(),
-            params: MdasParams::default(),
-            relmse,
-            relmse_ci95: [relmse; 2],
-            relative_bias: [0.0; 3],
-            relative_bias_ci95: [[0.0; 2]; 3],
-            mse_bias2: 0.0,
-            mse_variance: 0.0,
-            time_ms: 1.0,
+            measured: Measured {
+                label: label.into(),
+                values: BTreeMap::new(),
+                params: MdasParams::default(),
+                relmse,
+                relmse_ci95: [relmse; 2],
+                relative_bias: [0.0; 3],
+                relative_bias_ci95: [[0.0; 2]; 3],
+                mse_bias2: 0.0,
+                mse_variance: 0.0,
+                time_ms: 1.0,
+            },
             equal_samples_ratio: 1.0,
             equal_time_halton_spp: None,
             equal_time_halton_relmse: None,
@@ -399,10 +388,10 @@ mod tests {
             row("c", 2e-3, Some(0.5)),
         ];
         rank(&mut rows, false);
-        let order: Vec<&str> = rows.iter().map(|r| r.label.as_str()).collect();
+        let order: Vec<&str> = rows.iter().map(|r| r.measured.label.as_str()).collect();
         assert_eq!(order, ["c", "b", "a"]);
         rank(&mut rows, true);
-        let order: Vec<&str> = rows.iter().map(|r| r.label.as_str()).collect();
+        let order: Vec<&str> = rows.iter().map(|r| r.measured.label.as_str()).collect();
         assert_eq!(order, ["a", "c", "b"]);
         let t = mdas_table(&MdasParams::default());
         assert!(
