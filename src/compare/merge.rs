@@ -157,21 +157,21 @@ impl PartRecord for TunePart {
 }
 
 /// Reads the parts at `paths` and checks that they are the parts
-/// 1..=N of one run ([`check_parts`]); returns them and their index order.
+/// 1..=N of one run ([`check_parts`]); returns them in index order.
 fn read_parts<T: PartRecord>(paths: &[PathBuf]) -> Result<Vec<Read<T>>> {
-    let mut parts = paths
+    let parts = paths
         .iter()
         .map(|p| read_part::<T>(p, T::FILE, T::FORMAT))
         .collect::<Result<Vec<_>>>()?;
     if parts.is_empty() {
         bail!("no parts to merge");
     }
-    let order: Vec<u32> = check_parts(&parts, |r| (r.part().index, r.part().count), T::OWN)?
-        .iter()
-        .map(|p| p.record.part().index)
-        .collect();
-    parts.sort_by_key(|p| order.iter().position(|&i| i == p.record.part().index));
-    Ok(parts)
+    let order = check_parts(&parts, T::OWN)?;
+    let mut slots: Vec<Option<Read<T>>> = parts.into_iter().map(Some).collect();
+    Ok(order
+        .into_iter()
+        .map(|k| slots[k].take().expect("each position once"))
+        .collect())
 }
 
 /// The record file of a part given as its directory or its file.
@@ -273,12 +273,9 @@ fn without(v: &Value, paths: &[&str]) -> Value {
 
 /// Checks that `parts` are the parts 1..=N of one run, each once: equal
 /// records but for the fields at `own` (each part's own), indices in
-/// range and none missing. Returns the parts in index order.
-fn check_parts<'a, T>(
-    parts: &'a [Read<T>],
-    index: impl Fn(&T) -> (u32, u32),
-    own: &[&str],
-) -> Result<Vec<&'a Read<T>>> {
+/// range and none missing ([`crate::session::parts::in_order`]). Returns
+/// their positions in index order.
+fn check_parts<T: PartRecord>(parts: &[Read<T>], own: &[&str]) -> Result<Vec<usize>> {
     let first = &parts[0];
     let key = without(&first.value, own);
     for p in &parts[1..] {
@@ -292,30 +289,11 @@ fn check_parts<'a, T>(
             );
         }
     }
-    let count = index(&first.record).1;
-    let mut by_index: Vec<Option<&Read<T>>> = vec![None; count as usize];
-    for p in parts {
-        let (i, n) = index(&p.record);
-        if i == 0 || i > n {
-            bail!("{}: its part {i}/{n} is not a part", p.file.display());
-        }
-        if let Some(other) = by_index[i as usize - 1] {
-            bail!(
-                "part {i}/{n} is given twice: {} and {}",
-                other.file.display(),
-                p.file.display()
-            );
-        }
-        by_index[i as usize - 1] = Some(p);
-    }
-    let missing: Vec<String> = (1..=count)
-        .filter(|i| by_index[*i as usize - 1].is_none())
-        .map(|i| format!("{i}/{count}"))
+    let indexed: Vec<(u32, &Path)> = parts
+        .iter()
+        .map(|p| (p.record.part().index, p.file.as_path()))
         .collect();
-    if !missing.is_empty() {
-        bail!("parts {} are missing", missing.join(", "));
-    }
-    Ok(by_index.into_iter().flatten().collect())
+    crate::session::parts::in_order(first.record.part().count, &indexed)
 }
 
 /// The value at a dotted path with `[i]` indices, as text.

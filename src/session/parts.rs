@@ -156,6 +156,36 @@ pub fn reference_part(
     Ok((render.film, warnings))
 }
 
+/// The positions in `parts` (each part's index I of `count`, 1 ≤ I ≤
+/// `count`, and its file) of parts 1..=`count` in order; an error names a
+/// part given twice (both files) or the parts missing. Every merge of
+/// parts (references here, sweeps and searches in `compare::merge`)
+/// orders its parts through it.
+pub fn in_order(count: u32, parts: &[(u32, &Path)]) -> Result<Vec<usize>> {
+    let mut by_index: Vec<Option<usize>> = vec![None; count as usize];
+    for (k, &(i, file)) in parts.iter().enumerate() {
+        if i == 0 || i > count {
+            bail!("{}: its part {i}/{count} is not a part", file.display());
+        }
+        if let Some(other) = by_index[i as usize - 1] {
+            bail!(
+                "part {i}/{count} is given twice: {} and {}",
+                parts[other].1.display(),
+                file.display()
+            );
+        }
+        by_index[i as usize - 1] = Some(k);
+    }
+    let missing: Vec<String> = (1..=count)
+        .filter(|i| by_index[*i as usize - 1].is_none())
+        .map(|i| format!("{i}/{count}"))
+        .collect();
+    if !missing.is_empty() {
+        bail!("parts {} are missing", missing.join(", "));
+    }
+    Ok(by_index.into_iter().flatten().collect())
+}
+
 /// One part as read back for a merge.
 struct ReadPart {
     file: PathBuf,
@@ -250,25 +280,14 @@ pub fn merge_parts(files: &[PathBuf], cache_dir: &Path) -> Result<(PathBuf, Film
     }
     let count = first.record["parts"].as_u64().unwrap_or(0) as u32;
     let spp = first.record["spp"].as_u64().unwrap_or(0) as u32;
-    let mut by_index: Vec<Option<&ReadPart>> = vec![None; count as usize];
-    for p in &parts {
-        if let Some(other) = by_index[p.index as usize - 1] {
-            bail!(
-                "part {}/{count} is given twice: {} and {}",
-                p.index,
-                other.file.display(),
-                p.file.display()
-            );
-        }
-        by_index[p.index as usize - 1] = Some(p);
-    }
-    let missing: Vec<String> = (1..=count)
-        .filter(|i| by_index[*i as usize - 1].is_none())
-        .map(|i| format!("{i}/{count}"))
-        .collect();
-    if !missing.is_empty() {
-        bail!("parts {} are missing", missing.join(", "));
-    }
+    let order = in_order(
+        count,
+        &parts
+            .iter()
+            .map(|p| (p.index, p.file.as_path()))
+            .collect::<Vec<_>>(),
+    )?;
+    let parts: Vec<&ReadPart> = order.into_iter().map(|k| &parts[k]).collect();
     let film = Film {
         width: first.record["width"].as_u64().unwrap_or(0) as u32,
         height: first.record["height"].as_u64().unwrap_or(0) as u32,
