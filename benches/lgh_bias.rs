@@ -147,10 +147,11 @@ fn offset_origin(x: Vec3, n: Vec3) -> Vec3 {
     x + n * (1e-4 * scale)
 }
 
-/// The level-1 table (module docs): per point, Σ f_i·V̄ω_i, Σ f_i·V̄f_i
-/// and Σ f_i over the level-1 candidates, and Σ f over all candidates.
+/// The shadow table (module docs), summed over `points`: for the level-1
+/// candidates and for the coarser ones, Σ f_i·V̄ω_i, Σ f_i·V̄f_i and Σ f_i;
+/// and Σ f over every candidate.
 #[allow(clippy::too_many_arguments)]
-fn level1_weighting(
+fn shadow_weighting(
     gpu: &Gpu,
     kernel: &TraceKernel,
     scene: &GpuScene,
@@ -160,9 +161,8 @@ fn level1_weighting(
     clamp2: f32,
     points: &[Point],
 ) -> Result<([[f64; 3]; 2], f64)> {
-    // Per candidate light: its point, the two weights, and its grid light's f.
+    // Per shadow ray: its candidate grid light and the light's two weights.
     struct Share {
-        point: usize,
         cand: usize,
         omega: f64,
         f: f64,
@@ -247,7 +247,6 @@ fn level1_weighting(
                         time: 0.0,
                     });
                     shares.push(Share {
-                        point: k,
                         cand: index,
                         omega,
                         f,
@@ -266,7 +265,6 @@ fn level1_weighting(
         a[1] += s.omega * visible;
         a[2] += s.f;
         a[3] += s.f * visible;
-        let _ = s.point;
     }
     // Per level (1, 2+): Σ f·V̄ω, Σ f·V̄f, Σ f; and Σ f over all.
     let mut out = [[0.0; 3]; 2];
@@ -387,7 +385,7 @@ fn main() -> Result<()> {
         let truth = exact(&prims, clamp2, &points);
         let sparse: Vec<Point> = points.iter().step_by(stride.max(1)).copied().collect();
         let cascade = lgh::build(&prims, spec.lgh.levels)?;
-        let w = level1_weighting(
+        let w = shadow_weighting(
             gpu, &kernel, &gpu_scene, &cascade, &prims, &spec.lgh, clamp2, &sparse,
         )?;
         let t = true_visibility(gpu, &kernel, &gpu_scene, &prims, clamp2, &sparse)?;
