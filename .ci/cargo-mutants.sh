@@ -35,11 +35,11 @@ set -euo pipefail
 # module | the cargo test arguments that select its fast tests
 MODULES=(
   "src/analytic/half_plane.rs|--lib"
-  "src/lights/alias.rs|--lib --test=lights_cpu"
-  "src/lights/perfect.rs|--lib --test=lights_cpu"
+  "src/lights/simple/alias.rs|--lib --test=lights_cpu"
+  "src/lights/tree/perfect.rs|--lib --test=lights_cpu"
   "src/lights/two_level.rs|--lib --test=lights_cpu"
   "src/lights/bvh.rs|--lib --test=lights_cpu"
-  "src/lights/cut.rs|--lib --test=lights_cpu"
+  "src/lights/tree/cut.rs|--lib --test=lights_cpu"
   "src/lights/sampler.rs|--lib --test=lights_cpu --test=lights_gpu_sampler"
   "src/lights/cone.rs|--lib --test=lights_cpu"
   "src/lights/importance.rs|--lib --test=lights_cpu"

@@ -16,7 +16,7 @@
 use criterion::{criterion_group, criterion_main, Criterion};
 use glam::Vec3;
 use mdas::gpu::Gpu;
-use mdas::lights::gpu_build::{BuildTimes, GpuLightTree};
+use mdas::lights::tree::gpu_build::{BuildTimes, GpuLightTree};
 use mdas::lights::LightPrim;
 use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};

@@ -21,8 +21,8 @@
 use anyhow::{bail, Context, Result};
 use glam::Vec3;
 use mdas::accel::{BuiltScene, Ray};
-use mdas::lights::cut::{Importance, TreeSampler};
 use mdas::lights::scene_lights::{bottom_levels, light_groups, light_prims};
+use mdas::lights::tree::cut::{Importance, TreeSampler};
 use mdas::lights::{
     new_sampler, two_level, LightPrim, LightSampler, SamplerKind, Shading, KIND_TRIANGLE,
 };

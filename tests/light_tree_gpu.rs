@@ -1,5 +1,5 @@
 //! The GPU radix sort and the GPU perfect light tree against their CPU
-//! references: `sort_by_key` (stable) and `lights::perfect::build`, bit for
+//! references: `sort_by_key` (stable) and `lights::tree::perfect::build`, bit for
 //! bit.
 
 mod common;
@@ -116,8 +116,8 @@ fn radix_sort_refuses_over_capacity() {
 
 use glam::Vec3;
 use mdas::gpu::Profiler;
-use mdas::lights::gpu_build::{BuildTimes, GpuLightTree};
-use mdas::lights::{morton, perfect, LightCone, LightPrim, TreeNode};
+use mdas::lights::tree::gpu_build::{BuildTimes, GpuLightTree};
+use mdas::lights::{morton, tree::perfect, LightCone, LightPrim, TreeNode};
 
 /// `n` lights in `[-s, s]^3`: points, VPLs and triangles (edges up to
 /// `s/10`) at random, with RGB emission in `[0, 4)`.
@@ -409,7 +409,7 @@ fn tree_of_one_million_lights() {
 /// Runs `prim_centroid` and `prim_intensity` over `prims` on the GPU.
 fn gpu_prim_quantities(gpu: &Gpu, prims: &[LightPrim]) -> Vec<[u32; 4]> {
     use mdas::gpu::shader::{bind_buffers, storage_entry, uniform_entry};
-    let source = mdas::lights::gpu_build::prim_wgsl().part((
+    let source = mdas::lights::tree::gpu_build::prim_wgsl().part((
         "tests/kernels/prim_quantities.wgsl",
         include_str!("kernels/prim_quantities.wgsl"),
     ));

@@ -21,13 +21,13 @@ use mdas::gpu::buffer::STORAGE;
 use mdas::gpu::shader::{storage_entry, Wgsl};
 use mdas::gpu::{Gpu, Profiler};
 use mdas::lights::bvh;
-use mdas::lights::cut::{Importance, LightTree, MAX_CUT};
-use mdas::lights::gpu_build::GpuLightTree;
 use mdas::lights::gpu_sampler::{cut_capacity, CutLayout, GpuSamplerData, TreeSource};
-use mdas::lights::perfect;
 use mdas::lights::substitute::{
     self, SstSampler, Substitute, SubstituteParams, SubstituteTree, SUBSTITUTE_BIT,
 };
+use mdas::lights::tree::cut::{Importance, LightTree, MAX_CUT};
+use mdas::lights::tree::gpu_build::GpuLightTree;
+use mdas::lights::tree::perfect;
 use mdas::lights::two_level;
 use mdas::lights::two_level::gpu::GpuTwoLevel;
 use mdas::lights::{

@@ -47,14 +47,14 @@ use mdas::integrator::mdas::MdasParams;
 use mdas::integrator::mdas::{
     adapt, config::Config, error, evaluate, gpu_params, initial, plan, reconstruct, scan, stats,
 };
-use mdas::lights::gpu_build::{BuildParams, GpuLightTree};
 use mdas::lights::gpu_sampler::{BatchSampler, GpuSamplerData, SampleAnswer, SampleQuery};
 use mdas::lights::lgh::gpu::{GpuLgh, LghBuildParams};
 use mdas::lights::lgh::GridLight;
 use mdas::lights::sampler::SamplerKind;
+use mdas::lights::tree::gpu_build::{BuildParams, GpuLightTree};
 use mdas::lights::two_level::gpu::{GpuTwoLevel, Tree2Params};
 use mdas::lights::vpl::{VplGenerator, VplParams};
-use mdas::lights::{alias::AliasEntry, gpu_sampler::LightParams, LightPrim, TreeNode};
+use mdas::lights::{gpu_sampler::LightParams, AliasEntry, LightPrim, TreeNode};
 use mdas::wgsl_file;
 use naga::valid::{Capabilities, ModuleInfo, ValidationFlags, Validator};
 use naga::{AddressSpace, Handle, Module, SourceLocation, Type};

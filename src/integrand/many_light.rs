@@ -75,14 +75,14 @@ use crate::gpu::shader::{storage_entry, Wgsl};
 use crate::gpu::{Gpu, Profiler};
 use crate::kernel_base::RAY_ITERATIONS;
 use crate::lights::bvh;
-use crate::lights::cut::MAX_CUT;
-use crate::lights::gpu_build::GpuLightTree;
 use crate::lights::gpu_sampler::{
     cut_capacity, CutLayout, GpuSamplerData, TreeSource, FIRST_BINDING,
 };
 use crate::lights::lgh::gpu::GpuLgh;
 use crate::lights::sampler::{CutSampling, SamplerKind, Structure};
 use crate::lights::scene_lights::{self, light_prims};
+use crate::lights::tree::cut::MAX_CUT;
+use crate::lights::tree::gpu_build::GpuLightTree;
 use crate::lights::two_level::gpu::GpuTwoLevel;
 use crate::lights::two_level::BottomLevels;
 use crate::lights::vpl::{self, VplGenerator};

@@ -41,9 +41,11 @@
 //! of equal cost the first found is kept: x before y before z, lower
 //! planes first).
 
-use super::perfect::{gather, leaf_node};
-use super::{cut::LightTree, LightCone, LightPrim, TreeNode, NO_LIGHT};
+use super::tree::perfect::{gather, leaf_node};
+use super::{tree::cut::LightTree, LightCone, LightPrim, TreeNode, NO_LIGHT};
 use glam::Vec3;
+
+pub mod gpu;
 
 /// Marks an internal node's `id`; the low 31 bits are its left child.
 pub const INTERNAL_BIT: u32 = 0x8000_0000;

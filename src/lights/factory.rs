@@ -1,42 +1,16 @@
-//! CPU light samplers by kind: [`new_sampler`], and the uniform sampler
-//! (the others live with their data structures: alias, cut, bvh, perfect).
+//! CPU light samplers by kind: [`new_sampler`], the one dispatch on the
+//! kind's [`Structure`] (each sampler lives in its technique's folder:
+//! `simple/`, `tree/`, `bvh`, `two_level/`, `substitute/`).
 
-use super::alias::PowerSampler;
 use super::bvh::{self, LightBvh};
-use super::cut::{Importance, LightTree, TreeSampler};
 use super::importance::Shading;
-use super::perfect::{self, PerfectTree};
-use super::sampler::{LightSample, LightSampler, SamplerKind, Structure};
+use super::sampler::{LightSampler, SamplerKind, Structure};
+use super::simple::{alias::PowerSampler, UniformSampler};
 use super::substitute::{self, SstSampler, SubstituteParams};
+use super::tree::cut::{Importance, LightTree, TreeSampler};
+use super::tree::perfect::{self, PerfectTree};
 use super::two_level;
 use super::LightPrim;
-
-/// Every light with probability `1/N`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct UniformSampler {
-    pub count: u32,
-}
-
-impl LightSampler for UniformSampler {
-    fn sample(&self, _s: &Shading, u: f32) -> Option<LightSample> {
-        if self.count == 0 {
-            return None;
-        }
-        let light = ((u * self.count as f32).floor() as u32).min(self.count - 1);
-        Some(LightSample {
-            light,
-            pmf: 1.0 / self.count as f64,
-        })
-    }
-
-    fn pmf(&self, _s: &Shading, light: u32) -> f64 {
-        if light < self.count {
-            1.0 / self.count as f64
-        } else {
-            0.0
-        }
-    }
-}
 
 /// The unbalanced-tree sampler.
 pub type UnbalancedSampler = TreeSampler<LightBvh>;

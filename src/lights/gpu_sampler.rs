@@ -18,19 +18,22 @@
 //! group and fills it with `select_cut`, or [`GpuSamplerData::write_cuts`]
 //! uploads CPU cuts. The sampling pass binds it read-only.
 
-use super::alias::{AliasEntry, PowerSampler};
 use super::bvh::{self, LightBvh, INTERNAL_BIT};
-use super::cut::MAX_CUT;
 use super::importance::NEAR_CLAMP;
 use super::lgh::gpu::GpuLgh;
 use super::lgh::{self, GridLight};
 pub use super::light_params::LightParams;
-use super::perfect::{self, PerfectTree};
+use super::light_params::SamplerBuffers;
 use super::sampler::{CutSampling, SamplerKind, Structure};
+use super::simple::{self, alias::AliasEntry};
 use super::substitute::{self, Substitute, SubstituteParams, SubstituteTree};
+use super::tree::cut::MAX_CUT;
+use super::tree::gpu::GpuTreeBuffers;
+use super::tree::perfect::{self, PerfectTree};
+use super::tree::{self, gpu_build};
 use super::two_level;
 use super::two_level::gpu::GpuTwoLevel;
-use super::{gpu_build, LightCone, LightPrim, TreeNode, NO_LIGHT};
+use super::{LightCone, LightPrim, TreeNode, NO_LIGHT};
 use crate::gpu::buffer::STORAGE;
 use crate::gpu::shader::{storage_entry, uniform_entry, Wgsl};
 use crate::gpu::Gpu;
@@ -173,197 +176,9 @@ impl GpuSamplerData {
             ..Default::default()
         };
         params.set_substitute_params(&SubstituteParams::default());
-        let label = |s: &str| format!("lights.sampler.{s}");
-
-        let mut alias = None;
-        let mut index = None;
-        let mut nodes = None;
-        let mut cones = None;
-        let mut substitutes = None;
-        let mut lgh_lights = None;
-        let upload_cones = |c: &[LightCone]| -> Result<Option<wgpu::Buffer>> {
-            Ok(if kind.uses_cones() {
-                Some(gpu.buffer_from(&label("cones"), c, STORAGE)?)
-            } else {
-                None
-            })
-        };
+        let mut out = SamplerBuffers::default();
         if n > 0 {
-            match kind.structure() {
-                Structure::Uniform => {}
-                Structure::Power => {
-                    let power = PowerSampler::new(prims);
-                    params.alias_count = power.table.len() as u32;
-                    alias = Some(gpu.buffer_from(&label("alias"), &power.table, STORAGE)?);
-                    let bits: Vec<u32> = power.pmf.iter().map(|p| p.to_bits()).collect();
-                    index = Some(gpu.buffer_from(&label("index"), &bits, STORAGE)?);
-                }
-                Structure::PerfectTree | Structure::SubstituteTree => {
-                    let p = n.next_power_of_two();
-                    params.leaf_count = p;
-                    params.levels = p.trailing_zeros() + 1;
-                    params.node_count = 2 * p - 1;
-                    let (built, built_sub);
-                    let source = match tree {
-                        Some(t) => t,
-                        None if kind.uses_substitute_tree() => {
-                            built_sub = substitute::build(prims).unwrap();
-                            TreeSource::Substitute(&built_sub)
-                        }
-                        None => {
-                            built = perfect::build(prims).unwrap();
-                            TreeSource::Perfect(&built)
-                        }
-                    };
-                    if kind.uses_substitute_tree()
-                        != matches!(
-                            source,
-                            TreeSource::Substitute(_)
-                                | TreeSource::PerfectGpu {
-                                    substitutes: Some(_),
-                                    ..
-                                }
-                        )
-                    {
-                        bail!("sampler '{kind}' and the tree given disagree on substitutes");
-                    }
-                    match source {
-                        TreeSource::Substitute(t) => {
-                            if t.tree.light_count() != n {
-                                bail!(
-                                    "substitute tree over {} lights for {n} lights",
-                                    t.tree.light_count()
-                                );
-                            }
-                            nodes =
-                                Some(gpu.buffer_from(&label("nodes"), &t.tree.nodes, STORAGE)?);
-                            index = Some(gpu.buffer_from(
-                                &label("index"),
-                                &t.tree.leaf_of_light,
-                                STORAGE,
-                            )?);
-                            cones = upload_cones(&t.tree.cones)?;
-                            substitutes = Some(gpu.buffer_from(
-                                &label("substitutes"),
-                                &t.substitutes,
-                                STORAGE,
-                            )?);
-                        }
-                        TreeSource::Perfect(t) => {
-                            if t.light_count() != n {
-                                bail!(
-                                    "perfect tree over {} lights for {n} lights",
-                                    t.light_count()
-                                );
-                            }
-                            nodes = Some(gpu.buffer_from(&label("nodes"), &t.nodes, STORAGE)?);
-                            index = Some(gpu.buffer_from(
-                                &label("index"),
-                                &t.leaf_of_light,
-                                STORAGE,
-                            )?);
-                            cones = upload_cones(&t.cones)?;
-                        }
-                        TreeSource::PerfectGpu {
-                            nodes: gpu_nodes,
-                            leaf_of_light,
-                            cones: gpu_cones,
-                            substitutes: gpu_substitutes,
-                        } => {
-                            let count = params.node_count as u64;
-                            let need = count * size_of::<TreeNode>() as u64;
-                            if gpu_nodes.size() < need || leaf_of_light.size() < 4 * n as u64 {
-                                bail!("GPU light tree buffers too small for {n} lights");
-                            }
-                            nodes = Some(gpu_nodes.clone());
-                            index = Some(leaf_of_light.clone());
-                            if kind.uses_cones() {
-                                let need = count * size_of::<LightCone>() as u64;
-                                match gpu_cones {
-                                    Some(c) if c.size() >= need => cones = Some(c.clone()),
-                                    _ => bail!(
-                                        "sampler '{kind}' needs the GPU tree's cones for {n} lights"
-                                    ),
-                                }
-                            }
-                            if let Some(b) = gpu_substitutes {
-                                if b.size() < count * size_of::<Substitute>() as u64 {
-                                    bail!("GPU substitute buffer too small for {n} lights");
-                                }
-                                substitutes = Some(b.clone());
-                            }
-                        }
-                        TreeSource::Bvh(_) | TreeSource::TwoLevelGpu(_) => {
-                            bail!("sampler '{kind}' needs a perfect tree, got a BVH")
-                        }
-                        TreeSource::Lgh(_) => {
-                            bail!("sampler '{kind}' needs a perfect tree, got a grid hierarchy")
-                        }
-                    }
-                }
-                Structure::Grid => {
-                    let Some(TreeSource::Lgh(h)) = tree else {
-                        bail!("sampler 'lgh' needs its grid hierarchy (GpuLgh)");
-                    };
-                    if h.light_count() != n {
-                        bail!(
-                            "grid hierarchy over {} lights for {n} lights",
-                            h.light_count()
-                        );
-                    }
-                    h.set_light_params(&mut params);
-                    index = Some(h.index.clone());
-                    lgh_lights = Some(h.lights.clone());
-                }
-                Structure::Bvh(_) | Structure::TwoLevel => {
-                    let two_level = kind.structure() == Structure::TwoLevel;
-                    if let Some(TreeSource::TwoLevelGpu(t)) = tree {
-                        if !two_level {
-                            bail!("sampler '{kind}' needs a light BVH, got a two-level tree");
-                        }
-                        if t.light_count() != n {
-                            bail!(
-                                "two-level tree over {} lights for {n} lights",
-                                t.light_count()
-                            );
-                        }
-                        params.node_count = t.node_count();
-                        nodes = Some(t.nodes.clone());
-                        cones = Some(t.cones.clone());
-                        index = Some(t.index.clone());
-                    } else {
-                        let built;
-                        let b = match tree {
-                            Some(TreeSource::Bvh(b)) => b,
-                            // tree2 without groups: one group (factory.rs).
-                            None if two_level => {
-                                built =
-                                    two_level::build(prims, std::slice::from_ref(&(0..n))).unwrap();
-                                &built
-                            }
-                            None => {
-                                built = bvh::build(prims, kind.bvh_cost()).unwrap();
-                                &built
-                            }
-                            Some(_) => {
-                                bail!("sampler '{kind}' needs a light BVH, got another structure")
-                            }
-                        };
-                        if b.leaf_of_light.len() as u32 != n {
-                            bail!(
-                                "light BVH over {} lights for {n} lights",
-                                b.leaf_of_light.len()
-                            );
-                        }
-                        params.node_count = b.nodes.len() as u32;
-                        nodes = Some(gpu.buffer_from(&label("nodes"), &b.nodes, STORAGE)?);
-                        cones = upload_cones(&b.cones)?;
-                        let table: Vec<u32> =
-                            b.leaf_of_light.iter().chain(&b.parent).copied().collect();
-                        index = Some(gpu.buffer_from(&label("index"), &table, STORAGE)?);
-                    }
-                }
-            }
+            Self::upload(gpu, kind, prims, tree, &mut params, &mut out)?;
         }
         let cut_entries = if kind.uses_cut() && n > 0 {
             let mut c = vec![NO_LIGHT; (cuts.blocks() * cuts.cut_size) as usize];
@@ -374,37 +189,114 @@ impl GpuSamplerData {
         } else {
             Vec::new()
         };
+        fn or_empty<T: Pod>(gpu: &Gpu, b: Option<wgpu::Buffer>) -> Result<wgpu::Buffer> {
+            b.map_or_else(|| SamplerBuffers::upload::<T>(gpu, "unused", &[]), Ok)
+        }
         Ok(GpuSamplerData {
             kind,
             params,
-            nodes: nodes.map_or_else(
-                || gpu.buffer_from::<TreeNode>(&label("unused"), &[], STORAGE),
-                Ok,
-            )?,
-            cones: cones.map_or_else(
-                || gpu.buffer_from::<LightCone>(&label("unused"), &[], STORAGE),
-                Ok,
-            )?,
-            substitutes: substitutes.map_or_else(
-                || gpu.buffer_from::<Substitute>(&label("unused"), &[], STORAGE),
-                Ok,
-            )?,
-            lgh_lights: lgh_lights.map_or_else(
-                || gpu.buffer_from::<GridLight>(&label("unused"), &[], STORAGE),
-                Ok,
-            )?,
-            prims: gpu.buffer_from(&label("prims"), prims, STORAGE)?,
-            index: index.map_or_else(
-                || gpu.buffer_from::<u32>(&label("unused"), &[], STORAGE),
-                Ok,
-            )?,
-            alias: alias.map_or_else(
-                || gpu.buffer_from::<AliasEntry>(&label("unused"), &[], STORAGE),
-                Ok,
-            )?,
-            cuts: gpu.buffer_from(&label("cuts"), &cut_entries, STORAGE)?,
-            uniform: gpu.uniform(&label("params"), &params),
+            nodes: or_empty::<TreeNode>(gpu, out.nodes)?,
+            cones: or_empty::<LightCone>(gpu, out.cones)?,
+            substitutes: or_empty::<Substitute>(gpu, out.substitutes)?,
+            lgh_lights: or_empty::<GridLight>(gpu, out.lgh_lights)?,
+            prims: SamplerBuffers::upload(gpu, "prims", prims)?,
+            index: or_empty::<u32>(gpu, out.index)?,
+            alias: or_empty::<AliasEntry>(gpu, out.alias)?,
+            cuts: SamplerBuffers::upload(gpu, "cuts", &cut_entries)?,
+            uniform: gpu.uniform("lights.sampler.params", &params),
         })
+    }
+
+    /// The one dispatch on the kind's [`Structure`]: each technique's
+    /// upload (in its folder) fills `out` and its part of `params` for
+    /// `n ≥ 1` lights, from `tree` when given (the GPU builds, or a CPU
+    /// structure built with more than the lights, as `tree2`'s groups)
+    /// or built here from `prims`.
+    fn upload(
+        gpu: &Gpu,
+        kind: SamplerKind,
+        prims: &[LightPrim],
+        tree: Option<TreeSource<'_>>,
+        params: &mut LightParams,
+        out: &mut SamplerBuffers,
+    ) -> Result<()> {
+        let cones = kind.uses_cones();
+        let other = |want: &str| -> Result<()> {
+            bail!("sampler '{kind}' needs {want}, got another structure")
+        };
+        match (kind.structure(), tree) {
+            (Structure::Uniform, _) => Ok(()),
+            (Structure::Power, _) => simple::gpu::upload_power(gpu, prims, params, out),
+            (Structure::PerfectTree, None) => {
+                let t = perfect::build(prims).unwrap();
+                tree::gpu::upload(gpu, &t, cones, params, out)
+            }
+            (Structure::PerfectTree, Some(TreeSource::Perfect(t))) => {
+                tree::gpu::upload(gpu, t, cones, params, out)
+            }
+            (
+                Structure::PerfectTree,
+                Some(TreeSource::PerfectGpu {
+                    nodes,
+                    leaf_of_light,
+                    cones: gpu_cones,
+                    substitutes: None,
+                }),
+            ) => tree::gpu::bind(
+                GpuTreeBuffers {
+                    nodes,
+                    leaf_of_light,
+                    cones: gpu_cones,
+                },
+                cones,
+                params,
+                out,
+            ),
+            (Structure::PerfectTree, Some(_)) => other("a perfect tree without substitutes"),
+            (Structure::SubstituteTree, None) => {
+                let t = substitute::build(prims).unwrap();
+                substitute::gpu::upload(gpu, &t, cones, params, out)
+            }
+            (Structure::SubstituteTree, Some(TreeSource::Substitute(t))) => {
+                substitute::gpu::upload(gpu, t, cones, params, out)
+            }
+            (
+                Structure::SubstituteTree,
+                Some(TreeSource::PerfectGpu {
+                    nodes,
+                    leaf_of_light,
+                    cones: gpu_cones,
+                    substitutes: Some(subs),
+                }),
+            ) => {
+                let t = GpuTreeBuffers {
+                    nodes,
+                    leaf_of_light,
+                    cones: gpu_cones,
+                };
+                tree::gpu::bind(t, cones, params, out)?;
+                substitute::gpu::bind(subs, params, out)
+            }
+            (Structure::SubstituteTree, Some(_)) => other("a substitute tree"),
+            (Structure::Bvh(cost), None) => {
+                let b = bvh::build(prims, cost).unwrap();
+                bvh::gpu::upload(gpu, &b, cones, params, out)
+            }
+            (Structure::Bvh(_) | Structure::TwoLevel, Some(TreeSource::Bvh(b))) => {
+                bvh::gpu::upload(gpu, b, cones, params, out)
+            }
+            (Structure::Bvh(_), Some(_)) => other("a light BVH"),
+            // tree2 without groups: one group (factory.rs).
+            (Structure::TwoLevel, None) => {
+                let n = prims.len() as u32;
+                let b = two_level::build(prims, std::slice::from_ref(&(0..n))).unwrap();
+                bvh::gpu::upload(gpu, &b, cones, params, out)
+            }
+            (Structure::TwoLevel, Some(TreeSource::TwoLevelGpu(t))) => t.bind(params, out),
+            (Structure::TwoLevel, Some(_)) => other("a two-level tree"),
+            (Structure::Grid, Some(TreeSource::Lgh(h))) => h.bind(params, out),
+            (Structure::Grid, _) => bail!("sampler '{kind}' needs its grid hierarchy (GpuLgh)"),
+        }
     }
 
     /// Sets `sst`'s suitability thresholds (uploaded with the next

@@ -1,9 +1,37 @@
-//! `light_params`, the uniform every light sampler's WGSL reads (binding
-//! 21 of `@group(1)`, `wgsl/lights/bindings.wgsl`): part of the GPU sampler
-//! interface, so that a technique's GPU owner fills its fields without
-//! importing the sampler hub ([`super::gpu_sampler`]).
+//! The GPU sampler interface a technique fills: `light_params`, the
+//! uniform every light sampler's WGSL reads (binding 21 of `@group(1)`,
+//! `wgsl/lights/bindings.wgsl`), and [`SamplerBuffers`], the bindings a
+//! technique's upload provides. A technique's GPU owner (`tree/gpu.rs`,
+//! `bvh/gpu.rs`, `lgh/gpu.rs`, …) fills both without importing the
+//! sampler hub ([`super::gpu_sampler`]), which dispatches on the kind's
+//! `Structure` and binds the rest.
 
+use crate::gpu::buffer::STORAGE;
+use crate::gpu::Gpu;
+use anyhow::Result;
 use bytemuck::{Pod, Zeroable};
+
+/// The bindings a technique uploads (16 nodes, 18 index, 19 alias, 22
+/// cones, 23 substitutes, 24 grid lights; `wgsl/lights/bindings.wgsl`
+/// says what each holds per kind). The hub binds one zeroed element for
+/// each left `None`.
+#[derive(Default)]
+pub struct SamplerBuffers {
+    pub nodes: Option<wgpu::Buffer>,
+    pub index: Option<wgpu::Buffer>,
+    pub alias: Option<wgpu::Buffer>,
+    pub cones: Option<wgpu::Buffer>,
+    pub substitutes: Option<wgpu::Buffer>,
+    pub lgh_lights: Option<wgpu::Buffer>,
+}
+
+impl SamplerBuffers {
+    /// Uploads `data` as the sampler binding named `name`
+    /// (`lights.sampler.<name>`).
+    pub fn upload<T: Pod>(gpu: &Gpu, name: &str, data: &[T]) -> Result<wgpu::Buffer> {
+        gpu.buffer_from(&format!("lights.sampler.{name}"), data, STORAGE)
+    }
+}
 
 /// `light_params` (binding 21), mirrored by `LightParams` in
 /// `wgsl/lights/bindings.wgsl`.

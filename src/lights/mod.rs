@@ -41,30 +41,29 @@
 //! Lambertian emissive triangle (its on-axis intensity; its flux is
 //! `L_e · area · π`), the on-axis intensity for a VPL.
 
-pub mod alias;
 pub mod bvh;
 pub mod cone;
-pub mod cut;
 pub mod factory;
-pub mod gpu_build;
 pub mod gpu_sampler;
 pub mod importance;
 pub mod lgh;
 pub mod light_params;
 pub mod morton;
-pub mod perfect;
 pub mod sampler;
 pub mod scene_lights;
+pub mod simple;
 pub mod substitute;
+pub mod tree;
 pub mod two_level;
 pub mod vpl;
 
-pub use alias::{AliasEntry, PowerSampler};
 pub use cone::LightCone;
-pub use cut::{select_cut, LightTree, TreeSampler};
-pub use factory::{new_sampler, UniformSampler};
+pub use factory::new_sampler;
 pub use importance::Shading;
 pub use sampler::{CutSampling, LightSample, LightSampler, SamplerKind};
+pub use simple::alias::{AliasEntry, PowerSampler};
+pub use simple::UniformSampler;
+pub use tree::cut::{select_cut, LightTree, TreeSampler};
 
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;

@@ -7,14 +7,14 @@
 //! | kind | sampler | paper |
 //! |---|---|---|
 //! | `uniform` | [`UniformSampler`](super::factory::UniformSampler) | "random sampling" baseline (§4) |
-//! | `power` | [`PowerSampler`](super::alias::PowerSampler) (alias table, `I_i/ΣI`) | pbrt-v4 |
-//! | `tree_nocut` | [`TreeSampler`](super::cut::TreeSampler) over a [`PerfectTree`](super::perfect::PerfectTree), cut = root | §3.2 |
+//! | `power` | [`PowerSampler`](super::simple::alias::PowerSampler) (alias table, `I_i/ΣI`) | pbrt-v4 |
+//! | `tree_nocut` | [`TreeSampler`](super::tree::cut::TreeSampler) over a [`PerfectTree`](super::tree::perfect::PerfectTree), cut = root | §3.2 |
 //! | `tree` | same, with a greedy cut per pixel block: under [`CutSampling::Subtrees`] (the default) one light from each cut subtree per evaluation, under `Mixture` one pick from the cut | §3.2–3.3, §4 |
 //! | `tree_cone` | `tree` with orientation cones ([`Importance::Cones`]) | §3.1 + Conty & Kulla 2018 |
-//! | `unbalanced_nocut` | [`TreeSampler`](super::cut::TreeSampler) with cones over a SAOH [`LightBvh`](super::bvh::LightBvh), cut = root | §4, pbrt-v4 |
+//! | `unbalanced_nocut` | [`TreeSampler`](super::tree::cut::TreeSampler) with cones over a SAOH [`LightBvh`](super::bvh::LightBvh), cut = root | §4, pbrt-v4 |
 //! | `unbalanced` | same, with a greedy cut | §4, pbrt-v4 |
 //! | `unbalanced_nocone` | a cone-free SAH BVH with a greedy cut | §4 |
-//! | `tree2` | [`TreeSampler`](super::cut::TreeSampler) with cones and a greedy cut over the two-level tree ([`super::two_level`]: a perfect tree per mesh / light set, a SAOH BVH over their roots), in the BVH's layout | §3.1 |
+//! | `tree2` | [`TreeSampler`](super::tree::cut::TreeSampler) with cones and a greedy cut over the two-level tree ([`super::two_level`]: a perfect tree per mesh / light set, a SAOH BVH over their roots), in the BVH's layout | §3.1 |
 //! | `sst` | [`SstSampler`](super::substitute::SstSampler): a perfect tree sorted with normal codes, `tree_cone` descent from the root, stopping at the first suitable substitute (biased) | Tatzgern et al. 2020 |
 //! | `sst_nosub` | the same with substitution off: a leaf-only (unbiased) tree sampler | Tatzgern et al. 2020 |
 //! | `lgh` | no picker: the lighting grid hierarchy ([`super::lgh`]) sums over grid lights and picks S shadow samples (biased) | Lin & Yuksel 2019 |
@@ -29,7 +29,7 @@
 use super::importance::Shading;
 
 /// Which node importance a tree sampler uses (computed by
-/// [`Importance::of`](super::cut::Importance::of)).
+/// [`Importance::of`](super::tree::cut::Importance::of)).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Importance {
     /// The paper's: bounds and intensity only (`tree`, `tree_nocut`,
@@ -77,7 +77,7 @@ pub enum Structure {
     Uniform,
     /// An alias table over the lights' power.
     Power,
-    /// The perfect light tree (`perfect.rs`), implicit layout.
+    /// The perfect light tree (`tree/perfect.rs`), implicit layout.
     PerfectTree,
     /// The perfect tree sorted with normal codes, a substitute per node
     /// (`substitute.rs`).

@@ -56,13 +56,15 @@
 //! the node's cone, in the cone when the cone is narrower than a
 //! hemisphere — which `ν ≥ ν_min > 0` implies for its children).
 
-use super::cut::{Importance, LightTree};
 use super::importance::{choose_child, choose_cut_node, cut_probabilities, p_left, Shading};
-use super::perfect::{self, PerfectTree};
 use super::sampler::{LightSample, LightSampler};
+use super::tree::cut::{Importance, LightTree};
+use super::tree::perfect::{self, PerfectTree};
 use super::{morton, LightPrim, KIND_VPL};
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
+
+pub mod gpu;
 
 /// A GPU light pick `SUBSTITUTE_BIT | node` is node's substitute
 /// (`LightPick.light` in `wgsl/lights/sample.wgsl`); so a substitute tree

@@ -37,8 +37,8 @@
 //! the frame's lights in that order.
 
 use super::bvh::{self, Cost, LightBvh, INTERNAL_BIT, MAX_DEPTH};
-use super::cut::LightTree;
-use super::perfect::{self, gather, leaf_node};
+use super::tree::cut::LightTree;
+use super::tree::perfect::{self, gather, leaf_node};
 use super::{LightCone, LightPrim, TreeNode, NO_LIGHT};
 use glam::Vec3;
 use std::collections::HashMap;

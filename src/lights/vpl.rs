@@ -173,7 +173,7 @@ impl VplGenerator {
     /// then `lights/vpl.wgsl`.
     pub fn source() -> Wgsl {
         crate::kernel_base::scene_wgsl()
-            .include(&super::gpu_build::prim_wgsl())
+            .include(&super::tree::gpu_build::prim_wgsl())
             .constant("VPL_WG", WG)
             .constant("KIND_DIRECTIONAL_SOURCE", KIND_DIRECTIONAL_SOURCE)
             .part(wgsl_file!("shared/rng.wgsl"))

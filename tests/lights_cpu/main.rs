@@ -37,11 +37,11 @@ use samplers::*;
 use glam::{Vec3, Vec4};
 use light_scenes::vpl_walls;
 use mdas::lights::bvh::{self, Cost, LightBvh, INTERNAL_BIT, MAX_DEPTH};
-use mdas::lights::cut::{Importance, LightTree, MAX_CUT};
 use mdas::lights::importance::{node_importance, ONE_MINUS_EPSILON};
 use mdas::lights::morton::{codes, exponent, morton30, quantize_axis};
-use mdas::lights::perfect::{self, gather, PerfectTree};
 use mdas::lights::substitute::{self, SstSampler, Stop, Substitute, SubstituteParams};
+use mdas::lights::tree::cut::{Importance, LightTree, MAX_CUT};
+use mdas::lights::tree::perfect::{self, gather, PerfectTree};
 use mdas::lights::two_level::{self, BottomLevels};
 use mdas::lights::{
     new_sampler, select_cut, LightSampler, PowerSampler, SamplerKind, Shading, TreeSampler,

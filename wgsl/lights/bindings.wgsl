@@ -26,7 +26,7 @@
 //                  level, then (start, end) of every level-1 cell, then the
 //                  light ids sorted by cell (src/lights/lgh.rs).
 
-// AliasEntry { q, alias } of src/lights/alias.rs (`alias` is a WGSL keyword).
+// AliasEntry { q, alias } of src/lights/simple/alias.rs (`alias` is a WGSL keyword).
 struct AliasEntry {
     q: f32,
     alias_id: u32,

@@ -1,7 +1,7 @@
 // Light primitives and tree nodes (src/lights/mod.rs), with the per-light
 // quantities computed exactly as the CPU computes them (LightPrim::centroid,
 // ::intensity, ::bounds_min/max; points and VPLs sit at p0), so that the GPU tree equals the CPU oracle
-// bit for bit. src/lights/gpu_build.rs explains each rule; in short:
+// bit for bit. src/lights/tree/gpu_build.rs explains each rule; in short:
 //   * no product may be fused with a following addition (drivers may contract
 //     a·b + c into an fma, which rounds once instead of twice): products that
 //     feed additions go through mul_rn, whose XOR with a zero the compiler

@@ -532,7 +532,7 @@ fn light_per_subtree() -> bool {
 // light drawn with u from subtree j (< light_cut_len) of the pixel's share of
 // the cut, by a descent from its cut node; pmf is the probability within that
 // subtree. Σ_j f(l_j)/pmf_j over the share estimates the share's lights
-// without bias (src/lights/cut.rs TreeSampler::sample_subtree).
+// without bias (src/lights/tree/cut.rs TreeSampler::sample_subtree).
 // The kinds without cuts have one "subtree", all lights: light_sample.
 fn light_sample_subtree(s_p: vec3<f32>, s_n: vec3<f32>, cut_base: u32, j: u32, u: f32) -> LightPick {
     if (!light_uses_cut()) {

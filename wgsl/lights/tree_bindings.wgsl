@@ -1,4 +1,4 @@
-// Bindings shared by the light tree build kernels (src/lights/gpu_build.rs).
+// Bindings shared by the light tree build kernels (src/lights/tree/gpu_build.rs).
 // One layout for all of them; each kernel uses the ones it needs.
 
 struct BuildParams {

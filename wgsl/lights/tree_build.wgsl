@@ -2,7 +2,7 @@
 // `leaves` copies the Morton-sorted lights into the leaf level, pads it with
 // bogus leaves and records each light's leaf slot (and their cones when
 // asked); `cone_level` merges the cones of one level; `internal` builds k
-// levels above a source level ℓs in one dispatch. src/lights/gpu_build.rs
+// levels above a source level ℓs in one dispatch. src/lights/tree/gpu_build.rs
 // explains why the result equals the level-by-level CPU oracle bit for bit.
 
 @compute @workgroup_size(WG)

@@ -21,8 +21,9 @@ use crate::gpu::radix_sort::RadixSort;
 use crate::gpu::shader::{bind_buffers, storage_entry, uniform_entry, Wgsl};
 use crate::gpu::{Gpu, Profiler};
 use crate::kernel_base::RAY_ITERATIONS;
-use crate::lights::light_params::LightParams;
-use crate::lights::{gpu_build, LightPrim, KIND_TRIANGLE};
+use crate::lights::light_params::{LightParams, SamplerBuffers};
+use crate::lights::tree::gpu_build;
+use crate::lights::{LightPrim, KIND_TRIANGLE};
 use crate::wgsl_file;
 use anyhow::{bail, Context, Result};
 use bytemuck::{Pod, Zeroable};
@@ -258,6 +259,23 @@ impl GpuLgh {
     /// First `index` entry of the sorted ids.
     pub fn sorted_offset(&self) -> u32 {
         self.cells_offset() + 2 * self.grid.cells().pow(3)
+    }
+
+    /// Binds the hierarchy into the samplers' bindings for `params.count`
+    /// lights: the grid lights (24), the index (18) and the `lgh_*`
+    /// parameters.
+    pub fn bind(&self, params: &mut LightParams, out: &mut SamplerBuffers) -> Result<()> {
+        let n = params.count;
+        if self.light_count != n {
+            bail!(
+                "grid hierarchy over {} lights for {n} lights",
+                self.light_count
+            );
+        }
+        self.set_light_params(params);
+        out.index = Some(self.index.clone());
+        out.lgh_lights = Some(self.lights.clone());
+        Ok(())
     }
 
     /// Fills the `lgh_*` fields of the sampler parameters.

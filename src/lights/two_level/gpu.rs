@@ -17,7 +17,7 @@
 //! No sort, no Morton codes: the leaf orders were sorted once, in object
 //! space, when the sequence began. The nodes' bounds and intensities equal
 //! the CPU's [`super::two_level::BottomLevels::tree`] bit for bit (the rules of
-//! [`super::gpu_build`]: `leaf_node` and a gather are exact); the cones
+//! [`crate::lights::tree::gpu_build`]: `leaf_node` and a gather are exact); the cones
 //! take square roots and are compared within a tolerance
 //! (`tests/light_tree_gpu.rs`), and the top level is built from the
 //! GPU's roots, so its cones inherit that tolerance. Groups sorted every
@@ -33,7 +33,8 @@ use crate::gpu::buffer::{Readback, STORAGE};
 use crate::gpu::shader::{storage_entry, uniform_entry};
 use crate::gpu::{Gpu, Profiler};
 use crate::lights::bvh::INTERNAL_BIT;
-use crate::lights::gpu_build::prim_wgsl;
+use crate::lights::light_params::{LightParams, SamplerBuffers};
+use crate::lights::tree::gpu_build::prim_wgsl;
 use crate::lights::{LightCone, LightPrim, TreeNode};
 use crate::wgsl_file;
 use anyhow::{bail, Result};
@@ -182,6 +183,24 @@ impl GpuTwoLevel {
     /// The number of nodes, `2N − 1`.
     pub fn node_count(&self) -> u32 {
         self.plan.node_count
+    }
+
+    /// Binds the tree, as the kernels leave it, into the samplers'
+    /// bindings for `params.count` lights (nodes, cones, index: the BVH
+    /// layout).
+    pub fn bind(&self, params: &mut LightParams, out: &mut SamplerBuffers) -> Result<()> {
+        let n = params.count;
+        if self.light_count != n {
+            bail!(
+                "two-level tree over {} lights for {n} lights",
+                self.light_count
+            );
+        }
+        params.node_count = self.node_count();
+        out.nodes = Some(self.nodes.clone());
+        out.cones = Some(self.cones.clone());
+        out.index = Some(self.index.clone());
+        Ok(())
     }
 
     /// The plan the kernels run.

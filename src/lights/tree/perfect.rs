@@ -9,7 +9,7 @@
 //! The GPU builder must produce these nodes bit for bit; this module is its
 //! reference.
 
-use super::{morton, LightCone, LightPrim, TreeNode, NO_LIGHT};
+use crate::lights::{morton, LightCone, LightPrim, TreeNode, NO_LIGHT};
 
 /// A perfect light tree over `N ≥ 1` lights.
 #[derive(Clone, Debug, PartialEq)]
@@ -90,7 +90,7 @@ pub fn build(prims: &[LightPrim]) -> Option<PerfectTree> {
 
 /// Builds the perfect tree with the lights in the leaf order `sorted` (a
 /// permutation of `0..N`, `N ≥ 1`): [`build`] sorts by (Morton code, id),
-/// the substitute tree ([`super::substitute`]) by (Morton code, normal
+/// the substitute tree ([`crate::lights::substitute`]) by (Morton code, normal
 /// code, id).
 pub fn build_sorted(prims: &[LightPrim], sorted: Vec<u32>) -> PerfectTree {
     let n = prims.len();

@@ -9,8 +9,8 @@
 //! never chosen; entries with `q = 1` alias themselves, so a `v` that
 //! rounds up to 1 still picks them.
 
-use super::sampler::{LightSample, LightSampler};
-use super::{importance::Shading, LightPrim};
+use crate::lights::sampler::{LightSample, LightSampler};
+use crate::lights::{importance::Shading, LightPrim};
 use bytemuck::{Pod, Zeroable};
 
 /// One alias-table entry (8 bytes, uploaded as is).

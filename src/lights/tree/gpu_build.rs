@@ -11,7 +11,7 @@
 //! | phase | kernel | work |
 //! |---|---|---|
 //! | `light_tree.bounds` | `wgsl/lights/bounds.wgsl` | global centroid bounds: per-workgroup min/max, then one `atomicMax` per axis on order-preserving bits |
-//! | `light_tree.morton` | `wgsl/lights/morton.wgsl` | 30-bit Morton code of every centroid (the exact rule of [`super::morton`]), light ids as values |
+//! | `light_tree.morton` | `wgsl/lights/morton.wgsl` | 30-bit Morton code of every centroid (the exact rule of [`crate::lights::morton`]), light ids as values |
 //! | `light_tree.sort` | `wgsl/gpu/radix_sort.wgsl` | stable radix sort of (code, id) over 30 bits ([`RadixSort`]) |
 //! | `light_tree.leaves` | `wgsl/lights/tree_build.wgsl` `leaves` | leaf slot `s < N` = leaf of light `sorted[s]`, slots `N..P` bogus ([`TreeNode::EMPTY`]), `leaf_of_light[sorted[s]] = s` |
 //! | `light_tree.internal` | `wgsl/lights/tree_build.wgsl` `internal` | levels bottom-up, up to 7 per dispatch from one source level |
@@ -27,7 +27,7 @@
 //! (`tree_build.wgsl` `substitute_level`) writes the [`Substitute`] of every
 //! node, leaves first, one dispatch per level. The normal codes are exact
 //! on both sides, so the leaf order and the nodes still equal the oracle's
-//! ([`super::substitute::build`]) bit for bit; the substitutes divide and
+//! ([`crate::lights::substitute::build`]) bit for bit; the substitutes divide and
 //! take square roots and are compared within a tolerance
 //! (`tests/lights_gpu_sampler.rs`).
 //!
@@ -55,9 +55,9 @@
 //!   of its bits with a zero read from a uniform, which no compiler can see
 //!   through. WGSL's division may be off by 2.5 ulp, so `div3_rn` divides by
 //!   3 in integer arithmetic with round-to-nearest-even. The weights
-//!   `wr, wg, wb` are passed as f32 bits from [`super::luminance`] itself.
+//!   `wr, wg, wb` are passed as f32 bits from [`crate::lights::luminance`] itself.
 //!   Bounds use `select`, which is exact.
-//! * **Morton codes** follow [`super::morton`] step for step: one
+//! * **Morton codes** follow [`crate::lights::morton`] step for step: one
 //!   subtraction, the exponent read from bits, powers of two built from bits
 //!   (split in two above 2^127), floor, clamp. The centroid bounds are a
 //!   min/max, exact in any order.
@@ -85,19 +85,21 @@
 //! (commutative), the sort is reduce-then-scan without spin-waits, and every
 //! other write goes to a position computed from the input alone.
 //!
-//! The cones ([`super::cone`]) are the one exception to bit-for-bit
+//! The cones ([`crate::lights::cone`]) are the one exception to bit-for-bit
 //! equality: their union takes square roots and divisions, which WGSL does
 //! not round exactly, so they are compared with the oracle's within a
 //! stated tolerance; every cone is widened so that it bounds its lights
 //! either way.
 
-use super::substitute::{self, Substitute};
-use super::{cone, luminance, LightCone, LightPrim, TreeNode, KIND_TRIANGLE, KIND_VPL, NO_LIGHT};
 use crate::gpu::buffer::STORAGE;
 use crate::gpu::profiler::PhaseTimes;
 use crate::gpu::radix_sort::RadixSort;
 use crate::gpu::shader::{storage_entry, uniform_entry, Wgsl};
 use crate::gpu::{Gpu, Profiler};
+use crate::lights::substitute::{self, Substitute};
+use crate::lights::{
+    cone, luminance, LightCone, LightPrim, TreeNode, KIND_TRIANGLE, KIND_VPL, NO_LIGHT,
+};
 use crate::wgsl_file;
 use anyhow::{bail, Result};
 use bytemuck::{Pod, Zeroable};
@@ -229,13 +231,13 @@ pub struct GpuLightTree {
     pub sorted_codes: wgpu::Buffer,
     /// With cones: the [`LightCone`] of each node, indexed like `nodes`
     /// (widened, not bit-equal to [`super::perfect::build`]'s: see
-    /// [`super::cone`]); without: `None`.
+    /// [`crate::lights::cone`]); without: `None`.
     pub cones: Option<wgpu::Buffer>,
     /// Binds in place of `cones` when the tree has none.
     no_cones: wgpu::Buffer,
     /// A substitute tree ([`GpuLightTree::with_substitutes`]): the
     /// [`Substitute`] of each node, indexed like `nodes` (within a stated
-    /// tolerance of [`super::substitute::build`]'s); otherwise `None`.
+    /// tolerance of [`crate::lights::substitute::build`]'s); otherwise `None`.
     pub substitutes: Option<wgpu::Buffer>,
     no_substitutes: wgpu::Buffer,
     centroid_bounds: wgpu::Buffer,
@@ -271,7 +273,7 @@ impl GpuLightTree {
         entries
     }
 
-    /// A substitute tree ([`super::substitute`]) for up to `capacity` ≤
+    /// A substitute tree ([`crate::lights::substitute`]) for up to `capacity` ≤
     /// 2^30 lights: leaves sorted by (Morton code, normal code, id), with
     /// cones and a 64-byte [`Substitute`] per node.
     pub fn with_substitutes(gpu: &Gpu, capacity: u32) -> Result<GpuLightTree> {

@@ -27,13 +27,13 @@
 //! of `sample` along the light's path and multiplies the same f32
 //! probabilities in the same order in f64, so both give the same number.
 
-use super::importance::{
+use super::perfect::PerfectTree;
+use crate::lights::importance::{
     choose_child, choose_cut_node, cut_key, cut_probabilities, node_importance, p_left,
     NodeImportance, Shading,
 };
-use super::perfect::PerfectTree;
-use super::sampler::{LightSample, LightSampler};
-use super::{LightCone, TreeNode, NO_LIGHT};
+use crate::lights::sampler::{LightSample, LightSampler};
+use crate::lights::{LightCone, TreeNode, NO_LIGHT};
 
 /// Largest cut a sampler supports (the WGSL cut arrays have this size).
 pub const MAX_CUT: u32 = 64;
@@ -80,7 +80,7 @@ impl LightTree for PerfectTree {
     }
 }
 
-pub use super::sampler::Importance;
+pub use crate::lights::sampler::Importance;
 
 impl Importance {
     /// The importance of `node` of `tree` at `s`.
@@ -198,7 +198,7 @@ impl<T: LightTree> TreeSampler<T> {
 }
 
 impl<T: LightTree> TreeSampler<T> {
-    /// The paper's estimator ([`CutSampling::Subtrees`](super::sampler::CutSampling::Subtrees)): the light drawn
+    /// The paper's estimator ([`CutSampling::Subtrees`](crate::lights::sampler::CutSampling::Subtrees)): the light drawn
     /// from subtree `j` of the cut with `u` (a descent from `cut[j]`), its
     /// pmf the probability within that subtree (the product of the child
     /// probabilities below the cut node). `None` on a dead subtree.
@@ -247,7 +247,7 @@ impl<T: LightTree> TreeSampler<T> {
     }
 }
 
-/// The one-pick view ([`CutSampling::Mixture`](super::sampler::CutSampling::Mixture)): a cut node drawn with the
+/// The one-pick view ([`CutSampling::Mixture`](crate::lights::sampler::CutSampling::Mixture)): a cut node drawn with the
 /// cut probabilities, then a descent below it.
 impl<T: LightTree> LightSampler for TreeSampler<T> {
     fn sample(&self, s: &Shading, u: f32) -> Option<LightSample> {
@@ -277,7 +277,7 @@ impl<T: LightTree> LightSampler for TreeSampler<T> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::lights::{perfect, LightPrim};
+    use crate::lights::{tree::perfect, LightPrim};
     use glam::Vec3;
 
     #[test]
