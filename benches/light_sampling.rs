@@ -35,7 +35,7 @@ use mdas::integrand::ManyLightSpec;
 use mdas::integrator::{Halton, Integrator};
 use mdas::lights::sampler::SamplerKind;
 use mdas::lights::substitute::{self, SstSampler};
-use mdas::lights::tree::perfect;
+use mdas::lights::LightTree;
 use mdas::lights::{LightPrim, Shading, KIND_VPL};
 use mdas::session;
 use rand::rngs::StdRng;
@@ -131,8 +131,8 @@ fn stop_depth(prims: &[LightPrim], spec: &ManyLightSpec) -> Option<String> {
     if vpls.is_empty() {
         return None;
     }
-    let tree = substitute::build(prims)?;
-    let levels = tree.tree.levels;
+    let tree = substitute::radix::build(prims)?;
+    let levels = tree.bvh.depth;
     let sampler = SstSampler {
         tree,
         params: Some(spec.sst),
@@ -149,14 +149,18 @@ fn stop_depth(prims: &[LightPrim], spec: &ManyLightSpec) -> Option<String> {
         for _ in 0..16 {
             draws += 1;
             if let Some(stop) = sampler.sample(&sh, rng.random()) {
-                depth += perfect::level_of(stop.node) as u64;
+                let mut node = stop.node;
+                while let Some(p) = sampler.tree.parent(node) {
+                    depth += 1;
+                    node = p;
+                }
                 stops += 1;
-                substitutes += !sampler.tree.tree.is_leaf(stop.node) as u64;
+                substitutes += sampler.tree.children(stop.node).is_some() as u64;
             }
         }
     }
     Some(format!(
-        "sst mean stop depth {:.2} (leaves at {}; {:.1} % of stops are substitutes, {:.1} % of draws end on a dead branch)",
+        "sst mean stop depth {:.2} (the radix tree's deepest leaf at {}; {:.1} % of stops are substitutes, {:.1} % of draws end on a dead branch)",
         depth as f64 / stops.max(1) as f64,
         levels - 1,
         100.0 * substitutes as f64 / stops.max(1) as f64,

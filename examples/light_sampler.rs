@@ -20,7 +20,8 @@ use anyhow::{bail, Context, Result};
 use glam::Vec3;
 use mdas::gpu::Gpu;
 use mdas::lights::gpu_sampler::{BatchSampler, CutLayout, GpuPick, GpuSamplerData, SampleQuery};
-use mdas::lights::substitute::{self, SstSampler, SubstituteParams};
+use mdas::lights::substitute::radix::RadixTree;
+use mdas::lights::substitute::{self, SstSampler, SubstituteLayout, SubstituteParams};
 use mdas::lights::{new_sampler, LightPrim, SamplerKind, Shading};
 use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
@@ -118,14 +119,20 @@ fn main() -> Result<()> {
 enum CpuSampler {
     Lights(Box<dyn mdas::lights::LightSampler + Send + Sync>),
     Substitutes(SstSampler),
+    Radix(SstSampler<RadixTree>),
 }
 
 impl CpuSampler {
     fn new(kind: SamplerKind, prims: &[LightPrim]) -> CpuSampler {
-        if kind.uses_substitute_tree() {
+        if kind.uses_substitute_tree() && kind.uses_bvh() {
+            CpuSampler::Radix(SstSampler {
+                tree: substitute::radix::build(prims).expect("lights"),
+                params: kind.stops_at_substitutes().then(SubstituteParams::default),
+            })
+        } else if kind.uses_substitute_tree() {
             CpuSampler::Substitutes(SstSampler {
                 tree: substitute::build(prims).expect("lights"),
-                params: (kind == SamplerKind::Sst).then(SubstituteParams::default),
+                params: kind.stops_at_substitutes().then(SubstituteParams::default),
             })
         } else {
             CpuSampler::Lights(new_sampler(kind, prims, None))
@@ -141,18 +148,24 @@ impl CpuSampler {
                 },
                 None => GpuPick::None,
             },
-            CpuSampler::Substitutes(t) => match t.sample(s, u) {
-                None => GpuPick::None,
-                Some(stop) if t.tree.tree.is_leaf(stop.node) => GpuPick::Light {
-                    light: t.tree.tree.nodes[stop.node].id,
-                    pmf: stop.pmf,
-                },
-                Some(stop) => GpuPick::Substitute {
-                    node: stop.node as u32,
-                    pmf: stop.pmf,
-                },
-            },
+            CpuSampler::Substitutes(t) => stop_pick(t, s, u),
+            CpuSampler::Radix(t) => stop_pick(t, s, u),
         }
+    }
+}
+
+/// An `sst` stop as the GPU answers it: a leaf's light or a substitute.
+fn stop_pick<T: SubstituteLayout>(t: &SstSampler<T>, s: &Shading, u: f32) -> GpuPick {
+    match t.sample(s, u) {
+        None => GpuPick::None,
+        Some(stop) if t.tree.children(stop.node).is_none() => GpuPick::Light {
+            light: t.tree.leaf_light(stop.node),
+            pmf: stop.pmf,
+        },
+        Some(stop) => GpuPick::Substitute {
+            node: stop.node as u32,
+            pmf: stop.pmf,
+        },
     }
 }
 

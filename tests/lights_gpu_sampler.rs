@@ -23,7 +23,7 @@ use mdas::gpu::{Gpu, Profiler};
 use mdas::lights::bvh;
 use mdas::lights::gpu_sampler::{cut_capacity, CutLayout, GpuSamplerData, TreeSource};
 use mdas::lights::substitute::{
-    self, SstSampler, Substitute, SubstituteParams, SubstituteTree, SUBSTITUTE_BIT,
+    self, SstSampler, Substitute, SubstituteLayout, SubstituteParams, SUBSTITUTE_BIT,
 };
 use mdas::lights::tree::cut::{Importance, LightTree, MAX_CUT};
 use mdas::lights::tree::gpu_build::GpuLightTree;
@@ -568,7 +568,12 @@ fn check_every_kind(gpu: &Gpu, h: &Harness, cases: &[(u64, usize)]) {
         let tree = perfect::build(&s.prims).unwrap();
         for kind in SamplerKind::PICKERS {
             let name = format!("{kind} ({n} lights)");
-            if kind.uses_substitute_tree() {
+            if kind.uses_substitute_tree() && kind.uses_bvh() {
+                let t = substitute::radix::build(&s.prims).unwrap();
+                let source = Some(TreeSource::Radix(&t));
+                let data = GpuSamplerData::new(gpu, kind, &s.prims, source, cut_layout()).unwrap();
+                check_substitutes(gpu, h, &name, &data, &t, &s, 0);
+            } else if kind.uses_substitute_tree() {
                 let t = substitute::build(&s.prims).unwrap();
                 let source = Some(TreeSource::Substitute(&t));
                 let data = GpuSamplerData::new(gpu, kind, &s.prims, source, cut_layout()).unwrap();
@@ -702,15 +707,15 @@ fn zero_lights_sample_nothing_on_the_gpu() {
     }
 }
 
-/// `sst` and `sst_nosub` as the GPU answers: a stop at a leaf is its light,
-/// a stop at a substitute `SUBSTITUTE_BIT | node`.
-struct StopCodes(SstSampler);
+/// `sst`, `sst_nosub` and `sst_perfect` as the GPU answers: a stop at a
+/// leaf is its light, a stop at a substitute `SUBSTITUTE_BIT | node`.
+struct StopCodes<T: SubstituteLayout>(SstSampler<T>);
 
-impl LightSampler for StopCodes {
+impl<T: SubstituteLayout> LightSampler for StopCodes<T> {
     fn sample(&self, s: &Shading, u: f32) -> Option<LightSample> {
         let stop = self.0.sample(s, u)?;
         let t = &self.0.tree;
-        let light = if t.tree.is_leaf(stop.node) {
+        let light = if t.children(stop.node).is_none() {
             t.leaf_light(stop.node)
         } else {
             SUBSTITUTE_BIT | stop.node as u32
@@ -728,18 +733,18 @@ impl LightSampler for StopCodes {
 /// The GPU's `sst`/`sst_nosub` picks against the CPU's; at least
 /// `min_substitutes` of them must be substitutes (so the test exercises
 /// them).
-fn check_substitutes(
+fn check_substitutes<T: SubstituteLayout + Clone>(
     gpu: &Gpu,
     h: &Harness,
     name: &str,
     data: &GpuSamplerData,
-    tree: &SubstituteTree,
+    tree: &T,
     s: &Setup,
     min_substitutes: usize,
 ) {
     let cpu = StopCodes(SstSampler {
         tree: tree.clone(),
-        params: (data.kind == SamplerKind::Sst).then(SubstituteParams::default),
+        params: data.kind.stops_at_substitutes().then(SubstituteParams::default),
     });
     let (answers, gpu_cuts) = h.run(gpu, data, s);
     compare(name, &answers, s, &|_| &cpu as &dyn LightSampler);
@@ -750,7 +755,7 @@ fn check_substitutes(
         .count();
     eprintln!("{name}: {subs} substitute picks");
     assert!(subs >= min_substitutes, "{name}: {subs} substitute picks");
-    if data.kind == SamplerKind::SstNoSub {
+    if !data.kind.stops_at_substitutes() {
         assert_eq!(subs, 0, "{name}");
     }
 }
@@ -818,7 +823,7 @@ fn gpu_substitute_trees_match_the_cpu() {
         .read_buffer::<LightCone>(built.cones.as_ref().unwrap(), count)
         .unwrap();
     oracle.substitutes = subs;
-    for kind in [SamplerKind::Sst, SamplerKind::SstNoSub] {
+    for kind in [SamplerKind::SstPerfect] {
         let source = TreeSource::PerfectGpu {
             nodes: &built.nodes,
             leaf_of_light: &built.leaf_of_light,
@@ -827,11 +832,6 @@ fn gpu_substitute_trees_match_the_cpu() {
         };
         let data = GpuSamplerData::new(gpu, kind, &s.prims, Some(source), cut_layout()).unwrap();
         let name = format!("{kind} on the GPU-built substitute tree");
-        let min = if kind == SamplerKind::Sst {
-            QUERIES / 10
-        } else {
-            0
-        };
-        check_substitutes(gpu, &h, &name, &data, &oracle, &s, min);
+        check_substitutes(gpu, &h, &name, &data, &oracle, &s, QUERIES / 10);
     }
 }

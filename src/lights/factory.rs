@@ -71,6 +71,10 @@ pub fn new_sampler(
             tree: substitute::build(prims).unwrap(),
             params: kind.stops_at_substitutes().then(SubstituteParams::default),
         }),
+        Structure::SubstituteRadix => Box::new(SstSampler {
+            tree: substitute::radix::build(prims).unwrap(),
+            params: kind.stops_at_substitutes().then(SubstituteParams::default),
+        }),
         Structure::Grid => unreachable!("asserted above"),
     }
 }

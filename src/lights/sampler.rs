@@ -6,7 +6,7 @@
 //!
 //! | kind | sampler | paper |
 //! |---|---|---|
-//! | `uniform` | [`UniformSampler`](super::factory::UniformSampler) | "random sampling" baseline (§4) |
+//! | `uniform` | [`UniformSampler`](super::simple::UniformSampler) | "random sampling" baseline (§4) |
 //! | `power` | [`PowerSampler`](super::simple::alias::PowerSampler) (alias table, `I_i/ΣI`) | pbrt-v4 |
 //! | `tree_nocut` | [`TreeSampler`](super::tree::cut::TreeSampler) over a [`PerfectTree`](super::tree::perfect::PerfectTree), cut = root | §3.2 |
 //! | `tree` | same, with a greedy cut per pixel block: under [`CutSampling::Subtrees`] (the default) one light from each cut subtree per evaluation, under `Mixture` one pick from the cut | §3.2–3.3, §4 |
@@ -15,8 +15,9 @@
 //! | `unbalanced` | same, with a greedy cut | §4, pbrt-v4 |
 //! | `unbalanced_nocone` | a cone-free SAH BVH with a greedy cut | §4 |
 //! | `tree2` | [`TreeSampler`](super::tree::cut::TreeSampler) with cones and a greedy cut over the two-level tree ([`super::two_level`]: a perfect tree per mesh / light set, a SAOH BVH over their roots), in the BVH's layout | §3.1 |
-//! | `sst` | [`SstSampler`](super::substitute::SstSampler): a perfect tree sorted with normal codes, `tree_cone` descent from the root, stopping at the first suitable substitute (biased) | Tatzgern et al. 2020 |
+//! | `sst` | [`SstSampler`](super::substitute::SstSampler) over the radix tree of (Morton, normal) codes ([`super::substitute::radix`]), `tree_cone` descent from the root, stopping at the first suitable substitute (biased) | Tatzgern et al. 2020 |
 //! | `sst_nosub` | the same with substitution off: a leaf-only (unbiased) tree sampler | Tatzgern et al. 2020 |
+//! | `sst_perfect` | `sst` over a perfect tree with equal-count splits in the same order, built on the GPU (an ablation, ours) | — |
 //! | `lgh` | no picker: the lighting grid hierarchy ([`super::lgh`]) sums over grid lights and picks S shadow samples (biased) | Lin & Yuksel 2019 |
 //!
 //! A sampler's pmf is an f64 product of the f32 probabilities the
@@ -80,8 +81,11 @@ pub enum Structure {
     /// The perfect light tree (`tree/perfect.rs`), implicit layout.
     PerfectTree,
     /// The perfect tree sorted with normal codes, a substitute per node
-    /// (`substitute.rs`).
+    /// (`substitute.rs`), implicit layout.
     SubstituteTree,
+    /// The paper's radix tree over (Morton, normal) codes, a substitute
+    /// per node (`substitute/radix.rs`), in the BVH's layout.
+    SubstituteRadix,
     /// An unbalanced BVH over the lights built with this split cost
     /// (`bvh.rs`), explicit children.
     Bvh(Cost),
@@ -162,10 +166,14 @@ registry! {
         [cut true, cones false, substitutes false, biased false], "a cone-free SAH light BVH with cuts";
     Tree2: "tree2", Structure::TwoLevel,
         [cut true, cones true, substitutes false, biased false], "two-level tree: perfect per mesh, SAOH on top";
-    Sst: "sst", Structure::SubstituteTree,
-        [cut false, cones true, substitutes true, biased true], "stochastic substitute trees; biased";
-    SstNoSub: "sst_nosub", Structure::SubstituteTree,
-        [cut false, cones true, substitutes false, biased false], "the substitute tree without substitution";
+    Sst: "sst", Structure::SubstituteRadix,
+        [cut false, cones true, substitutes true, biased true],
+        "stochastic substitute trees over the paper's radix tree; biased";
+    SstNoSub: "sst_nosub", Structure::SubstituteRadix,
+        [cut false, cones true, substitutes false, biased false], "the radix substitute tree without substitution";
+    SstPerfect: "sst_perfect", Structure::SubstituteTree,
+        [cut false, cones true, substitutes true, biased true],
+        "sst over an equal-count perfect tree, built on the GPU (ablation); biased";
     Lgh: "lgh", Structure::Grid,
         [cut false, cones false, substitutes false, biased true], "lighting grid hierarchy; biased";
 }
@@ -268,11 +276,15 @@ impl SamplerKind {
         )
     }
 
-    /// Whether the kind samples the substitute tree (leaves sorted with
+    /// Whether the kind samples a substitute tree (leaves sorted with
     /// normal codes, a [`Substitute`](super::substitute::Substitute) per
-    /// node).
+    /// node): the radix tree (`sst`, `sst_nosub`) or the perfect tree
+    /// (`sst_perfect`).
     pub fn uses_substitute_tree(self) -> bool {
-        self.structure() == Structure::SubstituteTree
+        matches!(
+            self.structure(),
+            Structure::SubstituteTree | Structure::SubstituteRadix
+        )
     }
 
     /// Whether a descent stops at a suitable node's substitute (`sst`;
@@ -290,9 +302,13 @@ impl SamplerKind {
     }
 
     /// Whether the kind samples a tree in the unbalanced BVH's layout
-    /// (explicit children): the BVH kinds and `tree2`.
+    /// (explicit children): the BVH kinds, `tree2` and the radix
+    /// substitute tree.
     pub fn uses_bvh(self) -> bool {
-        matches!(self.structure(), Structure::Bvh(_) | Structure::TwoLevel)
+        matches!(
+            self.structure(),
+            Structure::Bvh(_) | Structure::TwoLevel | Structure::SubstituteRadix
+        )
     }
 
     /// Whether the kind's node importance uses orientation cones.
@@ -412,7 +428,11 @@ mod tests {
                 e.name
             );
             assert!(
-                !e.substitutes || e.structure == Structure::SubstituteTree,
+                !e.substitutes
+                    || matches!(
+                        e.structure,
+                        Structure::SubstituteTree | Structure::SubstituteRadix
+                    ),
                 "{}",
                 e.name
             );

@@ -65,6 +65,7 @@ use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
 pub mod gpu;
+pub mod radix;
 
 /// A GPU light pick `SUBSTITUTE_BIT | node` is node's substitute
 /// (`LightPick.light` in `wgsl/lights/sample.wgsl`); so a substitute tree
@@ -412,17 +413,33 @@ impl LightTree for SubstituteTree {
     }
 }
 
-impl SubstituteTree {
+impl SubstituteLayout for SubstituteTree {
+    fn substitutes(&self) -> &[Substitute] {
+        &self.substitutes
+    }
+}
+
+/// A light tree with a [`Substitute`] beside every node: the radix tree
+/// of `sst` ([`radix::RadixTree`]) or the perfect tree of `sst_perfect`
+/// ([`SubstituteTree`]).
+pub trait SubstituteLayout: LightTree {
+    /// One per node, indexed like [`LightTree::nodes`].
+    fn substitutes(&self) -> &[Substitute];
+
     /// Whether the descent stops at `node` under `params` (`None`: never
     /// at an internal node).
-    pub fn stops_at(&self, node: usize, params: Option<&SubstituteParams>) -> bool {
-        match (self.tree.is_leaf(node), params) {
-            (true, _) => true,
-            (false, Some(q)) => {
-                q.suitable(&self.substitutes[node], self.tree.nodes[node].intensity)
-            }
-            (false, None) => false,
+    fn stops_at(&self, node: usize, params: Option<&SubstituteParams>) -> bool {
+        match (self.children(node), params) {
+            (None, _) => true,
+            (Some(_), Some(q)) => q.suitable(&self.substitutes()[node], self.nodes()[node].intensity),
+            (Some(_), None) => false,
         }
+    }
+
+    /// Whether `node` is a leaf without a light (the perfect tree's
+    /// padding).
+    fn is_bogus(&self, node: usize) -> bool {
+        self.children(node).is_none() && self.leaf_light(node) == super::NO_LIGHT
     }
 }
 
@@ -435,14 +452,16 @@ pub struct Stop {
     pub pmf: f64,
 }
 
-/// The `sst` sampler (`params: None` = `sst_nosub`).
+/// The `sst` sampler over a tree with substitutes (`params: None` =
+/// `sst_nosub`): the radix tree of `sst` or the perfect tree of
+/// `sst_perfect` (the default type, as before the radix tree).
 #[derive(Clone, Debug)]
-pub struct SstSampler {
-    pub tree: SubstituteTree,
+pub struct SstSampler<T: SubstituteLayout = SubstituteTree> {
+    pub tree: T,
     pub params: Option<SubstituteParams>,
 }
 
-impl SstSampler {
+impl<T: SubstituteLayout> SstSampler<T> {
     /// The stop for `u ∈ [0, 1)`; `None` on a dead branch or a bogus leaf.
     /// The same f32 operations as `light_descend` in WGSL.
     pub fn sample(&self, s: &Shading, u: f32) -> Option<Stop> {
@@ -460,8 +479,7 @@ impl SstSampler {
             u = u_next;
             node = if left { l } else { r };
         }
-        let bogus = self.tree.tree.is_leaf(node) && self.tree.leaf_light(node) == super::NO_LIGHT;
-        (!bogus).then_some(Stop { node, pmf })
+        (!self.tree.is_bogus(node)).then_some(Stop { node, pmf })
     }
 
     /// The probability that [`Self::sample`] stops at `node` (0 for nodes
@@ -509,8 +527,7 @@ impl SstSampler {
                 continue;
             }
             if self.tree.stops_at(node, self.params.as_ref()) {
-                if !(self.tree.tree.is_leaf(node) && self.tree.leaf_light(node) == super::NO_LIGHT)
-                {
+                if !self.tree.is_bogus(node) {
                     out.push(Stop { node, pmf });
                 }
                 continue;
@@ -532,10 +549,10 @@ impl SstSampler {
 /// The light-picking view ([`super::factory::new_sampler`]): a stop at a
 /// substitute is no light (`None`), so for `sst` the light pmfs sum to
 /// one minus the substitutes' share; for `sst_nosub` to one.
-impl LightSampler for SstSampler {
+impl<T: SubstituteLayout> LightSampler for SstSampler<T> {
     fn sample(&self, s: &Shading, u: f32) -> Option<LightSample> {
         let stop = SstSampler::sample(self, s, u)?;
-        self.tree.tree.is_leaf(stop.node).then(|| LightSample {
+        self.tree.children(stop.node).is_none().then(|| LightSample {
             light: self.tree.leaf_light(stop.node),
             pmf: stop.pmf,
         })

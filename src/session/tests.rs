@@ -110,9 +110,9 @@ fn references_of_biased_samplers_use_tree() {
         })
     };
     // The biased kinds, named here rather than taken from
-    // `is_biased` (which the test would then only repeat): `sst` stops
-    // at substitutes, `lgh` shades with grid lights.
-    let biased = ["sst", "lgh"];
+    // `is_biased` (which the test would then only repeat): `sst` and
+    // `sst_perfect` stop at substitutes, `lgh` shades with grid lights.
+    let biased = ["sst", "sst_perfect", "lgh"];
     for kind in SamplerKind::ALL {
         let (o, note) = reference_overrides(&ml(kind), IntegrandOverrides::default());
         assert_eq!(kind.is_biased(), biased.contains(&kind.name()), "{kind}");

@@ -39,7 +39,9 @@ use light_scenes::vpl_walls;
 use mdas::lights::bvh::{self, Cost, LightBvh, INTERNAL_BIT, MAX_DEPTH};
 use mdas::lights::importance::{node_importance, ONE_MINUS_EPSILON};
 use mdas::lights::morton::{codes, exponent, morton30, quantize_axis};
-use mdas::lights::substitute::{self, SstSampler, Stop, Substitute, SubstituteParams};
+use mdas::lights::substitute::{
+    self, SstSampler, Stop, Substitute, SubstituteLayout, SubstituteParams,
+};
 use mdas::lights::tree::cut::{Importance, LightTree, MAX_CUT};
 use mdas::lights::tree::perfect::{self, gather, PerfectTree};
 use mdas::lights::two_level::{self, BottomLevels};

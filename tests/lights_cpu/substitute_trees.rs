@@ -256,7 +256,13 @@ fn substitute_hard_cases() {
 fn substitute_stops_sum_to_one_and_fit_their_pmfs() {
     let mut rng = StdRng::seed_from_u64(77);
     let prims = vpl_walls(&mut rng, 1500);
-    let tree = substitute::build(&prims).unwrap();
+    // The paper's radix tree (`sst`) and the perfect tree (`sst_perfect`).
+    let radix = substitute::radix::build(&prims).unwrap();
+    check_stops(radix, &prims, &mut rng);
+    check_stops(substitute::build(&prims).unwrap(), &prims, &mut rng);
+}
+
+fn check_stops<T: SubstituteLayout + Clone>(tree: T, prims: &[LightPrim], rng: &mut StdRng) {
     let sst = SstSampler {
         tree: tree.clone(),
         params: Some(SubstituteParams::default()),
@@ -274,7 +280,7 @@ fn substitute_stops_sum_to_one_and_fit_their_pmfs() {
                 rng.random_range(-4.5..4.5),
                 rng.random_range(-4.5..4.5),
             ),
-            n: random_unit(&mut rng),
+            n: random_unit(rng),
         };
         let (stops, dead) = sst.stops(&sh);
         let total: f64 = stops.iter().map(|s| s.pmf).sum();
@@ -284,7 +290,7 @@ fn substitute_stops_sum_to_one_and_fit_their_pmfs() {
         );
         for st in &stops {
             assert_eq!(sst.stop_pmf(&sh, st.node), st.pmf, "case {case}");
-            if !tree.tree.is_leaf(st.node) {
+            if tree.children(st.node).is_some() {
                 substitute_mass += st.pmf / 16.0;
             }
         }
@@ -322,7 +328,7 @@ fn substitute_stops_sum_to_one_and_fit_their_pmfs() {
             .stops(&sh)
             .0
             .iter()
-            .all(|st| tree.tree.is_leaf(st.node)));
+            .all(|st| tree.children(st.node).is_none()));
     }
     // The walls are planar: substitutes take a real share of the samples.
     assert!(substitute_mass > 0.2, "substitutes take {substitute_mass}");

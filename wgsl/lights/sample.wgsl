@@ -484,6 +484,11 @@ fn light_pmf_bvh(x: vec3<f32>, n: vec3<f32>, cut_base: u32, light: u32, within: 
         pmf = light_pmf_from(probs[found]);
     }
     for (var i = depth - 1u; i > 0u; i--) {
+        if (light_substitutes_on() && light_suitable(path[i])) {
+            // The descent stops above the leaf (the radix substitute
+            // tree): it is never picked.
+            return LightPmf(0.0, 0);
+        }
         let l = light_left_child(path[i]);
         let p_left = light_p_left(light_importance_of(l, x, n), light_importance_of(l + 1u, x, n));
         if (p_left < 0.0) {

@@ -513,3 +513,177 @@ fn inverse_normal_cdf_matches_an_f64_inversion() {
         assert!(err <= 1e-6 * z.abs() + 1e-7, "Φ⁻¹({u}) = {got}, exact {z}");
     }
 }
+
+/// Lights for the radix tree: VPLs on a coarse grid of positions (so
+/// several share a Morton cell, and some a whole key), with normals from
+/// a few directions, plus point lights (no normal) among them.
+fn radix_lights(seed: u64, n: usize) -> Vec<LightPrim> {
+    use rand::rngs::StdRng;
+    use rand::{RngExt, SeedableRng};
+    let mut rng = StdRng::seed_from_u64(seed);
+    let normals = [Vec3::X, Vec3::Y, -Vec3::Y, Vec3::new(0.6, 0.8, 0.0), Vec3::Z];
+    (0..n)
+        .map(|_| {
+            let p = Vec3::new(
+                rng.random_range(0..4) as f32,
+                rng.random_range(0..3) as f32 * 0.5,
+                rng.random_range(0..4) as f32 * 2.0,
+            );
+            match rng.random_range(0..6) {
+                5 => LightPrim::point(p, Vec3::ONE),
+                k => LightPrim::vpl(p, normals[k], Vec3::splat(0.5 + k as f32)),
+            }
+        })
+        .collect()
+}
+
+/// The radix tree is the radix tree of its keys: with the leaves in key
+/// order, every internal node covers a contiguous run `[first, last]`,
+/// all of whose keys share the node's δ(first, last)-bit prefix, and its
+/// children split the run exactly where neighbours differ at that bit
+/// (δ(s, s + 1) = δ(first, last)), each child's prefix strictly longer.
+/// Also: `2N − 1` nodes, every light in one leaf, parents that agree with
+/// the children, a depth within the bound, and the gathered node data.
+#[test]
+fn radix_nodes_split_where_their_keys_first_differ() {
+    use super::radix::{self, delta, KEY_BITS};
+    for (seed, n) in [(1, 1), (2, 2), (3, 3), (4, 17), (5, 300), (6, 1000)] {
+        let prims = radix_lights(seed, n);
+        let t = radix::build(&prims).unwrap();
+        let (sorted, keys) = radix::sorted_keys(&prims);
+        assert_eq!(t.sorted, sorted);
+        assert!(keys.iter().all(|&k| k >> KEY_BITS == 0));
+        assert_eq!(t.bvh.nodes.len(), 2 * n - 1, "n = {n}");
+        let slot_of: Vec<usize> = {
+            let mut s = vec![0; n];
+            for (slot, &id) in sorted.iter().enumerate() {
+                s[id as usize] = slot;
+            }
+            s
+        };
+        // Each node's run of leaf slots, children first (reverse index).
+        let mut run = vec![(usize::MAX, 0usize); t.bvh.nodes.len()];
+        for i in (0..t.bvh.nodes.len()).rev() {
+            match t.children(i) {
+                None => {
+                    let light = t.leaf_light(i);
+                    assert_eq!(t.bvh.leaf_of_light[light as usize] as usize, i);
+                    run[i] = (slot_of[light as usize], slot_of[light as usize]);
+                }
+                Some((l, r)) => {
+                    assert!(l > i && r == l + 1);
+                    assert_eq!(LightTree::parent(&t, l), Some(i));
+                    assert_eq!(LightTree::parent(&t, r), Some(i));
+                    let ((f, s), (s1, last)) = (run[l], run[r]);
+                    assert_eq!(s + 1, s1, "node {i}: children not contiguous");
+                    run[i] = (f, last);
+                    let d = delta(&keys, f, last as isize);
+                    assert!((f..=last).all(|j| delta(&keys, f, j as isize) >= d));
+                    assert_eq!(delta(&keys, s, s1 as isize), d, "node {i}: split");
+                    for (a, b) in [(f, s), (s1, last)] {
+                        assert!(a == b || delta(&keys, a, b as isize) > d);
+                    }
+                    let g = crate::lights::tree::perfect::gather(
+                        &t.bvh.nodes[l],
+                        &t.bvh.nodes[r],
+                    );
+                    assert_eq!((t.bvh.nodes[i].min, t.bvh.nodes[i].max), (g.min, g.max));
+                    assert_eq!(t.bvh.nodes[i].intensity, g.intensity);
+                }
+            }
+        }
+        assert_eq!(run[0], (0, n - 1));
+        assert_eq!(LightTree::parent(&t, 0), None);
+        let bound = KEY_BITS + (n as u32).next_power_of_two().trailing_zeros() + 1;
+        assert!(t.bvh.depth <= bound, "depth {} > {bound}", t.bvh.depth);
+    }
+}
+
+/// A light without a normal has a class of its own, after every
+/// direction of its Morton cell: it never shares a key with a VPL (the
+/// 9-bit code alone gives both 0), so no radix node below their cell mixes
+/// them, and the ν = 0 of such a mix stays at the cell.
+#[test]
+fn lights_without_normals_have_their_own_class() {
+    use super::radix::{self, normal_class};
+    let p = Vec3::new(1.0, 2.0, 3.0);
+    let vpl = LightPrim::vpl(p, Vec3::X, Vec3::ONE);
+    let point = LightPrim::point(p, Vec3::ONE);
+    assert_eq!(normal_code(prim_normal(&point)), normal_code(prim_normal(&vpl)));
+    assert_ne!(normal_class(&point), normal_class(&vpl));
+    assert_eq!(normal_class(&point), 1 << NORMAL_BITS);
+    let prims = [point, vpl, point, vpl];
+    let t = radix::build(&prims).unwrap();
+    // Root: the two classes; below it, two VPLs (ν = 1) and two points.
+    let (l, r) = t.children(0).unwrap();
+    let ids = |n: usize| {
+        let (a, b) = t.children(n).unwrap();
+        let mut v = [t.leaf_light(a), t.leaf_light(b)];
+        v.sort();
+        v
+    };
+    assert_eq!((ids(l), ids(r)), ([1, 3], [0, 2]));
+    assert_eq!(t.substitutes[l].nu, 1.0);
+    assert_eq!(t.substitutes[r].nu, 0.0);
+}
+
+/// Karras's per-node construction (Fig. 4), which a GPU runs one thread
+/// per internal node, builds the same tree as the top-down split: the
+/// runs and splits of its N − 1 internal nodes, each found from its own
+/// index alone, are the top-down tree's.
+#[test]
+fn karras_per_node_ranges_match_the_top_down_tree() {
+    use super::radix::{self, delta, split};
+    for (seed, n) in [(11, 2), (12, 9), (13, 257), (14, 800)] {
+        let prims = radix_lights(seed, n);
+        let (_, keys) = radix::sorted_keys(&prims);
+        let mut top_down = Vec::new();
+        let mut stack = vec![(0usize, n - 1)];
+        while let Some((f, l)) = stack.pop() {
+            if f == l {
+                continue;
+            }
+            let s = split(&keys, f, l);
+            top_down.push((f, l, s));
+            stack.push((f, s));
+            stack.push((s + 1, l));
+        }
+        let mut karras: Vec<(usize, usize, usize)> = (0..n - 1)
+            .map(|i| {
+                let k = |j: isize| delta(&keys, i, j);
+                let i_ = i as isize;
+                let d: isize = if k(i_ + 1) > k(i_ - 1) { 1 } else { -1 };
+                let dmin = k(i_ - d);
+                let mut lmax = 2isize;
+                while k(i_ + lmax * d) > dmin {
+                    lmax *= 2;
+                }
+                let (mut len, mut t) = (0isize, lmax / 2);
+                while t >= 1 {
+                    if k(i_ + (len + t) * d) > dmin {
+                        len += t;
+                    }
+                    t /= 2;
+                }
+                let j = i_ + len * d;
+                let dnode = k(j);
+                let (mut s, mut div) = (0isize, 2isize);
+                loop {
+                    let t = (len + div - 1) / div;
+                    if k(i_ + (s + t) * d) > dnode {
+                        s += t;
+                    }
+                    if t == 1 {
+                        break;
+                    }
+                    div *= 2;
+                }
+                let gamma = i_ + s * d + d.min(0);
+                (i.min(j as usize), i.max(j as usize), gamma as usize)
+            })
+            .collect();
+        top_down.sort_unstable();
+        karras.sort_unstable();
+        assert_eq!(karras, top_down, "n = {n}");
+    }
+}
