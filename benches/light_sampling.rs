@@ -17,14 +17,16 @@
 //!
 //! For the scenes with VPLs it also prints `sst`'s mean stop depth (the
 //! substitute-tree paper's Fig. 5 measure: 15 for SST against 20 for
-//! stochastic lightcuts at 100k VPLs), on the CPU oracle over the frame's
-//! lights: 16 draws at each of 2,000 shading points placed at VPLs (points
-//! on lit diffuse surfaces, lifted 1 mm along their normals) — a proxy for
-//! the camera's shading points. The perfect tree's leaves all sit at depth
-//! log2(P).
+//! stochastic lightcuts at 100k VPLs) and its share of stops at
+//! substitutes, on the radix tree and on `sst_perfect`'s perfect tree, on
+//! the CPU oracle over the frame's lights: 16 draws at each of 2,000
+//! shading points placed at VPLs (points on lit diffuse surfaces, lifted
+//! 1 mm along their normals) — a proxy for the camera's shading points.
+//! The perfect tree's leaves all sit at depth log2(P).
 //!
 //! Run: `cargo bench --bench light_sampling` (a few minutes on lavapipe;
-//! `MDAS_BENCH_SCALE=1` for full films on a GPU).
+//! `MDAS_BENCH_SCALE=1` for full films on a GPU; `MDAS_BENCH_STOPS_ONLY=1`
+//! prints only the stop statistics).
 
 use glam::Vec3;
 use mdas::accel::GpuScene;
@@ -33,9 +35,8 @@ use mdas::integrand::IntegrandSpec;
 use mdas::integrand::ManyLight;
 use mdas::integrand::ManyLightSpec;
 use mdas::integrator::{Halton, Integrator};
-use mdas::lights::sampler::SamplerKind;
-use mdas::lights::substitute::{self, SstSampler};
-use mdas::lights::LightTree;
+use mdas::lights::registry::SamplerKind;
+use mdas::lights::substitute::{self, SstSampler, SubstituteLayout};
 use mdas::lights::{LightPrim, Shading, KIND_VPL};
 use mdas::session;
 use rand::rngs::StdRng;
@@ -49,6 +50,7 @@ const RUNS: usize = 3;
 fn main() -> anyhow::Result<()> {
     let gpu = Gpu::shared()?;
     let scale: f32 = std::env::var("MDAS_BENCH_SCALE").map_or(0.25, |s| s.parse().unwrap());
+    let stops_only = std::env::var_os("MDAS_BENCH_STOPS_ONLY").is_some();
     println!(
         "adapter: {} ({:?}), {SPP} spp, median of {RUNS}",
         gpu.info.name, gpu.info.backend
@@ -60,6 +62,7 @@ fn main() -> anyhow::Result<()> {
         ("scenes/cornell_lights.toml", scale),
         ("scenes/tests/vpl_atrium_points.toml", scale),
         ("scenes/vpl_atrium.toml", scale),
+        ("scenes/tests/vpl_spheres.toml", scale),
     ] {
         let loaded = mdas::scene_file::load(Path::new(file))?;
         let scene = &loaded.scene;
@@ -68,6 +71,13 @@ fn main() -> anyhow::Result<()> {
             anyhow::bail!("{file} is not a many_light scene")
         };
         let gpu_scene = Arc::new(GpuScene::new(gpu, scene, film)?);
+        if stops_only {
+            let ml = ManyLight::new(gpu, scene, gpu_scene, film, spec)?;
+            if let Some(d) = stop_depth(ml.lights(), spec) {
+                println!("`{file}`: {d}");
+            }
+            continue;
+        }
         let mut uniform_ns = None;
         let mut depths = Vec::new();
         // Every picker, then the grid hierarchy with 0 (unshadowed), 1, 4
@@ -124,15 +134,29 @@ fn main() -> anyhow::Result<()> {
     Ok(())
 }
 
-/// `sst`'s mean stop depth over shading points at the frame's VPLs (module
-/// docs), or `None` without VPLs.
+/// `sst`'s stops over shading points at the frame's VPLs (module docs)
+/// on the paper's radix tree (`sst`) and on the perfect tree
+/// (`sst_perfect`), or `None` without VPLs.
 fn stop_depth(prims: &[LightPrim], spec: &ManyLightSpec) -> Option<String> {
     let vpls: Vec<&LightPrim> = prims.iter().filter(|p| p.kind == KIND_VPL).collect();
     if vpls.is_empty() {
         return None;
     }
-    let tree = substitute::radix::build(prims)?;
-    let levels = tree.bvh.depth;
+    let radix = substitute::radix::build(prims)?;
+    let deepest = radix.bvh.depth - 1;
+    let perfect = substitute::build(prims)?;
+    let leaves = perfect.tree.levels - 1;
+    Some(format!(
+        "sst {} (its deepest leaf at {deepest}); sst_perfect {} (leaves at {leaves})",
+        stops(radix, &vpls, spec),
+        stops(perfect, &vpls, spec)
+    ))
+}
+
+/// The mean stop depth, the share of stops at substitutes and of draws on
+/// dead branches of `sst` over `tree`: 16 draws at each of 2,000 shading
+/// points at VPLs.
+fn stops<T: SubstituteLayout>(tree: T, vpls: &[&LightPrim], spec: &ManyLightSpec) -> String {
     let sampler = SstSampler {
         tree,
         params: Some(spec.sst),
@@ -159,11 +183,10 @@ fn stop_depth(prims: &[LightPrim], spec: &ManyLightSpec) -> Option<String> {
             }
         }
     }
-    Some(format!(
-        "sst mean stop depth {:.2} (the radix tree's deepest leaf at {}; {:.1} % of stops are substitutes, {:.1} % of draws end on a dead branch)",
+    format!(
+        "mean stop depth {:.2}, {:.1} % of stops at substitutes, {:.1} % of draws on a dead branch",
         depth as f64 / stops.max(1) as f64,
-        levels - 1,
         100.0 * substitutes as f64 / stops.max(1) as f64,
         100.0 * (draws - stops) as f64 / draws as f64
-    ))
+    )
 }

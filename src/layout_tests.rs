@@ -381,16 +381,16 @@ fn no_file_over_the_line_limit() {
     assert!(files.len() > 100, "src/ was read ({} files)", files.len());
 }
 
-/// Sampler names live in the registry (`lights::sampler::SamplerKind`,
+/// Sampler names live in the registry (`lights::registry::SamplerKind`,
 /// issue 50): no string literal of a sampler name in the code of `src/`
-/// outside `lights/sampler.rs` (test files and modules aside), and no tree
+/// outside `lights/registry.rs` (test files and modules aside), and no tree
 /// kind named in the WGSL, whose tree rules read the predicates generated
 /// from `SamplerKind`'s (`gpu_sampler::kinds_wgsl`). The simple pickers
 /// (`uniform`, `power`) and `lgh` have code paths of their own there.
 #[test]
 fn sampler_names_only_in_the_registry() {
     use crate::lights::gpu_sampler::kind_constant;
-    use crate::lights::sampler::SamplerKind;
+    use crate::lights::registry::SamplerKind;
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let src = root.join("src");
     let mut files = Vec::new();
@@ -398,7 +398,7 @@ fn sampler_names_only_in_the_registry() {
     let mut named = Vec::new();
     for f in &files {
         let rel = f.strip_prefix(&src).unwrap();
-        if rel == Path::new("lights/sampler.rs") || f.ends_with("tests.rs") {
+        if rel == Path::new("lights/registry.rs") || f.ends_with("tests.rs") {
             continue;
         }
         let code = code(&std::fs::read_to_string(f).unwrap());

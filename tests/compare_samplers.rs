@@ -11,7 +11,7 @@ use common::gpu;
 use mdas::compare::{compare_samplers, Budget, SamplersSpec, Setup};
 use mdas::image_io::{self, read_exr};
 use mdas::integrator::mdas::MdasParams;
-use mdas::lights::sampler::SamplerKind;
+use mdas::lights::registry::SamplerKind;
 use report_checks::{check_method, close};
 use serde_json::Value;
 use std::path::{Path, PathBuf};

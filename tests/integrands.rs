@@ -918,7 +918,7 @@ fn tilted_emitter_over_tilted_receiver_matches_lambert() {
     ];
     // Every sampler (lgh: the triangle is no grid light, so it samples the
     // emitter directly and is unbiased here).
-    for kind in mdas::lights::sampler::SamplerKind::ALL {
+    for kind in mdas::lights::registry::SamplerKind::ALL {
         configs.push(format!(
             "type = \"many_light\"\nsampler = \"{}\"",
             kind.name()
@@ -926,7 +926,7 @@ fn tilted_emitter_over_tilted_receiver_matches_lambert() {
     }
     assert_eq!(
         configs.len(),
-        2 + mdas::lights::sampler::SamplerKind::ALL.len()
+        2 + mdas::lights::registry::SamplerKind::ALL.len()
     );
     const K: u32 = 8;
     const T: f64 = 8.1;

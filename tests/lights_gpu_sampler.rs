@@ -22,6 +22,7 @@ use mdas::gpu::shader::{storage_entry, Wgsl};
 use mdas::gpu::{Gpu, Profiler};
 use mdas::lights::bvh;
 use mdas::lights::gpu_sampler::{cut_capacity, CutLayout, GpuSamplerData, TreeSource};
+use mdas::lights::sampler::Structure;
 use mdas::lights::substitute::{
     self, SstSampler, Substitute, SubstituteLayout, SubstituteParams, SUBSTITUTE_BIT,
 };
@@ -31,8 +32,8 @@ use mdas::lights::tree::perfect;
 use mdas::lights::two_level;
 use mdas::lights::two_level::gpu::GpuTwoLevel;
 use mdas::lights::{
-    select_cut, CutSampling, LightSampler, PowerSampler, SamplerKind, Shading, TreeSampler,
-    UniformSampler,
+    new_sampler, select_cut, CutSampling, LightSampler, PowerSampler, SamplerKind, Shading,
+    TreeSampler, UniformSampler,
 };
 use mdas::lights::{LightCone, LightPrim, LightSample, TreeNode, NO_LIGHT};
 use rand::rngs::StdRng;
@@ -568,11 +569,27 @@ fn check_every_kind(gpu: &Gpu, h: &Harness, cases: &[(u64, usize)]) {
         let tree = perfect::build(&s.prims).unwrap();
         for kind in SamplerKind::PICKERS {
             let name = format!("{kind} ({n} lights)");
-            if kind.uses_substitute_tree() && kind.uses_bvh() {
+            let technique = matches!(kind.structure(), Structure::Technique(_));
+            if technique && kind.uses_substitute_tree() {
+                // The radix substitute tree builds its own tree on upload:
+                // the same as this one.
                 let t = substitute::radix::build(&s.prims).unwrap();
-                let source = Some(TreeSource::Radix(&t));
-                let data = GpuSamplerData::new(gpu, kind, &s.prims, source, cut_layout()).unwrap();
+                let data = GpuSamplerData::new(gpu, kind, &s.prims, None, cut_layout()).unwrap();
                 check_substitutes(gpu, h, &name, &data, &t, &s, 0);
+            } else if technique {
+                // Any other technique built on the CPU: against its own
+                // CPU sampler (from the root; cuts would need their check).
+                assert!(
+                    !kind.uses_cut(),
+                    "{kind}: a technique with cuts needs its check here"
+                );
+                let data = GpuSamplerData::new(gpu, kind, &s.prims, None, cut_layout()).unwrap();
+                let sampler = new_sampler(kind, &s.prims, None);
+                let (answers, gpu_cuts) = h.run(gpu, &data, &s);
+                compare(&name, &answers, &s, &|_| {
+                    sampler.as_ref() as &dyn LightSampler
+                });
+                assert!(gpu_cuts.iter().all(|c| c == &[0]), "{name}: {gpu_cuts:?}");
             } else if kind.uses_substitute_tree() {
                 let t = substitute::build(&s.prims).unwrap();
                 let source = Some(TreeSource::Substitute(&t));
@@ -744,7 +761,10 @@ fn check_substitutes<T: SubstituteLayout + Clone>(
 ) {
     let cpu = StopCodes(SstSampler {
         tree: tree.clone(),
-        params: data.kind.stops_at_substitutes().then(SubstituteParams::default),
+        params: data
+            .kind
+            .stops_at_substitutes()
+            .then(SubstituteParams::default),
     });
     let (answers, gpu_cuts) = h.run(gpu, data, s);
     compare(name, &answers, s, &|_| &cpu as &dyn LightSampler);
@@ -764,7 +784,9 @@ fn check_substitutes<T: SubstituteLayout + Clone>(
 /// the CPU's (sorted by Morton code, then normal code, then id); the
 /// substitutes within a relative 1e-5 of the oracle's (their merges divide
 /// and take square roots, which WGSL does not round exactly); and `sst`
-/// on it samples like the CPU over the GPU's own substitutes.
+/// on it samples like the CPU over the GPU's own substitutes; and the
+/// radix tree of `sst` and `sst_nosub` (built on the CPU) samples on the
+/// GPU as on the CPU.
 #[test]
 fn gpu_substitute_trees_match_the_cpu() {
     let gpu = common::gpu();
@@ -823,15 +845,35 @@ fn gpu_substitute_trees_match_the_cpu() {
         .read_buffer::<LightCone>(built.cones.as_ref().unwrap(), count)
         .unwrap();
     oracle.substitutes = subs;
-    for kind in [SamplerKind::SstPerfect] {
-        let source = TreeSource::PerfectGpu {
-            nodes: &built.nodes,
-            leaf_of_light: &built.leaf_of_light,
-            cones: built.cones.as_ref(),
-            substitutes: built.substitutes.as_ref(),
+    // sst_perfect, the one kind over this tree.
+    let kind = SamplerKind::SstPerfect;
+    let source = TreeSource::PerfectGpu {
+        nodes: &built.nodes,
+        leaf_of_light: &built.leaf_of_light,
+        cones: built.cones.as_ref(),
+        substitutes: built.substitutes.as_ref(),
+    };
+    let data = GpuSamplerData::new(gpu, kind, &s.prims, Some(source), cut_layout()).unwrap();
+    let name = format!("{kind} on the GPU-built substitute tree");
+    check_substitutes(gpu, &h, &name, &data, &oracle, &s, QUERIES / 10);
+    // sst and sst_nosub over the radix tree of the same walls: sst must
+    // stop at substitutes as often.
+    let radix = substitute::radix::build(&s.prims).unwrap();
+    for kind in [SamplerKind::Sst, SamplerKind::SstNoSub] {
+        let data = GpuSamplerData::new(gpu, kind, &s.prims, None, cut_layout()).unwrap();
+        let min = if kind.stops_at_substitutes() {
+            QUERIES / 10
+        } else {
+            0
         };
-        let data = GpuSamplerData::new(gpu, kind, &s.prims, Some(source), cut_layout()).unwrap();
-        let name = format!("{kind} on the GPU-built substitute tree");
-        check_substitutes(gpu, &h, &name, &data, &oracle, &s, QUERIES / 10);
+        check_substitutes(
+            gpu,
+            &h,
+            &format!("{kind} (radix tree)"),
+            &data,
+            &radix,
+            &s,
+            min,
+        );
     }
 }

@@ -13,7 +13,7 @@ use mdas::film::Film;
 use mdas::integrand::IntegrandSpec;
 use mdas::integrand::ManyLight;
 use mdas::integrator::{Halton, Integrator, Mdas};
-use mdas::lights::sampler::SamplerKind;
+use mdas::lights::registry::SamplerKind;
 use mdas::lights::scene_lights::light_prims;
 use mdas::scene_file::SceneFile;
 use mdas::session;

@@ -8,7 +8,8 @@ use glam::{Quat, Vec3};
 use mdas::integrand::IntegrandSpec;
 use mdas::integrand::ManyLightSpec;
 use mdas::lights::lgh::LghParams;
-use mdas::lights::sampler::{CutSampling, SamplerKind};
+use mdas::lights::registry::SamplerKind;
+use mdas::lights::sampler::CutSampling;
 use mdas::lights::scene_lights::{
     bottom_levels, light_count, light_counts, light_groups, light_prims, LightCounts,
 };
@@ -616,7 +617,7 @@ fn bad_many_light_input_is_an_error_at_its_position() {
     let integrand = |body: &str| format!("{BASE}[integrand]\ntype = \"many_light\"\n{body}");
     let m = error_at("sampler", &integrand("sampler = \"bvh\"\n"), 14, 11);
     assert!(
-        m.contains("unknown sampler 'bvh', expected one of 'uniform', 'power', 'tree_nocut', 'tree', 'tree_cone', 'unbalanced', 'unbalanced_nocut', 'unbalanced_nocone', 'tree2', 'sst', 'sst_nosub', 'lgh'"),
+        m.contains("unknown sampler 'bvh', expected one of 'uniform', 'power', 'tree_nocut', 'tree', 'tree_cone', 'unbalanced', 'unbalanced_nocut', 'unbalanced_nocone', 'tree2', 'sst', 'sst_nosub', 'sst_perfect', 'lgh'"),
         "{m}"
     );
     let m = error_at("vpls", &integrand("vpls = -1\n"), 14, 8);

@@ -967,7 +967,7 @@ fn corrupted_scenes_never_panic() {
 #[test]
 fn many_light_scenes_parse_their_integrand_and_light_sets() {
     use mdas::integrand::ManyLightSpec;
-    use mdas::lights::sampler::SamplerKind;
+    use mdas::lights::registry::SamplerKind;
     let spec = |file: &str| scene_file::load(&scene_path(file)).unwrap();
     let s = spec("cornell_lights.toml");
     assert_eq!(

@@ -50,7 +50,7 @@ use mdas::integrator::mdas::{
 use mdas::lights::gpu_sampler::{BatchSampler, GpuSamplerData, SampleAnswer, SampleQuery};
 use mdas::lights::lgh::gpu::{GpuLgh, LghBuildParams};
 use mdas::lights::lgh::GridLight;
-use mdas::lights::sampler::SamplerKind;
+use mdas::lights::registry::SamplerKind;
 use mdas::lights::tree::gpu_build::{BuildParams, GpuLightTree};
 use mdas::lights::two_level::gpu::{GpuTwoLevel, Tree2Params};
 use mdas::lights::vpl::{VplGenerator, VplParams};

@@ -31,7 +31,7 @@ pub(crate) struct CompareArgs {
     // which every unbiased sampler converges to.
     #[command(flatten)]
     pub(crate) cuts: CutArgs,
-    // The help lists the registry's kinds (lights::sampler::REGISTRY).
+    // The help lists the registry's kinds (lights::registry::REGISTRY).
     #[arg(long, value_name = "NAMES", value_delimiter = ',', help = format!(
         "Compare these light samplers (comma-separated: {}) under Halton at equal time; \
          MDAS with `tree` sets the target (or --time-ms). The scene's integrand must be \

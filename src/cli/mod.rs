@@ -21,7 +21,8 @@ use mdas::integrator::mdas::params::{Kind, Param};
 pub(crate) use mdas::integrator::mdas::MdasParams;
 use mdas::integrator::mdas::PARAMS;
 pub(crate) use mdas::integrator::{Halton, Integrator, Mdas, Render};
-pub(crate) use mdas::lights::sampler::{CutSampling, SamplerKind};
+pub(crate) use mdas::lights::registry::SamplerKind;
+pub(crate) use mdas::lights::sampler::CutSampling;
 pub(crate) use mdas::scene_file::SceneFile;
 pub(crate) use mdas::session::{self, IntegrandOverrides, ReferenceSpec};
 pub(crate) use mdas::{image_io, metrics};
@@ -565,7 +566,7 @@ fn cut_kinds() -> String {
 /// `compare`).
 #[derive(clap::Args, Clone, Copy, Debug, Default)]
 pub(crate) struct CutArgs {
-    // The kinds with cuts come from the registry (lights::sampler::REGISTRY).
+    // The kinds with cuts come from the registry (lights::registry::REGISTRY).
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=64), help = format!(
         "Light-cut size n of a many_light scene (1..=64), overriding its [integrand] cut_size; \
          the kinds with cuts ({}) under --cut-sampling subtrees draw n light samples per \

@@ -36,7 +36,7 @@ pub(crate) struct RenderArgs {
     /// size as the render).
     #[arg(long)]
     pub(crate) reference: Option<PathBuf>,
-    // The help lists the registry's kinds (lights::sampler::REGISTRY).
+    // The help lists the registry's kinds (lights::registry::REGISTRY).
     #[arg(long, value_name = "NAME", help = super::sampler_help(
         "Light sampler of a many_light scene, overriding its [integrand] sampler",
         " (an error for other integrands; docs/light-sampling.md)",

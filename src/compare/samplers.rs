@@ -50,7 +50,7 @@ use crate::gpu::Gpu;
 use crate::integrand::Integrand;
 use crate::integrand::IntegrandSpec;
 use crate::integrator::mdas::MdasParams;
-use crate::lights::sampler::SamplerKind;
+use crate::lights::registry::SamplerKind;
 use crate::scene_file::SceneFile;
 use crate::session;
 use anyhow::{bail, Result};

@@ -79,7 +79,8 @@ use crate::lights::gpu_sampler::{
     cut_capacity, CutLayout, GpuSamplerData, TreeSource, FIRST_BINDING,
 };
 use crate::lights::lgh::gpu::GpuLgh;
-use crate::lights::sampler::{CutSampling, SamplerKind, Structure};
+use crate::lights::registry::SamplerKind;
+use crate::lights::sampler::{CutSampling, Structure};
 use crate::lights::scene_lights::{self, light_prims};
 use crate::lights::tree::cut::MAX_CUT;
 use crate::lights::tree::gpu_build::GpuLightTree;
@@ -151,7 +152,8 @@ struct Built {
 }
 
 /// The integrand's WGSL for sampler `kind`, with or without emissive
-/// triangles (dimensions 3–4); `sst` uses dimensions 3–5 for substitutes,
+/// triangles (dimensions 3–4); `sst` (and `sst_perfect`) use dimensions
+/// 3–5 for substitutes,
 /// `lgh` sums over its grid lights (dimensions 2–5, and 6–8 for a
 /// triangle, [`ManyLight::dims`]).
 /// Every other kind shares one source: the kind, the frame time and the
@@ -276,10 +278,11 @@ impl ManyLight {
     /// recomputed at its time (VPLs traced again), the light structure is
     /// built again and the cut pre-pass runs again, as the paper does once
     /// per frame. The shaders, the bind group layout and, for the kinds
-    /// built on the GPU (`tree*`, `sst*`, `tree2` gathered on the GPU)
-    /// and `uniform`, every buffer are reused, so an integrator's
+    /// built on the GPU (`tree*`, `sst_perfect`, `tree2` gathered on the
+    /// GPU) and `uniform`, every buffer are reused, so an integrator's
     /// pipelines stay valid; the CPU-built kinds (`power`, `unbalanced*`,
-    /// `tree2` with VPLs or orbiting light sets) and `lgh`, whose
+    /// `sst`, `sst_nosub`, `tree2` with VPLs or orbiting light sets) and
+    /// `lgh`, whose
     /// structures change size with the lights, upload new ones. The VPLs keep their seed
     /// (`vpl_seed`): they move with the lights, not with the frame number. The result is the image of
     /// `ManyLight::new` with `spec.at_frame(f)`, bit for bit.
@@ -406,7 +409,7 @@ impl ManyLight {
                     loop_iterations: h.loop_iterations().min(u32::MAX as u64) as u32,
                     cpu_build_ms: None,
                 })
-            } else if kind.uses_perfect_tree() && n > 0 {
+            } else if kind.builds_tree_on_gpu() && n > 0 {
                 // The tree is built from the sampler's own copy of the
                 // lights (one upload), into the buffers the sampler binds.
                 let mut tree = if kind.uses_substitute_tree() {

@@ -4,7 +4,8 @@
 //! come from the integrand modules (e.g. [`super::path::max_bounces_limit`]).
 
 use crate::lights::lgh::LghParams;
-use crate::lights::sampler::{CutSampling, SamplerKind, Structure};
+use crate::lights::registry::SamplerKind;
+use crate::lights::sampler::{CutSampling, Structure};
 use crate::lights::substitute::SubstituteParams;
 use crate::lights::vpl::VplSpec;
 

@@ -4,7 +4,8 @@
 
 use super::bvh::{self, LightBvh};
 use super::importance::Shading;
-use super::sampler::{LightSampler, SamplerKind, Structure};
+use super::registry::SamplerKind;
+use super::sampler::{CpuOptions, LightSampler, Structure};
 use super::simple::{alias::PowerSampler, UniformSampler};
 use super::substitute::{self, SstSampler, SubstituteParams};
 use super::tree::cut::{Importance, LightTree, TreeSampler};
@@ -71,10 +72,14 @@ pub fn new_sampler(
             tree: substitute::build(prims).unwrap(),
             params: kind.stops_at_substitutes().then(SubstituteParams::default),
         }),
-        Structure::SubstituteRadix => Box::new(SstSampler {
-            tree: substitute::radix::build(prims).unwrap(),
-            params: kind.stops_at_substitutes().then(SubstituteParams::default),
-        }),
+        Structure::Technique(t) => t.sampler(
+            prims,
+            &CpuOptions {
+                importance: kind.importance(),
+                cut_at,
+                substitutes: kind.stops_at_substitutes(),
+            },
+        ),
         Structure::Grid => unreachable!("asserted above"),
     }
 }

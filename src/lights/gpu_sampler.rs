@@ -24,9 +24,9 @@ use super::lgh::gpu::GpuLgh;
 use super::lgh::{self, GridLight};
 pub use super::light_params::LightParams;
 use super::light_params::SamplerBuffers;
-use super::sampler::{CutSampling, SamplerKind, Structure};
+use super::registry::SamplerKind;
+use super::sampler::{CutSampling, Structure};
 use super::simple::{self, alias::AliasEntry};
-use super::substitute::radix::RadixTree;
 use super::substitute::{self, Substitute, SubstituteParams, SubstituteTree};
 use super::tree::cut::MAX_CUT;
 use super::tree::gpu::GpuTreeBuffers;
@@ -119,8 +119,6 @@ pub enum TreeSource<'a> {
     },
     /// A substitute tree built on the CPU.
     Substitute(&'a SubstituteTree),
-    /// The radix substitute tree (built on the CPU).
-    Radix(&'a RadixTree),
     /// The unbalanced BVH.
     Bvh(&'a LightBvh),
     /// `tree2` built on the GPU ([`GpuTwoLevel`]): its buffers are bound
@@ -281,14 +279,10 @@ impl GpuSamplerData {
                 substitute::gpu::bind(subs, params, out)
             }
             (Structure::SubstituteTree, Some(_)) => other("a substitute tree"),
-            (Structure::SubstituteRadix, None) => {
-                let t = substitute::radix::build(prims).unwrap();
-                substitute::gpu::upload_radix(gpu, &t, cones, params, out)
+            (Structure::Technique(t), None) => t.upload(gpu, prims, cones, params, out),
+            (Structure::Technique(t), Some(_)) => {
+                bail!("sampler '{kind}' builds its {} itself", t.name())
             }
-            (Structure::SubstituteRadix, Some(TreeSource::Radix(t))) => {
-                substitute::gpu::upload_radix(gpu, t, cones, params, out)
-            }
-            (Structure::SubstituteRadix, Some(_)) => other("a radix substitute tree"),
             (Structure::Bvh(cost), None) => {
                 let b = bvh::build(prims, cost).unwrap();
                 bvh::gpu::upload(gpu, &b, cones, params, out)

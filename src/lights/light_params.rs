@@ -40,7 +40,7 @@ impl SamplerBuffers {
 pub struct LightParams {
     /// N.
     pub count: u32,
-    /// [`super::sampler::SamplerKind::index`].
+    /// [`super::registry::SamplerKind::index`].
     pub kind: u32,
     /// Perfect tree: `L + 1` levels and `P` leaves; 0 otherwise.
     pub levels: u32,

@@ -1,8 +1,10 @@
 //! The light-sampler contract (pbrt-v4's `LightSampler`): `sample(ctx, u)`
 //! picks one light with its probability, `pmf(ctx, light)` gives the same
-//! probability independently; and the sampler names ([`SamplerKind`]).
-//! This module depends on little more than [`Shading`]; the implementations
-//! depend on it, and [`super::factory::new_sampler`] builds one by kind:
+//! probability independently; the [`Structure`] a kind samples and the
+//! [`Technique`] interface of the structures built on the CPU. This module
+//! imports no technique; the techniques depend on it, the registry of
+//! kinds ([`super::registry`]) names them, and
+//! [`super::factory::new_sampler`] builds one by kind:
 //!
 //! | kind | sampler | paper |
 //! |---|---|---|
@@ -23,11 +25,13 @@
 //! A sampler's pmf is an f64 product of the f32 probabilities the
 //! sampling decisions use, so `sample(s, u).pmf == pmf(s, light)` exactly.
 //!
-//! The kinds are the lines of the registry (`registry!` below, which
-//! generates [`SamplerKind`] and [`REGISTRY`]): a kind over an existing
-//! [`Structure`] is one line (docs/architecture.md shows the diff).
+//! The kinds are the lines of the registry ([`super::registry`]).
 
 use super::importance::Shading;
+use super::light_params::{LightParams, SamplerBuffers};
+use super::LightPrim;
+use crate::gpu::Gpu;
+use anyhow::Result;
 
 /// Which node importance a tree sampler uses (computed by
 /// [`Importance::of`](super::tree::cut::Importance::of)).
@@ -69,10 +73,67 @@ pub trait LightSampler {
     fn pmf(&self, s: &Shading, light: u32) -> f64;
 }
 
+/// The node layouts the WGSL descents read (`wgsl/lights/sample.wgsl`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Layout {
+    /// The perfect tree's implicit layout: `2P − 1` nodes level by level,
+    /// the leaf slot of each light in `light_index`.
+    Perfect,
+    /// The light BVH's explicit layout: `INTERNAL_BIT | left` children in
+    /// pairs, each light's leaf node and then each node's parent in
+    /// `light_index`.
+    Bvh,
+}
+
+/// What a kind's CPU sampler is built with, from its registry row.
+#[derive(Clone, Copy, Debug)]
+pub struct CpuOptions<'a> {
+    pub importance: Importance,
+    /// The representative shading point and cut size of a kind with cuts
+    /// (`None`: from the root).
+    pub cut_at: Option<(&'a Shading, u32)>,
+    /// The descent stops at suitable substitutes.
+    pub substitutes: bool,
+}
+
+/// A technique built on the CPU whose nodes one of the WGSL descents
+/// reads ([`Layout`]): everything the CPU factory and the GPU upload need,
+/// so that such a technique is its folder and one registry line
+/// (`Structure::Technique(&its::TECHNIQUE)`; docs/architecture.md). The
+/// structures with a GPU build or WGSL of their own are
+/// [`Structure`]'s other variants.
+pub trait Technique: Sync {
+    /// Its name in messages.
+    fn name(&self) -> &'static str;
+    /// The node layout its GPU upload fills.
+    fn layout(&self) -> Layout;
+    /// Whether it uploads a substitute per node (binding 23).
+    fn substitutes(&self) -> bool {
+        false
+    }
+    /// The CPU sampler over `prims` (at least one light).
+    fn sampler(
+        &self,
+        prims: &[LightPrim],
+        o: &CpuOptions<'_>,
+    ) -> Box<dyn LightSampler + Send + Sync>;
+    /// Builds the structure over `prims` (at least one, `params.count`
+    /// of them) and uploads it into the samplers' bindings (cones only
+    /// when `cones`).
+    fn upload(
+        &self,
+        gpu: &Gpu,
+        prims: &[LightPrim],
+        cones: bool,
+        params: &mut LightParams,
+        out: &mut SamplerBuffers,
+    ) -> Result<()>;
+}
+
 /// The light structure a kind samples: what the CPU factory
 /// ([`super::factory::new_sampler`]) and the GPU upload
 /// (`gpu_sampler::GpuSamplerData::new`) build for it.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy)]
 pub enum Structure {
     /// No structure: every light with probability 1/N.
     Uniform,
@@ -83,9 +144,9 @@ pub enum Structure {
     /// The perfect tree sorted with normal codes, a substitute per node
     /// (`substitute.rs`), implicit layout.
     SubstituteTree,
-    /// The paper's radix tree over (Morton, normal) codes, a substitute
-    /// per node (`substitute/radix.rs`), in the BVH's layout.
-    SubstituteRadix,
+    /// A technique built on the CPU and read by the WGSL descent of its
+    /// [`Layout`] (`substitute/radix.rs`: the paper's substitute tree).
+    Technique(&'static dyn Technique),
     /// An unbalanced BVH over the lights built with this split cost
     /// (`bvh.rs`), explicit children.
     Bvh(Cost),
@@ -95,254 +156,36 @@ pub enum Structure {
     Grid,
 }
 
-/// One row of the registry: everything that decides what a kind is.
-#[derive(Clone, Copy, Debug)]
-pub struct Entry {
-    pub kind: SamplerKind,
-    /// The name in scene files, on the command line and in reports.
-    pub name: &'static str,
-    pub structure: Structure,
-    /// Samples from per-block cuts.
-    pub cut: bool,
-    /// The node importance uses orientation cones.
-    pub cones: bool,
-    /// A descent stops at a suitable node's substitute.
-    pub substitutes: bool,
-    /// The estimate is biased.
-    pub biased: bool,
-    /// A few words for `--help`.
-    pub help: &'static str,
-}
-
-/// The sampler registry: one line per kind, generating [`SamplerKind`]
-/// (its variants in the lines' order, which is `light_params.kind` in the
-/// WGSL) and [`REGISTRY`]. A kind that combines a structure, cuts, cones
-/// and substitutes as the existing ones do is one line here: every
-/// predicate, both factories, the WGSL's kind predicates and `--help`
-/// read its row, and the suites that run on every kind test it.
-macro_rules! registry {
-    ($($kind:ident: $name:literal, $structure:expr,
-       [cut $cut:literal, cones $cones:literal, substitutes $subs:literal, biased $biased:literal],
-       $help:literal;)*) => {
-        /// Which sampler; the names are the CLI's and the scene file's
-        /// ([`REGISTRY`]).
-        #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-        pub enum SamplerKind {
-            $($kind,)*
-        }
-
-        /// Every kind's row, in [`SamplerKind`]'s order.
-        pub const REGISTRY: &[Entry] = &[$(Entry {
-            kind: SamplerKind::$kind,
-            name: $name,
-            structure: $structure,
-            cut: $cut,
-            cones: $cones,
-            substitutes: $subs,
-            biased: $biased,
-            help: $help,
-        },)*];
-    };
-}
-
-#[rustfmt::skip]
-registry! {
-    Uniform: "uniform", Structure::Uniform,
-        [cut false, cones false, substitutes false, biased false], "every light alike";
-    Power: "power", Structure::Power,
-        [cut false, cones false, substitutes false, biased false], "by power, an alias table";
-    TreeNoCut: "tree_nocut", Structure::PerfectTree,
-        [cut false, cones false, substitutes false, biased false], "the perfect light tree from its root";
-    Tree: "tree", Structure::PerfectTree,
-        [cut true, cones false, substitutes false, biased false],
-        "real-time stochastic lightcuts: a cut per block, one light per cut subtree";
-    TreeCone: "tree_cone", Structure::PerfectTree,
-        [cut true, cones true, substitutes false, biased false], "tree with orientation cones";
-    Unbalanced: "unbalanced", Structure::Bvh(Cost::Saoh),
-        [cut true, cones true, substitutes false, biased false], "a SAOH light BVH with cuts";
-    UnbalancedNoCut: "unbalanced_nocut", Structure::Bvh(Cost::Saoh),
-        [cut false, cones true, substitutes false, biased false], "the SAOH light BVH from its root";
-    UnbalancedNoCone: "unbalanced_nocone", Structure::Bvh(Cost::Sah),
-        [cut true, cones false, substitutes false, biased false], "a cone-free SAH light BVH with cuts";
-    Tree2: "tree2", Structure::TwoLevel,
-        [cut true, cones true, substitutes false, biased false], "two-level tree: perfect per mesh, SAOH on top";
-    Sst: "sst", Structure::SubstituteRadix,
-        [cut false, cones true, substitutes true, biased true],
-        "stochastic substitute trees over the paper's radix tree; biased";
-    SstNoSub: "sst_nosub", Structure::SubstituteRadix,
-        [cut false, cones true, substitutes false, biased false], "the radix substitute tree without substitution";
-    SstPerfect: "sst_perfect", Structure::SubstituteTree,
-        [cut false, cones true, substitutes true, biased true],
-        "sst over an equal-count perfect tree, built on the GPU (ablation); biased";
-    Lgh: "lgh", Structure::Grid,
-        [cut false, cones false, substitutes false, biased true], "lighting grid hierarchy; biased";
-}
-
-/// How many kinds pick lights.
-const PICKER_COUNT: usize = {
-    let (mut i, mut k) = (0, 0);
-    while i < REGISTRY.len() {
-        if !matches!(REGISTRY[i].structure, Structure::Grid) {
-            k += 1;
-        }
-        i += 1;
-    }
-    k
-};
-
-impl SamplerKind {
-    /// Every kind, in the registry's order.
-    pub const ALL: [SamplerKind; REGISTRY.len()] = {
-        let mut all = [SamplerKind::Uniform; REGISTRY.len()];
-        let mut i = 0;
-        while i < REGISTRY.len() {
-            all[i] = REGISTRY[i].kind;
-            i += 1;
-        }
-        all
-    };
-
-    /// The kinds that pick one light per sample with a probability (the
-    /// [`LightSampler`] contract): all but those over the grid hierarchy
-    /// (`lgh`), which sums over grid lights ([`super::lgh`]).
-    pub const PICKERS: [SamplerKind; PICKER_COUNT] = {
-        let mut out = [SamplerKind::Uniform; PICKER_COUNT];
-        let (mut i, mut k) = (0, 0);
-        while i < REGISTRY.len() {
-            if !matches!(REGISTRY[i].structure, Structure::Grid) {
-                out[k] = REGISTRY[i].kind;
-                k += 1;
-            }
-            i += 1;
-        }
-        assert!(k == out.len(), "PICKERS counts every kind that picks");
-        out
-    };
-
-    /// The kind's registry row.
-    pub fn entry(self) -> &'static Entry {
-        &REGISTRY[self as usize]
-    }
-
-    pub fn name(self) -> &'static str {
-        self.entry().name
-    }
-
-    /// All names, comma-separated.
-    pub fn names() -> String {
-        Self::ALL.map(|k| k.name()).join(", ")
-    }
-
-    /// Every name with its help, for `--help`.
-    pub fn help() -> String {
-        REGISTRY
-            .iter()
-            .map(|e| format!("{} ({})", e.name, e.help))
-            .collect::<Vec<_>>()
-            .join(", ")
-    }
-
-    /// The value of `light_params.kind` in WGSL (the index in [`Self::ALL`]).
-    pub fn index(self) -> u32 {
-        self as u32
-    }
-
-    /// The structure the kind samples.
-    pub fn structure(self) -> Structure {
-        self.entry().structure
-    }
-
-    /// Whether the kind picks one light per sample ([`Self::PICKERS`]).
-    pub fn picks_lights(self) -> bool {
-        self.structure() != Structure::Grid
-    }
-
-    /// Whether the kind samples a light tree (the perfect tree, the
-    /// substitute tree, a BVH or the two-level tree).
-    pub fn uses_tree(self) -> bool {
-        self.uses_perfect_tree() || self.uses_bvh()
-    }
-
-    /// Whether the kind samples from per-block cuts.
-    pub fn uses_cut(self) -> bool {
-        self.entry().cut
-    }
-
-    /// Whether the kind samples a perfect tree (the substitute tree is one).
-    pub fn uses_perfect_tree(self) -> bool {
-        matches!(
-            self.structure(),
-            Structure::PerfectTree | Structure::SubstituteTree
-        )
-    }
-
-    /// Whether the kind samples a substitute tree (leaves sorted with
-    /// normal codes, a [`Substitute`](super::substitute::Substitute) per
-    /// node): the radix tree (`sst`, `sst_nosub`) or the perfect tree
-    /// (`sst_perfect`).
-    pub fn uses_substitute_tree(self) -> bool {
-        matches!(
-            self.structure(),
-            Structure::SubstituteTree | Structure::SubstituteRadix
-        )
-    }
-
-    /// Whether a descent stops at a suitable node's substitute (`sst`;
-    /// `sst_nosub` descends to a light like the perfect tree).
-    pub fn stops_at_substitutes(self) -> bool {
-        self.entry().substitutes
-    }
-
-    /// Whether the kind's estimate is biased: `sst` (a sample may be a
-    /// substitute instead of a light; its [`LightSampler`] view returns only
-    /// the samples that stop at a light, so its light pmfs sum to less than
-    /// one) and `lgh` (grid lights stand in for the lights).
-    pub fn is_biased(self) -> bool {
-        self.entry().biased
-    }
-
-    /// Whether the kind samples a tree in the unbalanced BVH's layout
-    /// (explicit children): the BVH kinds, `tree2` and the radix
-    /// substitute tree.
-    pub fn uses_bvh(self) -> bool {
-        matches!(
-            self.structure(),
-            Structure::Bvh(_) | Structure::TwoLevel | Structure::SubstituteRadix
-        )
-    }
-
-    /// Whether the kind's node importance uses orientation cones.
-    pub fn uses_cones(self) -> bool {
-        self.entry().cones
-    }
-
-    /// The node importance of the tree kinds.
-    pub fn importance(self) -> Importance {
-        if self.uses_cones() {
-            Importance::Cones
-        } else {
-            Importance::Plain
-        }
-    }
-
-    /// The split cost of the kind's BVH build (a BVH kind's own; else SAOH
-    /// with cones, SAH without, as the two-level tree's top is built).
-    pub fn bvh_cost(self) -> Cost {
-        match self.structure() {
-            Structure::Bvh(cost) => cost,
-            _ if self.uses_cones() => Cost::Saoh,
-            _ => Cost::Sah,
+impl PartialEq for Structure {
+    fn eq(&self, other: &Structure) -> bool {
+        use Structure::*;
+        match (self, other) {
+            (Technique(a), Technique(b)) => std::ptr::addr_eq(*a, *b),
+            (Bvh(a), Bvh(b)) => a == b,
+            (a, b) => std::mem::discriminant(a) == std::mem::discriminant(b),
         }
     }
 }
 
-impl fmt::Display for SamplerKind {
+impl Eq for Structure {}
+
+impl fmt::Debug for Structure {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name())
+        use Structure::*;
+        match self {
+            Uniform => f.write_str("Uniform"),
+            Power => f.write_str("Power"),
+            PerfectTree => f.write_str("PerfectTree"),
+            SubstituteTree => f.write_str("SubstituteTree"),
+            Technique(t) => write!(f, "Technique({})", t.name()),
+            Bvh(c) => write!(f, "Bvh({c:?})"),
+            TwoLevel => f.write_str("TwoLevel"),
+            Grid => f.write_str("Grid"),
+        }
     }
 }
 
-/// How the kinds with cuts ([`SamplerKind::uses_cut`]) estimate from a
+/// How the kinds with cuts ([`SamplerKind::uses_cut`](super::registry::SamplerKind::uses_cut)) estimate from a
 /// pixel's cut: the scene key `cut_sampling`.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum CutSampling {
@@ -385,87 +228,5 @@ impl FromStr for CutSampling {
             .into_iter()
             .find(|k| k.name() == s)
             .ok_or_else(|| format!("unknown cut_sampling '{s}': expected one of subtrees, mixture"))
-    }
-}
-
-/// A sampler name that is not one of [`SamplerKind::ALL`].
-#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
-#[error("unknown light sampler '{0}': expected one of {names}", names = SamplerKind::names())]
-pub struct UnknownSampler(pub String);
-
-impl FromStr for SamplerKind {
-    type Err = UnknownSampler;
-    fn from_str(s: &str) -> Result<Self, UnknownSampler> {
-        Self::ALL
-            .into_iter()
-            .find(|k| k.name() == s)
-            .ok_or_else(|| UnknownSampler(s.to_string()))
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// The registry's rows are consistent: unique names in snake case,
-    /// substitutes only on the substitute tree, cuts only on trees, the
-    /// biased kinds exactly those that stop at substitutes or sum over the
-    /// grid, and the pickers every kind but the grid's.
-    #[test]
-    fn registry_rows_are_consistent() {
-        for (i, e) in REGISTRY.iter().enumerate() {
-            assert_eq!(e.kind as usize, i, "{}", e.name);
-            assert!(
-                e.name
-                    .chars()
-                    .all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_'),
-                "{}",
-                e.name
-            );
-            assert!(
-                REGISTRY[..i].iter().all(|f| f.name != e.name),
-                "{} twice",
-                e.name
-            );
-            assert!(
-                !e.substitutes
-                    || matches!(
-                        e.structure,
-                        Structure::SubstituteTree | Structure::SubstituteRadix
-                    ),
-                "{}",
-                e.name
-            );
-            assert!(
-                !e.cut || e.kind.uses_tree(),
-                "{} cuts without a tree",
-                e.name
-            );
-            assert_eq!(
-                e.biased,
-                e.substitutes || e.structure == Structure::Grid,
-                "{}",
-                e.name
-            );
-            assert_eq!(
-                SamplerKind::PICKERS.contains(&e.kind),
-                e.structure != Structure::Grid
-            );
-            assert!(!e.help.is_empty() && SamplerKind::help().contains(e.help));
-        }
-    }
-
-    #[test]
-    fn names_round_trip() {
-        for k in SamplerKind::ALL {
-            assert_eq!(k.to_string().parse::<SamplerKind>(), Ok(k));
-            assert!(UnknownSampler(String::new()).to_string().contains(k.name()));
-            assert_eq!(SamplerKind::ALL[k.index() as usize], k);
-        }
-        let e = "trees".parse::<SamplerKind>().unwrap_err().to_string();
-        assert!(
-            e.contains("'trees'") && e.contains("unbalanced_nocut"),
-            "{e}"
-        );
     }
 }

@@ -1,14 +1,20 @@
 //! Stochastic substitute trees (Tatzgern et al. 2020,
 //! `shared/papers/stochastic-substitute-trees.txt`): the CPU oracle of the
-//! tree, its substitute distributions and its sampler (`sst`, `sst_nosub`).
+//! trees, their substitute distributions and the sampler (`sst`,
+//! `sst_nosub`, `sst_perfect`).
 //!
-//! # The tree
+//! # The trees
 //!
-//! A perfect light tree (`src/lights/mod.rs` layout) whose leaves are
-//! sorted by (Morton code, [`normal_code`], light id) — the paper's
-//! `C = M ⊕ N ⊕ id` (eq. 4): lights close together come first, then lights
-//! facing the same way. Beside every node (same index) lies a
-//! [`Substitute`]: the node's lights as one Gaussian emitter.
+//! Leaves sorted by (Morton code, [`normal_code`], light id) — the
+//! paper's `C = M ⊕ N ⊕ id` (eq. 4): lights close together come first,
+//! then lights facing the same way. `sst` and `sst_nosub` build the
+//! paper's binary radix tree over these keys ([`radix`]: each node one
+//! Morton cell, then one normal class); `sst_perfect` a perfect light tree
+//! (`src/lights/mod.rs` layout, [`build`]) with equal-count splits over
+//! the same order, built on the GPU too (an ablation, ours). Beside every
+//! node (same index) lies a [`Substitute`]: the node's lights as one
+//! Gaussian emitter. The sampler ([`SstSampler`]) takes either tree
+//! ([`SubstituteLayout`]).
 //!
 //! # Substitute distributions (paper §3.2, eq. 1–2)
 //!
@@ -431,7 +437,9 @@ pub trait SubstituteLayout: LightTree {
     fn stops_at(&self, node: usize, params: Option<&SubstituteParams>) -> bool {
         match (self.children(node), params) {
             (None, _) => true,
-            (Some(_), Some(q)) => q.suitable(&self.substitutes()[node], self.nodes()[node].intensity),
+            (Some(_), Some(q)) => {
+                q.suitable(&self.substitutes()[node], self.nodes()[node].intensity)
+            }
             (Some(_), None) => false,
         }
     }
@@ -552,10 +560,13 @@ impl<T: SubstituteLayout> SstSampler<T> {
 impl<T: SubstituteLayout> LightSampler for SstSampler<T> {
     fn sample(&self, s: &Shading, u: f32) -> Option<LightSample> {
         let stop = SstSampler::sample(self, s, u)?;
-        self.tree.children(stop.node).is_none().then(|| LightSample {
-            light: self.tree.leaf_light(stop.node),
-            pmf: stop.pmf,
-        })
+        self.tree
+            .children(stop.node)
+            .is_none()
+            .then(|| LightSample {
+                light: self.tree.leaf_light(stop.node),
+                pmf: stop.pmf,
+            })
     }
 
     fn pmf(&self, s: &Shading, light: u32) -> f64 {

@@ -8,7 +8,8 @@ use super::*;
 use crate::accel::voxel::{self, Visibility, VoxelParams};
 use crate::integrand::ManyLightSpec;
 use crate::lights::lgh::{self, LghParams};
-use crate::lights::sampler::{CutSampling, SamplerKind};
+use crate::lights::registry::SamplerKind;
+use crate::lights::sampler::CutSampling;
 use crate::lights::substitute::SubstituteParams;
 use crate::lights::vpl::{self, VplSpec};
 

@@ -60,7 +60,7 @@ use crate::accel::voxel::{Visibility, VoxelParams};
 use crate::integrand::IntegrandSpec;
 use crate::integrator::mdas::MdasParams;
 #[cfg(doc)]
-use crate::lights::sampler::SamplerKind;
+use crate::lights::registry::SamplerKind;
 use crate::scene::Scene;
 use ctx::Ctx;
 use raw::RawScene;

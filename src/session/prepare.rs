@@ -11,7 +11,8 @@ use crate::integrand::{
 };
 use crate::integrand::{IntegrandSpec, ManyLightSpec};
 use crate::integrator::mdas::MdasParams;
-use crate::lights::sampler::{CutSampling, SamplerKind};
+use crate::lights::registry::SamplerKind;
+use crate::lights::sampler::CutSampling;
 use crate::lights::tree::cut::MAX_CUT;
 use crate::scene_file::SceneFile;
 use anyhow::{bail, Result};

@@ -10,7 +10,7 @@ use crate::gpu::Gpu;
 use crate::image_io;
 use crate::integrand::IntegrandSpec;
 use crate::integrator::{Halton, Integrator, Render};
-use crate::lights::sampler::SamplerKind;
+use crate::lights::registry::SamplerKind;
 use crate::scene_file::SceneFile;
 use anyhow::{bail, Context, Result};
 use sha2::{Digest, Sha256};

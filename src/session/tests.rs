@@ -5,7 +5,7 @@ use super::reference::*;
 use crate::film::Film;
 use crate::integrand::IntegrandSpec;
 use crate::integrator::mdas::MdasParams;
-use crate::lights::sampler::SamplerKind;
+use crate::lights::registry::SamplerKind;
 use crate::scene_file::SceneFile;
 use std::path::Path;
 

@@ -37,7 +37,12 @@ fn cones_over_vpls_sharing_normals_are_finite() {
         let prims = vpl_walls(&mut rng, 3000);
         let perfect = perfect::build(&prims).unwrap();
         let sst = substitute::build(&prims).unwrap();
-        for (what, cones) in [("perfect", &perfect.cones), ("substitute", &sst.tree.cones)] {
+        let radix = substitute::radix::build(&prims).unwrap();
+        for (what, cones) in [
+            ("perfect", &perfect.cones),
+            ("substitute", &sst.tree.cones),
+            ("radix substitute", &radix.bvh.cones),
+        ] {
             for (i, c) in cones.iter().enumerate() {
                 let words = [c.axis[0], c.axis[1], c.axis[2], c.cos_o, c.sin_o, c.cos_e];
                 assert!(
@@ -131,6 +136,11 @@ fn substitute_moments_are_exact_for_coplanar_vpls() {
 /// dark VPLs (they drop out of the moments and are never reached).
 #[test]
 fn substitute_hard_cases() {
+    hard_cases(substitute::radix::build);
+    hard_cases(substitute::build);
+}
+
+fn hard_cases<T: SubstituteLayout>(build: fn(&[LightPrim]) -> Option<T>) {
     let params = Some(SubstituteParams::default());
     let sh = Shading {
         p: Vec3::new(0.3, 0.5, 0.2),
@@ -139,7 +149,7 @@ fn substitute_hard_cases() {
     // One VPL.
     let one = [LightPrim::vpl(Vec3::ZERO, Vec3::Y, Vec3::ONE)];
     let s = SstSampler {
-        tree: substitute::build(&one).unwrap(),
+        tree: build(&one).unwrap(),
         params,
     };
     assert_eq!(s.sample(&sh, 0.7), Some(Stop { node: 0, pmf: 1.0 }));
@@ -150,14 +160,11 @@ fn substitute_hard_cases() {
     let same: Vec<_> = (0..37)
         .map(|i| LightPrim::vpl(at, Vec3::Z, Vec3::splat(0.1 + i as f32 * 0.01)))
         .collect();
-    let t = substitute::build(&same).unwrap();
-    assert_eq!(t.substitutes[0].cholesky(), [[0.0; 3]; 3]);
-    let (lo, hi) = (
-        Vec3::from(t.tree.nodes[0].min),
-        Vec3::from(t.tree.nodes[0].max),
-    );
+    let t = build(&same).unwrap();
+    assert_eq!(t.substitutes()[0].cholesky(), [[0.0; 3]; 3]);
+    let (lo, hi) = (Vec3::from(t.nodes()[0].min), Vec3::from(t.nodes()[0].max));
     for u in [[0.0, 0.5, 0.9], [0.999, 0.001, 0.5]] {
-        assert_eq!(t.substitutes[0].sample_position(u, lo, hi), at);
+        assert_eq!(t.substitutes()[0].sample_position(u, lo, hi), at);
     }
     let s = SstSampler { tree: t, params };
     let front = Shading {
@@ -178,8 +185,8 @@ fn substitute_hard_cases() {
             }
         })
         .collect();
-    let t = substitute::build(&planes).unwrap();
-    assert_eq!(t.substitutes[0].nu, 0.0);
+    let t = build(&planes).unwrap();
+    assert_eq!(t.substitutes()[0].nu, 0.0);
     let s = SstSampler { tree: t, params };
     let (stops, dead) = s.stops(&sh);
     let total: f64 = stops.iter().map(|st| st.pmf).sum();
@@ -203,7 +210,7 @@ fn substitute_hard_cases() {
             "stop {} mixes the planes",
             st.node
         );
-        substitutes += !s.tree.tree.is_leaf(st.node) as u32;
+        substitutes += s.tree.children(st.node).is_some() as u32;
     }
     assert!(substitutes > 0, "no substitute between the planes");
 
@@ -224,13 +231,13 @@ fn substitute_hard_cases() {
         .copied()
         .filter(|p| p.intensity() > 0.0)
         .collect();
-    let t = substitute::build(&mixed).unwrap();
+    let t = build(&mixed).unwrap();
     let (mean, _) = weighted_moments(&bright);
-    for (got, want) in t.substitutes[0].mean.iter().zip(mean) {
+    for (got, want) in t.substitutes()[0].mean.iter().zip(mean) {
         assert!((*got as f64 - want).abs() < 1e-5);
     }
-    assert!(t.substitutes[0].sigma_z2() < 1e-10);
-    assert!(SubstituteParams::default().suitable(&t.substitutes[0], t.tree.nodes[0].intensity));
+    assert!(t.substitutes()[0].sigma_z2() < 1e-10);
+    assert!(SubstituteParams::default().suitable(&t.substitutes()[0], t.nodes()[0].intensity));
     let s = SstSampler {
         tree: t,
         params: None,

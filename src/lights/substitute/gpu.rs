@@ -1,11 +1,9 @@
-//! The upload of a substitute tree: the radix tree's nodes in the BVH's
-//! bindings ([`crate::lights::bvh::gpu`]) or the perfect tree's
-//! ([`crate::lights::tree::gpu`], from a CPU tree or bound as the GPU
-//! build left it), and the substitute of every node (23).
+//! The upload of `sst_perfect`'s substitute tree: the perfect tree's
+//! bindings ([`crate::lights::tree::gpu`], from a CPU tree or bound as the
+//! GPU build left it) and the substitute of every node (23). The radix
+//! tree uploads itself ([`super::radix::RadixSubstituteTree`]).
 
-use super::radix::RadixTree;
 use super::{Substitute, SubstituteTree};
-use crate::lights::bvh::gpu as bvh_gpu;
 use crate::gpu::Gpu;
 use crate::lights::light_params::{LightParams, SamplerBuffers};
 use crate::lights::tree::gpu as tree_gpu;
@@ -27,20 +25,6 @@ pub fn upload(
         );
     }
     tree_gpu::upload(gpu, &t.tree, cones, params, out)?;
-    out.substitutes = Some(SamplerBuffers::upload(gpu, "substitutes", &t.substitutes)?);
-    Ok(())
-}
-
-/// Uploads the radix tree `t` over `params.count` lights (cones only
-/// when `cones`).
-pub fn upload_radix(
-    gpu: &Gpu,
-    t: &RadixTree,
-    cones: bool,
-    params: &mut LightParams,
-    out: &mut SamplerBuffers,
-) -> Result<()> {
-    bvh_gpu::upload(gpu, &t.bvh, cones, params, out)?;
     out.substitutes = Some(SamplerBuffers::upload(gpu, "substitutes", &t.substitutes)?);
     Ok(())
 }

@@ -41,8 +41,14 @@
 //! substitutes merge as the perfect tree's ([`merge`] with the children's
 //! intensities), children first.
 
-use super::{merge, normal_code, prim_normal, Substitute, SubstituteLayout, MAX_LIGHTS};
-use crate::lights::bvh::{LightBvh, INTERNAL_BIT, MAX_DEPTH};
+use super::{
+    merge, normal_code, prim_normal, SstSampler, Substitute, SubstituteLayout, SubstituteParams,
+    MAX_LIGHTS,
+};
+use crate::gpu::Gpu;
+use crate::lights::bvh::{self, LightBvh, INTERNAL_BIT, MAX_DEPTH};
+use crate::lights::light_params::{LightParams, SamplerBuffers};
+use crate::lights::sampler::{CpuOptions, Layout, LightSampler, Technique};
 use crate::lights::tree::cut::LightTree;
 use crate::lights::tree::perfect::{gather, leaf_node};
 use crate::lights::{morton, LightCone, LightPrim, TreeNode, NO_LIGHT};
@@ -173,7 +179,12 @@ pub fn build(prims: &[LightPrim]) -> Option<RadixTree> {
                 ..gather(&a, &b)
             };
             cones[i] = cones[l].union(&cones[l + 1]);
-            substitutes[i] = merge(&substitutes[l], a.intensity, &substitutes[l + 1], b.intensity);
+            substitutes[i] = merge(
+                &substitutes[l],
+                a.intensity,
+                &substitutes[l + 1],
+                b.intensity,
+            );
         } else {
             let prim = &prims[id as usize];
             nodes[i] = leaf_node(prim, id);
@@ -221,5 +232,52 @@ impl LightTree for RadixTree {
 impl SubstituteLayout for RadixTree {
     fn substitutes(&self) -> &[Substitute] {
         &self.substitutes
+    }
+}
+
+/// The radix substitute tree as a [`Technique`] (`sst`, `sst_nosub`):
+/// built on the CPU, sampled on the GPU by the BVH-layout descent, which
+/// stops at suitable substitutes when the kind says so.
+pub struct RadixSubstituteTree;
+
+/// The technique of the registry's `sst` and `sst_nosub` lines.
+pub static RADIX_SUBSTITUTE_TREE: RadixSubstituteTree = RadixSubstituteTree;
+
+impl Technique for RadixSubstituteTree {
+    fn name(&self) -> &'static str {
+        "radix substitute tree"
+    }
+
+    fn layout(&self) -> Layout {
+        Layout::Bvh
+    }
+
+    fn substitutes(&self) -> bool {
+        true
+    }
+
+    fn sampler(
+        &self,
+        prims: &[LightPrim],
+        o: &CpuOptions<'_>,
+    ) -> Box<dyn LightSampler + Send + Sync> {
+        Box::new(SstSampler {
+            tree: build(prims).expect("at least one light"),
+            params: o.substitutes.then(SubstituteParams::default),
+        })
+    }
+
+    fn upload(
+        &self,
+        gpu: &Gpu,
+        prims: &[LightPrim],
+        cones: bool,
+        params: &mut LightParams,
+        out: &mut SamplerBuffers,
+    ) -> anyhow::Result<()> {
+        let t = build(prims).expect("at least one light");
+        bvh::gpu::upload(gpu, &t.bvh, cones, params, out)?;
+        out.substitutes = Some(SamplerBuffers::upload(gpu, "substitutes", &t.substitutes)?);
+        Ok(())
     }
 }

@@ -521,7 +521,13 @@ fn radix_lights(seed: u64, n: usize) -> Vec<LightPrim> {
     use rand::rngs::StdRng;
     use rand::{RngExt, SeedableRng};
     let mut rng = StdRng::seed_from_u64(seed);
-    let normals = [Vec3::X, Vec3::Y, -Vec3::Y, Vec3::new(0.6, 0.8, 0.0), Vec3::Z];
+    let normals = [
+        Vec3::X,
+        Vec3::Y,
+        -Vec3::Y,
+        Vec3::new(0.6, 0.8, 0.0),
+        Vec3::Z,
+    ];
     (0..n)
         .map(|_| {
             let p = Vec3::new(
@@ -583,10 +589,7 @@ fn radix_nodes_split_where_their_keys_first_differ() {
                     for (a, b) in [(f, s), (s1, last)] {
                         assert!(a == b || delta(&keys, a, b as isize) > d);
                     }
-                    let g = crate::lights::tree::perfect::gather(
-                        &t.bvh.nodes[l],
-                        &t.bvh.nodes[r],
-                    );
+                    let g = crate::lights::tree::perfect::gather(&t.bvh.nodes[l], &t.bvh.nodes[r]);
                     assert_eq!((t.bvh.nodes[i].min, t.bvh.nodes[i].max), (g.min, g.max));
                     assert_eq!(t.bvh.nodes[i].intensity, g.intensity);
                 }
@@ -609,7 +612,10 @@ fn lights_without_normals_have_their_own_class() {
     let p = Vec3::new(1.0, 2.0, 3.0);
     let vpl = LightPrim::vpl(p, Vec3::X, Vec3::ONE);
     let point = LightPrim::point(p, Vec3::ONE);
-    assert_eq!(normal_code(prim_normal(&point)), normal_code(prim_normal(&vpl)));
+    assert_eq!(
+        normal_code(prim_normal(&point)),
+        normal_code(prim_normal(&vpl))
+    );
     assert_ne!(normal_class(&point), normal_class(&vpl));
     assert_eq!(normal_class(&point), 1 << NORMAL_BITS);
     let prims = [point, vpl, point, vpl];
