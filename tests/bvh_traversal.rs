@@ -437,9 +437,17 @@ fn brute_force(built: &BuiltScene, rays: &[Ray]) -> Vec<(HitRecord, bool)> {
         let handles: Vec<_> = rays
             .chunks(chunk)
             .map(|c| {
+                // Any hit from the closest: both are the one loop over every
+                // triangle accepting t_min < t < the current bound (t_max
+                // first), so a triangle is accepted by the any-hit loop iff
+                // the closest one exists (`brute_force_any_is_the_closest_hit`
+                // checks it on rays of every kind).
                 s.spawn(move || {
                     c.iter()
-                        .map(|r| (built.brute_force_closest(r), built.brute_force_any(r)))
+                        .map(|r| {
+                            let closest = built.brute_force_closest(r);
+                            (closest, closest.is_hit())
+                        })
                         .collect::<Vec<_>>()
                 })
             })
@@ -657,6 +665,34 @@ fn box_sphere_quad_matches_brute_force() {
     let report = compare_built(&scene, &built, &rays);
     assert_few_ties(&report);
     assert_mixed(&report);
+}
+
+/// The CPU oracle's any-hit query is its closest-hit query's `is_hit`
+/// (one loop, the same acceptance), which `brute_force` relies on to run
+/// the loop once per ray: checked on every kind of ray, on static and
+/// moving scenes, with finite and infinite `t_max`.
+#[test]
+fn brute_force_any_is_the_closest_hit() {
+    for (scene, seed) in [(box_sphere_quad(), 11), (moving_scene(), 12)] {
+        let built = BuiltScene::new(&scene).unwrap();
+        let mut gen = RayGen::new(&built, seed);
+        let mut rays = gen.random(500);
+        rays.extend(gen.aimed(500));
+        rays.extend(gen.axis_aligned(300));
+        rays.extend(gen.on_surface(300));
+        rays.extend(gen.inside_box(200, BOX_MIN, BOX_MAX));
+        let (mut hits, mut misses) = (0, 0);
+        for r in &rays {
+            let any = built.brute_force_any(r);
+            assert_eq!(any, built.brute_force_closest(r).is_hit(), "{r:?}");
+            if any {
+                hits += 1;
+            } else {
+                misses += 1;
+            }
+        }
+        assert!(hits > 100 && misses > 100, "{hits} hits, {misses} misses");
+    }
 }
 
 /// Watertightness on the GPU: rays from inside the closed box aimed at
