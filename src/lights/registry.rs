@@ -5,8 +5,8 @@
 //! predicate below, both factories, the WGSL's kind predicates and the
 //! CLI read the row. A kind over an existing structure is one line; a
 //! technique built on the CPU and read by an existing WGSL descent is its
-//! folder and one line (`Structure::Technique`; docs/architecture.md
-//! shows both diffs). This module sits above the techniques (it names
+//! module (with its `mod` line) and one line (`Structure::Technique`;
+//! docs/architecture.md shows both diffs). This module sits above the techniques (it names
 //! them); the contract ([`super::sampler`]) sits below.
 
 use super::sampler::{Cost, Importance, Layout, Structure};
