@@ -5,9 +5,10 @@
 # renders and `tune`'s time fit — at equal time.
 #
 # For each integrand and each of its fixed seeds: generate the scene
-# (128×96), then one `mdas tune SCENE --equal-samples --grid alpha=0.25`
-# per budget in SPPS (a one-row grid: the default α, so the scene's own
-# defaults; GRID sets other rows), 3 seeds per method, a cached Halton reference
+# (128×96), then one `mdas tune SCENE --equal-samples --grid alpha=2`
+# per budget in SPPS (a one-row grid: the default α, AUTO_ALPHA in
+# src/integrator/mdas/params.rs, so the scene's own defaults; GRID sets
+# other rows), 3 seeds per method, a cached Halton reference
 # of REF_SPP samples per pixel. `benches/unseen_summary.py` then prints
 # per integrand and budget: the win rate (MDAS's mean RelMSE ≤ Halton's
 # at the same spp), the geometric mean of the RelMSE ratio with a 95 %
@@ -43,9 +44,10 @@ spps=${SPPS:-8 32}
 ref_spp=${REF_SPP:-2048}
 seeds=${SEEDS:-3}
 integrands=${INTEGRANDS:-area_light depth_of_field motion_blur path}
-# The grid of `tune` (default: one row, α at its default, so the scene's
-# own defaults); GRID="alpha=0.25,1 pixel_prior=0,1" compares variants.
-grid=${GRID:-alpha=0.25}
+# The grid of `tune` (default: one row, α at its default AUTO_ALPHA = 2,
+# so the scene's own defaults; until 2026-12-07 this said 0.25, the
+# default before the paced selection); GRID="alpha=0.25,1 pixel_prior=0,1" compares variants.
+grid=${GRID:-alpha=2}
 # Further `tune` flags for every row (e.g. FLAGS="--max-samples-per-leaf 6").
 flags=${FLAGS:-}
 # Scene seeds, fixed so that a run is reproducible: the first N of these.

@@ -2,8 +2,11 @@
 """Summary of benches/unseen.sh: reads OUT/<integrand>-<seed>-<spp>/tune.json
 and prints, per integrand and budget, MDAS (its defaults) against Halton:
 win rate, geometric mean of the RelMSE ratio with a 95 % bootstrap interval
-over scenes, the worst scene, MDAS's mean |relative bias| (G channel) and
-the equal-time ratio. Also writes OUT/battery.json. Standard library only.
+over scenes, the worst scene, MDAS's mean |relative bias| (G channel)
+beside Halton's at the same spp and seeds (noise alone: Halton is
+unbiased) and the count of scenes whose MDAS bias interval excludes 0,
+and the equal-time ratio. Also writes OUT/battery.json. Standard library
+only. Two batteries compare scene by scene with benches/unseen_paired.py.
 
 Equal time: tune fits Halton's time as a + b·spp and reports the spp
 Halton reaches in MDAS's time; Halton's RelMSE there is interpolated
@@ -69,6 +72,7 @@ for name in sorted(os.listdir(out)):
             "mdas": r["relmse"], "mdas_ci95": r["relmse_ci95"], "halton": h_same,
             "ratio": r["relmse"] / h_same, "bias_g": r["relative_bias"][1],
             "bias_g_ci95": r["relative_bias_ci95"][1],
+            "halton_bias_g": same[0]["relative_bias"][1],
             "mdas_ms": r["time_ms"], "halton_ms": same[0]["time_ms"],
             "equal_time_ratio": eq_time, "equal_time_extrapolated": extrapolated,
             "label": r["label"], "params": r["params"],
@@ -83,7 +87,11 @@ def boot(xs, reps=4000):
     return ms[int(0.025 * reps)], ms[int(0.975 * reps) - 1]
 
 print(f"Battery of scenes nobody tuned ({out}); MDAS/Halton RelMSE, MDAS with its defaults\n")
-print("| integrand | spp | scenes | wins (≤ 1) | geo. mean [95 %] | worst (seed) | mean abs. bias (G) | MDAS time / Halton's | equal time geo. mean [95 %] (extrapolated) |")
+# The bias column: MDAS's mean |relative bias| of the image (G channel)
+# over the scenes, then Halton's at the same spp and seeds — Halton is
+# unbiased, so its figure is what noise alone reads — and on how many
+# scenes MDAS's 95 % interval excludes 0 (a resolved bias).
+print("| integrand | spp | scenes | wins (≤ 1) | geo. mean [95 %] | worst (seed) | mean abs. bias (G): MDAS, Halton; resolved | MDAS time / Halton's | equal time geo. mean [95 %] (extrapolated) |")
 print("|---|---|---|---|---|---|---|---|---|")
 groups = {}
 for r in rows:
@@ -91,7 +99,7 @@ for r in rows:
 labels = sorted({k[0] for k in groups})
 summary = []
 for label, spp in sorted({k[:2] for k in groups}):
-    all_ratios, all_bias, all_time = [], [], []
+    all_ratios, all_bias, all_time, all_noise, all_resolved = [], [], [], [], 0
     if len(labels) > 1:
         print(f"| *{label}* | | | | | | | | |")
     for (lab, s, t), rs in sorted(groups.items()):
@@ -102,23 +110,28 @@ for label, spp in sorted({k[:2] for k in groups}):
         gm, (lo, hi) = geomean(ratios), boot(ratios)
         worst = max(rs, key=lambda r: r["ratio"])
         bias = sum(abs(r["bias_g"]) for r in rs) / len(rs)
+        noise = sum(abs(r["halton_bias_g"]) for r in rs) / len(rs)
+        resolved = sum(r["bias_g_ci95"][0] > 0 or r["bias_g_ci95"][1] < 0 for r in rs)
         cost = geomean([r["mdas_ms"] / r["halton_ms"] for r in rs])
         et = [r["equal_time_ratio"] for r in rs if r["equal_time_ratio"]]
         ext = sum(r["equal_time_extrapolated"] for r in rs if r["equal_time_ratio"])
         et_s = f"{geomean(et):.2f} [{boot(et)[0]:.2f}, {boot(et)[1]:.2f}] ({ext})" if et else "–"
-        print(f"| {t} | {spp:g} | {len(rs)} | {wins}/{len(rs)} ({100*wins/len(rs):.0f} %) | {gm:.2f} [{lo:.2f}, {hi:.2f}] | {worst['ratio']:.2f} ({worst['seed']}) | {100*bias:.2f} % | {cost:.2f} | {et_s} |")
+        print(f"| {t} | {spp:g} | {len(rs)} | {wins}/{len(rs)} ({100*wins/len(rs):.0f} %) | {gm:.2f} [{lo:.2f}, {hi:.2f}] | {worst['ratio']:.2f} ({worst['seed']}) | {100*bias:.2f} %, {100*noise:.2f} %; {resolved} | {cost:.2f} | {et_s} |")
         summary.append({"label": label, "spp": spp, "integrand": t, "scenes": len(rs), "wins": wins,
                         "geomean": gm, "geomean_ci95": [lo, hi], "worst": worst["ratio"],
                         "worst_seed": worst["seed"], "mean_abs_bias_g": bias,
+                        "halton_mean_abs_bias_g": noise, "bias_resolved": resolved,
                         "time_ratio_geomean": cost,
                         "equal_time_geomean": geomean(et) if et else None,
                         "equal_time_extrapolated": ext})
         all_ratios += ratios
         all_bias += [abs(r["bias_g"]) for r in rs]
+        all_noise += [abs(r["halton_bias_g"]) for r in rs]
+        all_resolved += resolved
         all_time += et
     if all_ratios:
         lo, hi = boot(all_ratios)
         et_s = f"{geomean(all_time):.2f} [{boot(all_time)[0]:.2f}, {boot(all_time)[1]:.2f}]" if all_time else "–"
         wins = sum(x <= 1.0 for x in all_ratios)
-        print(f"| **all** | {spp:g} | {len(all_ratios)} | {wins}/{len(all_ratios)} | **{geomean(all_ratios):.2f} [{lo:.2f}, {hi:.2f}]** | {max(all_ratios):.2f} | {100*sum(all_bias)/len(all_bias):.2f} % | | {et_s} |")
+        print(f"| **all** | {spp:g} | {len(all_ratios)} | {wins}/{len(all_ratios)} | **{geomean(all_ratios):.2f} [{lo:.2f}, {hi:.2f}]** | {max(all_ratios):.2f} | {100*sum(all_bias)/len(all_bias):.2f} %, {100*sum(all_noise)/len(all_noise):.2f} %; {all_resolved} | | {et_s} |")
 json.dump({"rows": rows, "summary": summary}, open(os.path.join(out, "battery.json"), "w"), indent=1)

@@ -639,11 +639,12 @@ fn reconstruction_matches_the_cpu_oracle() {
         // The rules differ only where a leaf's film box spans pixels, and
         // a one-pixel film has none: there (the deep case, ~550
         // iterations a render) the box rule alone is checked.
-        let rules = if film.width * film.height == 1 { 1 } else { 6 };
+        let rules = if film.width * film.height == 1 { 1 } else { 7 };
         let runs = [(Reconstruction::Box, 1.0)]
             .into_iter()
             .chain([0.0, 1.0, 2.5].map(|k| (Reconstruction::Pixel, k)))
             .chain([0.0, 1.0].map(|k| (Reconstruction::Sampled, k)))
+            .chain([(Reconstruction::Shrinkage, 0.0)])
             .take(rules);
         let mut box_oracle = Vec::new();
         for (rule, kappa) in runs {

@@ -569,9 +569,10 @@ fn lamp_image(film: Film) -> Vec<[f32; 3]> {
 /// reconstruction carried a lamp's mean onto the black pixels beside it
 /// (RelMSE 26–32 against Halton's 0.5 there). Over 48 seeds MDAS's mean
 /// RelMSE must stay within 2× Halton's at the same spp (the issue's "no
-/// scene worse than 2×"). Measured over seeds 0–47: 1.66e-3 against
-/// Halton's 1.13e-3, 1.46×, with the defaults (α = 2, the paced
-/// selection, Kronecker initial offsets; 1.36× with random offsets). The
+/// scene worse than 2×"). Measured over seeds 0–47: 1.674e-3 against
+/// Halton's 1.134e-3, 1.48×, with the defaults (α = 2, the paced
+/// selection, Kronecker initial offsets, the `shrinkage` reconstruction;
+/// 1.66e-3 with `sampled`, 1.36× with random offsets). The
 /// means of the three blocks of 16 seeds spread from 1.27e-3 to 1.94e-3,
 /// so the standard error of the 48-seed mean is about 0.19e-3 (ratio
 /// ±0.17) and 2× sits about 3σ above the measured ratio; 16 seeds could

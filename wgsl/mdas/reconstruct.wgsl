@@ -15,9 +15,11 @@
 // is estimated from the leaves that placed samples in it, so a leaf
 // straddling an edge does not carry its mean (a lamp's, say) onto a pixel
 // where it has no sample; only a pixel that no leaf sampled is the
-// overlap-weighted mean of the leaf means, as with the box. The
-// coordinates are read here, so the accumulators then have their own
-// buffer.
+// overlap-weighted mean of the leaf means, as with the box. With
+// RECONSTRUCT_SHRINK as well (`reconstruction = "shrinkage"`), κ is the
+// leaf's own (leaf_kappa): σ²/τ² from a one-way analysis of variance of
+// its samples by pixel. The coordinates are read here, so the
+// accumulators then have their own buffer.
 //
 // Sums are 64-bit two's-complement fixed point, added with a 32-bit
 // atomicAdd on the low word and the carry folded into the high word:
@@ -55,6 +57,78 @@ fn add_fixed(word: u32, v: vec2<u32>) {
     if (high != 0u) {
         atomicAdd(&accum[word + 1u], high);
     }
+}
+
+// The κ of `reconstruction = "shrinkage"` for a leaf whose `own` finite
+// samples lie in footprint pixels pixel_of with values value_of: the
+// empirical-Bayes weight σ²/τ² of the leaf mean in a pixel's estimate,
+// from a one-way analysis of variance of the samples' channel sums
+// (scaled by their largest magnitude) grouped by pixel: σ² the pooled
+// within-pixel variance, τ² = (between mean square − σ²)/n₀ the variance
+// of the pixels' true means inside the leaf (n₀ the groups' effective
+// size). Pixels that differ beyond their samples' noise (a lamp's edge:
+// τ² ≫ σ²) keep their own samples (κ → 0); pixels that differ by no more
+// than it (motion blur, soft shadows: τ² ≤ 0) share the leaf mean
+// (κ = SHRINK_KAPPA_MAX, the box). Where it cannot be estimated — every
+// sample in its own pixel, or one pixel — κ = 0 (`sampled`).
+fn leaf_kappa(own: u32, pixel_of: ptr<function, array<u32, MAX_PER_LEAF + 1u>>,
+              value_of: ptr<function, array<vec3<f32>, MAX_PER_LEAF + 1u>>) -> f32 {
+    var v: array<f32, MAX_PER_LEAF + 1u>;
+    var big = 0.0;
+    for (var n = 0u; n < own; n++) {
+        v[n] = dot((*value_of)[n], vec3<f32>(1.0));
+        big = max(big, abs(v[n]));
+    }
+    if (big == 0.0) {
+        return SHRINK_KAPPA_MAX;
+    }
+    var mean = 0.0;
+    for (var n = 0u; n < own; n++) {
+        v[n] /= big;
+        mean += v[n];
+    }
+    mean /= f32(own);
+    var within = 0.0;
+    var between = 0.0;
+    var groups = 0u;
+    var sum_n2 = 0.0;
+    for (var n = 0u; n < own; n++) {
+        // Each pixel once, at its first sample.
+        var first = true;
+        for (var q = 0u; q < n; q++) {
+            first = first && (*pixel_of)[q] != (*pixel_of)[n];
+        }
+        if (!first) {
+            continue;
+        }
+        var count = 0.0;
+        var sum = 0.0;
+        for (var q = n; q < own; q++) {
+            if ((*pixel_of)[q] == (*pixel_of)[n]) {
+                count += 1.0;
+                sum += v[q];
+            }
+        }
+        let group_mean = sum / count;
+        for (var q = n; q < own; q++) {
+            if ((*pixel_of)[q] == (*pixel_of)[n]) {
+                within += (v[q] - group_mean) * (v[q] - group_mean);
+            }
+        }
+        between += count * (group_mean - mean) * (group_mean - mean);
+        groups += 1u;
+        sum_n2 += count * count;
+    }
+    if (groups < 2u || own <= groups) {
+        return 0.0;
+    }
+    let sigma2 = within / f32(own - groups);
+    let n0 = (f32(own) - sum_n2 / f32(own)) / f32(groups - 1u);
+    let tau2 = (between / f32(groups - 1u) - sigma2) / n0;
+    if (tau2 <= 0.0) {
+        return SHRINK_KAPPA_MAX;
+    }
+    return min(sigma2 / tau2, SHRINK_KAPPA_MAX);
 }
 
 @compute @workgroup_size(WG)
@@ -110,6 +184,11 @@ fn reconstruct(@builtin(global_invocation_id) gid: vec3<u32>,
             }
         }
     }
+    var kappa = params.pixel_prior;
+    // (Over one pixel κ changes nothing: the pixel holds every sample.)
+    if (RECONSTRUCT_SHRINK != 0u && total > 1u) {
+        kappa = leaf_kappa(own, &pixel_of, &value_of);
+    }
     let end = min(total, params.pass_offset + PIXELS_PER_PASS);
     for (var t = params.pass_offset; t < end; t++) {
         let i = i0 + t % nx;
@@ -128,12 +207,21 @@ fn reconstruct(@builtin(global_invocation_id) gid: vec3<u32>,
             }
             if (count > 0u) {
                 // Scaled before summing, as in leaf_mean: no overflow.
-                let inv = 1.0 / (f32(count) + params.pixel_prior);
-                value = m.mean * (params.pixel_prior * inv);
+                let inv = 1.0 / (f32(count) + kappa);
+                value = m.mean * (kappa * inv);
+                var own_mean = vec3<f32>(0.0);
                 for (var n = 0u; n < own; n++) {
                     if (pixel_of[n] == t) {
                         value += value_of[n] * inv;
+                        own_mean += value_of[n] / f32(count);
                     }
+                }
+                if (RECONSTRUCT_SHRINK != 0u) {
+                    // Limited translation in relative terms: within a
+                    // factor SHRINK_RATIO of the pixel's own mean.
+                    let a = own_mean * SHRINK_RATIO;
+                    let b = own_mean / SHRINK_RATIO;
+                    value = clamp(value, min(a, b), max(a, b));
                 }
             } else if (RECONSTRUCT_SAMPLED != 0u) {
                 w *= UNSAMPLED_WEIGHT;

@@ -35,6 +35,8 @@ use anyhow::{bail, Result};
 pub const SAMPLE_LIMIT: u64 = super::words::leaf::INDEX_MASK as u64;
 /// Pixels one reconstruction invocation splats per dispatch.
 pub const PIXELS_PER_PASS: u32 = 16384;
+/// Under [`Reconstruction::Sampled`] and [`Reconstruction::Shrinkage`], the
+/// factor on the weight of a leaf's
 /// part of a pixel where the leaf has no sample (2⁻¹⁶): the pixel is
 /// estimated from the leaves that sampled it, and falls back to the
 /// overlap-weighted leaf means only where no leaf did. With the plain
@@ -43,6 +45,17 @@ pub const PIXELS_PER_PASS: u32 = 16384;
 /// (BENCHMARKS.md, issue 48). Small enough to vanish beside a sampled
 /// part, large enough for the fixed-point sums to keep 44 bits of weight.
 pub const UNSAMPLED_WEIGHT: f32 = 1.0 / 65536.0;
+/// Under [`Reconstruction::Shrinkage`], the κ of a leaf whose pixels differ
+/// by no more than their samples' noise (`leaf_kappa` in
+/// `wgsl/mdas/reconstruct.wgsl`): the leaf mean then weighs as 10⁶ samples,
+/// so a pixel's value is the leaf mean to f32 precision, as with the box.
+pub const SHRINK_KAPPA_MAX: f32 = 1e6;
+/// Under [`Reconstruction::Shrinkage`], how far the leaf mean may move a
+/// pixel's estimate: to within this factor of the mean of the leaf's own
+/// samples in the pixel, per channel (a limited-translation estimator,
+/// Efron & Morris 1972, bounded relatively because RelMSE weighs an error
+/// by 1/value²: a pixel whose samples read 0 keeps 0).
+pub const SHRINK_RATIO: f32 = 2.0;
 
 /// One render's derived sizes.
 #[derive(Clone, Debug)]
@@ -266,9 +279,15 @@ impl Config {
             )
             .constant(
                 "RECONSTRUCT_SAMPLED",
-                (self.params.reconstruction == Reconstruction::Sampled) as u32,
+                self.params.reconstruction.skips_unsampled() as u32,
             )
             .constant_f32("UNSAMPLED_WEIGHT", UNSAMPLED_WEIGHT)
+            .constant(
+                "RECONSTRUCT_SHRINK",
+                (self.params.reconstruction == Reconstruction::Shrinkage) as u32,
+            )
+            .constant_f32("SHRINK_KAPPA_MAX", SHRINK_KAPPA_MAX)
+            .constant_f32("SHRINK_RATIO", SHRINK_RATIO)
             .constant(
                 "INITIAL_KRONECKER",
                 (self.params.initial_offsets == InitialOffsets::Kronecker) as u32,

@@ -226,6 +226,8 @@ impl Snapshot {
                 })
                 .filter(|(_, v)| v.iter().all(|c| c.is_finite()))
                 .collect();
+            let leaf_kappa = (self.params.reconstruction == Reconstruction::Shrinkage)
+                .then(|| shrinkage_kappa(&finite));
             let b = self.leaf_box(k);
             let nonfilm: f64 = b[2..].iter().map(|(lo, hi)| hi - lo).product();
             let (x0, x1) = (b[0].0 * w as f64, b[0].1 * w as f64);
@@ -246,14 +248,22 @@ impl Snapshot {
                             .map(|(_, v)| v)
                             .collect();
                         if own.is_empty() {
-                            if self.params.reconstruction == Reconstruction::Sampled {
+                            if self.params.reconstruction.skips_unsampled() {
                                 weight *= super::config::UNSAMPLED_WEIGHT as f64;
                             }
                         } else {
                             let n = own.len() as f64;
+                            let kappa = leaf_kappa.unwrap_or(kappa);
                             value = std::array::from_fn(|c| {
-                                (own.iter().map(|v| v[c] as f64).sum::<f64>() + kappa * mean[c])
-                                    / (n + kappa)
+                                let sum = own.iter().map(|v| v[c] as f64).sum::<f64>();
+                                let shrunk = (sum + kappa * mean[c]) / (n + kappa);
+                                if leaf_kappa.is_some() {
+                                    let ratio = super::config::SHRINK_RATIO as f64;
+                                    let (a, b) = (sum / n * ratio, sum / n / ratio);
+                                    shrunk.clamp(a.min(b), a.max(b))
+                                } else {
+                                    shrunk
+                                }
                             });
                         }
                     }
@@ -291,5 +301,102 @@ impl Snapshot {
         Some(std::array::from_fn(|c| {
             finite.iter().map(|v| v[c] as f64).sum::<f64>() / n
         }))
+    }
+}
+
+/// The κ of [`Reconstruction::Shrinkage`] for a leaf's finite samples
+/// (pixel, value), as `leaf_kappa` in `wgsl/mdas/reconstruct.wgsl`: σ²/τ²
+/// from a one-way analysis of variance of the channel sums (scaled by
+/// their largest magnitude) grouped by pixel; `SHRINK_KAPPA_MAX` where
+/// τ² ≤ 0 (or every value is 0), 0 where it cannot be estimated (one
+/// pixel, or one sample per pixel).
+pub fn shrinkage_kappa(samples: &[(usize, [f32; 3])]) -> f64 {
+    let max = super::config::SHRINK_KAPPA_MAX as f64;
+    let sums: Vec<f64> = samples
+        .iter()
+        .map(|(_, v)| v.iter().map(|&c| c as f64).sum())
+        .collect();
+    let big = sums.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    if big == 0.0 {
+        return max;
+    }
+    let v: Vec<f64> = sums.iter().map(|s| s / big).collect();
+    let n = v.len() as f64;
+    let mean = v.iter().sum::<f64>() / n;
+    let mut pixels: Vec<usize> = samples.iter().map(|(p, _)| *p).collect();
+    pixels.sort_unstable();
+    pixels.dedup();
+    let (mut within, mut between, mut sum_n2) = (0.0, 0.0, 0.0);
+    for &p in &pixels {
+        let group: Vec<f64> = samples
+            .iter()
+            .zip(&v)
+            .filter(|((q, _), _)| *q == p)
+            .map(|(_, &x)| x)
+            .collect();
+        let count = group.len() as f64;
+        let group_mean = group.iter().sum::<f64>() / count;
+        within += group.iter().map(|x| (x - group_mean).powi(2)).sum::<f64>();
+        between += count * (group_mean - mean).powi(2);
+        sum_n2 += count * count;
+    }
+    let groups = pixels.len() as f64;
+    if pixels.len() < 2 || n <= groups {
+        return 0.0;
+    }
+    let sigma2 = within / (n - groups);
+    let n0 = (n - sum_n2 / n) / (groups - 1.0);
+    let tau2 = (between / (groups - 1.0) - sigma2) / n0;
+    if tau2 <= 0.0 {
+        max
+    } else {
+        (sigma2 / tau2).min(max)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::shrinkage_kappa;
+    use crate::integrator::mdas::config::SHRINK_KAPPA_MAX;
+
+    fn samples(groups: &[(usize, &[f32])]) -> Vec<(usize, [f32; 3])> {
+        groups
+            .iter()
+            .flat_map(|&(p, vs)| vs.iter().map(move |&v| (p, [v, 0.0, 0.0])))
+            .collect()
+    }
+
+    /// κ = σ²/τ² by hand: pixel 0 reads {1, 3}, pixel 1 {5, 7} (scaled by
+    /// 1/7): σ² = 4/49/2, n₀ = 2, τ² = (16/49 − 2/49)/2 = 7/49, κ = 2/7.
+    #[test]
+    fn shrinkage_kappa_is_the_anova_ratio() {
+        let k = shrinkage_kappa(&samples(&[(0, &[1.0, 3.0]), (1, &[5.0, 7.0])]));
+        assert!((k - 2.0 / 7.0).abs() < 1e-12, "{k}");
+    }
+
+    /// A lamp's edge (pixels that differ, each constant) keeps each
+    /// pixel's own samples; pixels no more different than their noise
+    /// share the leaf mean; one pixel, one sample per pixel and all zeros
+    /// are the documented edge cases.
+    #[test]
+    fn shrinkage_kappa_limits() {
+        let max = SHRINK_KAPPA_MAX as f64;
+        assert_eq!(
+            shrinkage_kappa(&samples(&[(0, &[60.0, 60.0]), (1, &[0.0, 0.0])])),
+            0.0
+        );
+        assert_eq!(
+            shrinkage_kappa(&samples(&[(0, &[1.0, 3.0]), (1, &[3.0, 1.0])])),
+            max
+        );
+        assert_eq!(shrinkage_kappa(&samples(&[(0, &[1.0, 3.0, 9.0])])), 0.0);
+        assert_eq!(
+            shrinkage_kappa(&samples(&[(0, &[1.0]), (1, &[3.0]), (2, &[5.0])])),
+            0.0
+        );
+        assert_eq!(
+            shrinkage_kappa(&samples(&[(0, &[0.0, 0.0]), (1, &[0.0])])),
+            max
+        );
     }
 }

@@ -10,9 +10,12 @@
 //! paper), each pixel's part of a leaf estimated from the leaf's samples in
 //! that pixel, pulled toward the leaf mean, so that a leaf wider than a
 //! pixel does not spread one value across a film-space edge inside it;
-//! with `"sampled"` ([`Reconstruction::Sampled`], the default of a scene
-//! without a table, also not in the paper) a leaf's part of a pixel where
-//! it has no sample counts only where no leaf sampled that pixel.
+//! with `"sampled"` ([`Reconstruction::Sampled`], also not in the paper) a
+//! leaf's part of a pixel where it has no sample counts only where no leaf
+//! sampled that pixel; with `"shrinkage"` ([`Reconstruction::Shrinkage`],
+//! the default of a scene without a table, not in the paper) as
+//! `"sampled"`, each pixel's estimate shrunk toward the leaf mean by a κ
+//! the leaf's own samples give (an analysis of variance by pixel).
 //!
 //! | phase (`Render::times`) | kernel | paper |
 //! |---|---|---|

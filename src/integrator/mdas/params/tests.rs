@@ -154,7 +154,7 @@ fn for_film_takes_the_registrys_defaults() {
     assert_eq!((p.alpha, p.pace), (AUTO_ALPHA, AUTO_PACE));
     assert_eq!(
         (p.reconstruction, p.pixel_prior),
-        (Reconstruction::Sampled, 0.0)
+        (Reconstruction::Shrinkage, 0.0)
     );
     let (e, l) = auto_grid(film, p.spp);
     assert_eq!(
