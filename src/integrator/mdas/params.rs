@@ -185,11 +185,12 @@ pub enum Reconstruction {
     /// Where it cannot be estimated (all samples in one pixel, or one
     /// sample per pixel) κ = 0. The shrunk value stays within
     /// [`super::config::SHRINK_RATIO`] of the pixel's own samples' mean,
-    /// per channel (a pixel whose samples read 0 keeps 0). A fixed κ > 0 cut the RelMSE by 1.5–2× on
-    /// motion blur and soft shadows and multiplied it by 10² – 10³ on a
-    /// lamp in view; this rule cut it by 8 % on 32 generated scenes, on
-    /// 26 of them (BENCHMARKS.md, "Shrinkage toward the leaf mean"). The
-    /// default of [`MdasParams::for_film`]. Not in the paper or its code.
+    /// per channel (a pixel whose samples read 0 keeps 0). A fixed κ > 0
+    /// cut the RelMSE by 1.5–2× on motion blur and soft shadows and
+    /// multiplied it by 10²–10³ on a lamp in view; this rule cut it by 8 %
+    /// on 32 generated scenes, on 26 of them (BENCHMARKS.md, "Shrinkage
+    /// toward the leaf mean"). The default of [`MdasParams::for_film`].
+    /// Not in the paper or its code.
     Shrinkage,
 }
 
