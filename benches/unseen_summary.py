@@ -6,14 +6,65 @@ over scenes, the worst scene, MDAS's mean |relative bias| (G channel)
 beside Halton's at the same spp and seeds (noise alone: Halton is
 unbiased) and the count of scenes whose MDAS bias interval excludes 0,
 and the equal-time ratio. Also writes OUT/battery.json. Standard library
-only. Two batteries compare scene by scene with benches/unseen_paired.py.
+only.
+
+    unseen_summary.py OUT
+    unseen_summary.py --paired OUT_A ROW_A OUT_B ROW_B [--scenes]
+        two batteries scene by scene (see `paired`)
 
 Equal time: tune fits Halton's time as a + b·spp and reports the spp
 Halton reaches in MDAS's time; Halton's RelMSE there is interpolated
 log-log between its budgets (½, 1, 2, 4 × MDAS's spp) and, past 4× or
 below ½×, extrapolated along the nearest segment (counted in the table).
 """
-import json, math, os, random, re, sys
+import glob, json, math, os, random, re, sys
+
+def geomean(xs):
+    return math.exp(sum(math.log(x) for x in xs) / len(xs))
+
+def boot(xs, reps=4000):
+    rng = random.Random(48)
+    ms = sorted(geomean([rng.choice(xs) for _ in xs]) for _ in range(reps))
+    return ms[int(0.025 * reps)], ms[int(0.975 * reps) - 1]
+
+def paired(a_out, a_row, b_out, b_row, scenes=False):
+    """Two batteries scene by scene: for every job in both, row B's MDAS
+    RelMSE (run B) over row A's (run A), free of the Halton side when both
+    share their scenes, seeds and references; per integrand and over all
+    the geometric mean with its bootstrap interval and on how many scenes
+    B was better. A row is a `tune` grid label, or "-" for a run's only
+    (or last) row."""
+    def rows(out, label):
+        found = {}
+        for path in glob.glob(f"{out}/*-*-*/tune.json"):
+            job = os.path.basename(os.path.dirname(path))
+            for row in json.load(open(path))["rows"]:
+                if label in ("-", row["label"]):
+                    found[job] = row
+        return found
+    a, b = rows(a_out, a_row), rows(b_out, b_row)
+    by = {}
+    for job in sorted(set(a) & set(b)):
+        by.setdefault(job.split("-")[0], []).append((job, b[job]["relmse"] / a[job]["relmse"]))
+    if not by:
+        sys.exit("no job is in both runs with those rows")
+    every = []
+    for integrand, pairs in sorted(by.items()) + [("all", None)]:
+        ratios = [r for _, r in pairs] if pairs else every
+        lo, hi = boot(ratios)
+        print(f"{integrand:16s} B/A {geomean(ratios):.3f} [{lo:.3f}, {hi:.3f}], "
+              f"B better on {sum(r < 1 for r in ratios)}/{len(ratios)}")
+        if pairs:
+            every += ratios
+    if scenes:
+        for integrand, pairs in sorted(by.items()):
+            print(integrand, " ".join(f"{j.split('-')[1]}:{r:.2f}" for j, r in pairs))
+
+if sys.argv[1:2] == ["--paired"]:
+    if len(sys.argv) < 6:
+        sys.exit("usage: unseen_summary.py --paired OUT_A ROW_A OUT_B ROW_B [--scenes]")
+    paired(*sys.argv[2:6], scenes="--scenes" in sys.argv[6:])
+    sys.exit()
 
 out = sys.argv[1] if len(sys.argv) > 1 else "out/unseen"
 # The battery's jobs (benches/unseen.sh writes OUT/jobs.txt; its parts,
@@ -77,14 +128,6 @@ for name in sorted(os.listdir(out)):
             "equal_time_ratio": eq_time, "equal_time_extrapolated": extrapolated,
             "label": r["label"], "params": r["params"],
         })
-
-def geomean(xs):
-    return math.exp(sum(math.log(x) for x in xs) / len(xs))
-
-def boot(xs, reps=4000):
-    rng = random.Random(48)
-    ms = sorted(geomean([rng.choice(xs) for _ in xs]) for _ in range(reps))
-    return ms[int(0.025 * reps)], ms[int(0.975 * reps) - 1]
 
 print(f"Battery of scenes nobody tuned ({out}); MDAS/Halton RelMSE, MDAS with its defaults\n")
 # The bias column: MDAS's mean |relative bias| of the image (G channel)
