@@ -1,13 +1,13 @@
 //! Ray tracing throughput of the CWBVH traversal (`wgsl/shared/bvh.wgsl`)
 //! and the obvhs build time.
 //!
-//! Scenes: the Cornell box (`scenes/cornell.toml`, or the same geometry
-//! built in code when the file is missing or fails to load) and a
-//! procedural lumpy sphere of 1,001,472 triangles over a ground quad.
-//! Rays: primary rays through every pixel centre of a 640×480 pinhole
-//! camera (DESIGN.md "Primary ray"), traced for the closest hit; shadow
-//! rays from each primary hit point to a point on the light, traced with
-//! the any-hit query (t_max just short of the light). Each iteration is one
+//! Scenes: the Cornell box (`scenes/cornell.toml`, or the same geometry built
+//! in code when the file is missing or fails to load) and a procedural lumpy
+//! sphere of 1,001,472 triangles over a ground quad. Rays: primary rays
+//! through every pixel centre of a 640×480 pinhole camera
+//! (docs/conventions.md "Primary ray"), traced for the closest hit; shadow
+//! rays from each primary hit point to a point on the light, traced with the
+//! any-hit query (t_max just short of the light). Each iteration is one
 //! dispatch plus a device wait, so the figures include submission overhead;
 //! throughput is reported in rays/s (criterion "elements"). The 1M-triangle
 //! BVH build (all obvhs PLOC builds, `BuiltScene::new`) is timed on its own.

@@ -147,9 +147,9 @@ fn contribution(l: &LightPrim, s: &Shading) -> f64 {
     }
 }
 
-/// The first hits of primary rays through the centres of a `width`-wide
-/// grid over the film (pinhole camera of DESIGN.md "Conventions"), with
-/// their geometric normals facing the camera.
+/// The first hits of primary rays through the centres of a `width`-wide grid
+/// over the film (the pinhole camera of docs/conventions.md "Primary ray"),
+/// with their geometric normals facing the camera.
 fn shading_points(file: &SceneFile, width: u32, time: f32) -> Result<Vec<Shading>> {
     let scene = &file.scene;
     let built = BuiltScene::new(scene)?;

@@ -1,5 +1,5 @@
 //! The film: the image plane's resolution in pixels (the raster
-//! convention is in `shared/DESIGN.md`).
+//! convention is in docs/conventions.md, "Raster").
 
 /// Film resolution in pixels. Pixel (i, j) covers [i, i+1) × [j, j+1),
 /// i = column from the left, j = row from the top.

@@ -1,7 +1,7 @@
 //! Reading and writing images: linear float EXR and sRGB PNG, written
 //! atomically.
 //!
-//! Conventions (DESIGN.md):
+//! Conventions (docs/conventions.md, "Raster" and "Output"):
 //!
 //! - Images are row-major slices of linear RGB pixels, `&[[f32; 3]]`; pixel
 //!   (i, j) (i = column from the left, j = row from the top) is at index

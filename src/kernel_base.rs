@@ -7,9 +7,10 @@ use crate::accel::GpuScene;
 use crate::gpu::shader::Wgsl;
 use crate::wgsl_file;
 
-/// Loop iterations allowed for one ray's traversal in the loop bounds of
-/// an evaluation (lavapipe ends an invocation's loops after 65,535
-/// iterations in all, DESIGN.md): a typical ray takes a few hundred steps.
+/// Loop iterations allowed for one ray's traversal in the loop bounds of an
+/// evaluation (lavapipe ends an invocation's loops after 65,535 iterations in
+/// all, docs/conventions.md "Known pitfalls"): a typical ray takes a few
+/// hundred steps.
 pub const RAY_ITERATIONS: u64 = 1_000;
 
 /// Most dimensions (film included) any integrand may use.

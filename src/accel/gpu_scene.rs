@@ -4,8 +4,8 @@
 //! declares (uniforms, CWBVH nodes, triangles, instances, keyframes,
 //! materials, emitters, lights) and the bind-group layout every kernel that
 //! uses the scene puts at group 1. Besides the BVH ([`BuiltScene`]) it
-//! derives the camera frame of DESIGN.md "Conventions" for the render film
-//! and the emissive-triangle selection table ([`emitter_table`]).
+//! derives the camera frame of docs/conventions.md "Primary ray" for the
+//! render film and the emissive-triangle selection table ([`emitter_table`]).
 
 use anyhow::Result;
 use glam::Vec3;
@@ -302,7 +302,7 @@ fn gpu_light(light: &Light) -> GpuLight {
     }
 }
 
-/// Camera frame (DESIGN.md "Conventions"), film, shutter and counts.
+/// Camera frame (docs/conventions.md "Primary ray"), film, shutter and counts.
 pub fn scene_uniforms(
     scene: &Scene,
     built: &BuiltScene,

@@ -18,8 +18,8 @@ use crate::gpu::buffer::STORAGE;
 use crate::gpu::shader::{bind_buffers, storage_entry, uniform_entry, Wgsl};
 use crate::gpu::Gpu;
 
-/// One pinhole ray through each pixel centre of `film`, row by row from
-/// the top (DESIGN.md "Primary ray"), at scene time 0, t_max infinite:
+/// One pinhole ray through each pixel centre of `film`, row by row from the
+/// top (docs/conventions.md "Primary ray"), at scene time 0, t_max infinite:
 /// the shading points of the trace and visibility benchmarks.
 pub fn pinhole_rays(camera: &crate::scene::Camera, film: Film) -> Vec<Ray> {
     let f = (camera.look_at - camera.position).normalize();

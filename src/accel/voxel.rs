@@ -1,8 +1,9 @@
 //! Constant-time shadow rays: the 2D array of per-direction bit
 //! voxelizations of Wang, Meng & Popescu, *Constant-Time Ray-Scene
 //! Intersection for Interactive Rendering with Thousands of Dynamic Lights*
-//! (`../shared/papers/constant-time-ray-scene-intersection.txt`), the
-//! second visibility backend beside the BVH. This module holds the
+//! (a manuscript submitted to ACM Transactions on Graphics;
+//! docs/conventions.md, "References"), the second visibility backend beside
+//! the BVH. This module holds the
 //! parameters, the memory layout, and the CPU oracle of both the build and
 //! the query; [`super::gpu_voxel`] builds the same bits on the GPU and
 //! `wgsl/shared/voxel.wgsl` answers the queries.

@@ -10,7 +10,8 @@
 /// through a corner or along a side (a point on the line counts as
 /// inside; the set of such points has no area). `normal` need not be
 /// unit length; a zero normal gives the whole area when 0 < c and 0
-/// otherwise. The pixel (i, j) of the DESIGN.md raster convention is
+/// otherwise. The pixel (i, j) of the raster convention
+/// (docs/conventions.md "Raster") is
 /// `half_plane_area([i, j], [1, 1], …)`, and its mean over a step of
 /// values a (inside) and b (outside) is `b + (a − b)·area`.
 ///

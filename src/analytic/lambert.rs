@@ -19,8 +19,9 @@ use glam::DVec3;
 ///
 /// - The emitter is **one-sided**: its normal is the vector area of the
 ///   polygon, which for a convex polygon points along (v1 − v0) × (v2 − v0)
-///   (counter-clockwise seen from the lit side, as in DESIGN.md). A point `p`
-///   on the back side or in the emitter's plane gets 0. With that orientation
+///   (counter-clockwise seen from the lit side, as in docs/conventions.md
+///   "Materials"). A point `p` on the back side or in the emitter's plane
+///   gets 0. With that orientation
 ///   the sum above is negative, so E = −(L/2)·Σ; tiny negative values from
 ///   rounding are clamped to 0.
 /// - **Horizon clipping is implemented**: if part of the polygon lies below

@@ -9,8 +9,9 @@
 //! - A diffuse square y = 0, x, z ∈ [−10, 10], albedo ρ = 0.5 in all
 //!   channels, normal +y.
 //! - One quad area light with corners (−0.5, 2, −0.5), (0.5, 2, −0.5),
-//!   (0.5, 2, 0.5), (−0.5, 2, 0.5), radiance L = 10 (white). By the DESIGN.md
-//!   convention its normal is (v1 − v0) × (v2 − v0) = (0, −1, 0): it emits
+//!   (0.5, 2, 0.5), (−0.5, 2, 0.5), radiance L = 10 (white). By the
+//!   convention of docs/conventions.md "Materials" its normal is
+//!   (v1 − v0) × (v2 − v0) = (0, −1, 0): it emits
 //!   downward only. It is a pure emitter (it reflects nothing) and it is above
 //!   the top of the film, so it is never seen directly (checked in a test).
 //! - Background (every ray that misses the square) is 0.
@@ -29,8 +30,9 @@
 //!
 //! # Pixel values
 //!
-//! Following DESIGN.md, pixel (i, j) (column i from the left, row j from the
-//! top) covers the film rectangle [i, i+1) × [j, j+1) in raster units, the
+//! Following docs/conventions.md ("Raster", "Primary ray"), pixel (i, j)
+//! (column i from the left, row j from the top) covers the film rectangle
+//! [i, i+1) × [j, j+1) in raster units, the
 //! primary ray through film point (x, y) is
 //!
 //! ```text
@@ -110,7 +112,8 @@ const LIGHT_VERTICES: [DVec3; 4] = [
 // ---------------------------------------------------------------------------
 // Camera and scene
 
-/// The DESIGN.md pinhole camera: orthonormal frame and film scale.
+/// The pinhole camera of docs/conventions.md "Primary ray": orthonormal
+/// frame and film scale.
 #[derive(Clone, Copy, Debug)]
 struct Camera {
     position: DVec3,
@@ -337,8 +340,8 @@ impl AreaLightPlaneFilm {
 }
 
 /// Mean radiance over pixel (i, j) of the `area_light_plane` scene rendered
-/// at `width` × `height` (DESIGN.md raster convention; the three channels are
-/// equal). Indices outside the film are not an error: they integrate the
+/// at `width` × `height` (docs/conventions.md "Raster"; the three channels
+/// are equal). Indices outside the film are not an error: they integrate the
 /// footprint [i, i+1) × [j, j+1) of the extended film plane. A zero width or
 /// height has no pixels and gives NaN.
 pub fn area_light_plane_pixel(i: u32, j: u32, width: u32, height: u32) -> [f64; 3] {

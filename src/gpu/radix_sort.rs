@@ -34,8 +34,9 @@
 //!
 //! # Determinism and correctness on every driver
 //!
-//! No invocation waits for another workgroup (DESIGN.md: lavapipe gives
-//! wrong answers with spin-waits, so no decoupled look-back), there are no
+//! No invocation waits for another workgroup (docs/conventions.md "Known
+//! pitfalls": lavapipe gives wrong answers with spin-waits, so no decoupled
+//! look-back), there are no
 //! atomics whose order matters (the only atomics are the tile's digit
 //! counts, and integer additions commute), and each output position is a
 //! function of the input alone: the sort is stable and gives the same

@@ -7,7 +7,8 @@
 //! 3 is the second coordinate. The estimator is
 //! L_e(x) + ρ(x)/π · L_e(y) · cosθ_x · cosθ_y / |x − y|² · V(x, y) / p(y)
 //! with p(y) = pmf(triangle)/area(triangle): one shadow ray, both cosines,
-//! the inverse squared distance and the area pdf (DESIGN.md "Lights").
+//! the inverse squared distance and the area pdf (docs/conventions.md
+//! "Lights").
 //! Emission is one-sided (the side the geometric normal faces); reflection
 //! is two-sided, with cosθ_x from the shading normal (vertex normals, if
 //! the mesh has them) and 0 for light behind the geometric surface.

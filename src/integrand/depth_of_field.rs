@@ -1,8 +1,9 @@
 //! Depth of field — the 4D integrand of the MDAS paper's Chess and Bistro
 //! scenes (§5.3).
 //!
-//! A thin-lens camera (DESIGN.md "Camera"): the ray through film point
-//! (x, y) leaves the lens point position + aperture_radius·disk(u)·(r, u)
+//! A thin-lens camera (docs/conventions.md "Primary ray"): the ray through
+//! film point (x, y) leaves the lens point
+//! position + aperture_radius·disk(u)·(r, u)
 //! and passes through the point that the pinhole ray meets on the plane of
 //! focus. The ray is traced at shutter-open time and shaded by
 //! `shade_direct` (`wgsl/shared/shading.wgsl`): the emission it sees plus,

@@ -2,10 +2,11 @@
 //!
 //! An integrand is a function f: [0, W) × [0, H) × [0, 1)^(d−2) → RGB,
 //! written in WGSL, whose integral over a pixel's footprint (divided by the
-//! footprint's area) is the pixel value (DESIGN.md: a pixel's value is the
-//! mean radiance over its footprint). Dimensions 0 and 1 are the film point
-//! in raster units; dimensions 2.. are the integrand's own (lens, time,
-//! light, bounce, …), documented by each integrand in a stable order.
+//! footprint's area) is the pixel value (docs/conventions.md "Pixel value": a
+//! pixel's value is the mean radiance over its footprint). Dimensions 0 and 1
+//! are the film point in raster units; dimensions 2.. are the integrand's own
+//! (lens, time, light, bounce, …), documented by each integrand in a stable
+//! order.
 //!
 //! On the WGSL side an integrand defines
 //!
@@ -113,11 +114,11 @@ pub trait Integrand {
     /// and everything it needs (shared parts are de-duplicated by name).
     fn wgsl(&self) -> Wgsl;
 
-    /// An upper bound on the shader loop iterations one evaluation runs,
-    /// for integrators that evaluate several samples per invocation
-    /// (lavapipe silently ends an invocation's loops after 65,535
-    /// iterations in all, DESIGN.md); 0, the default: a few rays' worth,
-    /// small enough for any integrator.
+    /// An upper bound on the shader loop iterations one evaluation runs, for
+    /// integrators that evaluate several samples per invocation (lavapipe
+    /// silently ends an invocation's loops after 65,535 iterations in all,
+    /// docs/conventions.md "Known pitfalls"); 0, the default: a few rays'
+    /// worth, small enough for any integrator.
     fn loop_iterations(&self) -> u32 {
         0
     }

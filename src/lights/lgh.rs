@@ -1,5 +1,5 @@
-//! The lighting grid hierarchy (Lin & Yuksel 2019,
-//! `shared/papers/lighting-grid-hierarchy.txt`, after Yuksel & Yuksel
+//! The lighting grid hierarchy (Lin & Yuksel 2019, *Real-Time Rendering
+//! with Lighting Grid Hierarchy*, I3D '19; after Yuksel & Yuksel
 //! 2017): many point lights and VPLs replaced by grid lights at doubling
 //! cell sizes, the levels blended by distance, shadows estimated with a
 //! few stochastic shadow rays. This module is the CPU oracle of the GPU

@@ -1,6 +1,6 @@
 //! Many-light sampling: light primitives, the perfect light tree of
-//! real-time stochastic lightcuts (`shared/papers/real-time-stochastic-lightcuts.txt`),
-//! and light samplers behind one contract.
+//! real-time stochastic lightcuts (Lin & Yuksel, *Real-Time Stochastic
+//! Lightcuts*, I3D 2020), and light samplers behind one contract.
 //!
 //! # Data (shared by the CPU code, the GPU build and the WGSL samplers)
 //!

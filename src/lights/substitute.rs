@@ -1,7 +1,7 @@
-//! Stochastic substitute trees (Tatzgern et al. 2020,
-//! `shared/papers/stochastic-substitute-trees.txt`): the CPU oracle of the
-//! trees, their substitute distributions and the sampler (`sst`,
-//! `sst_nosub`, `sst_perfect`).
+//! Stochastic substitute trees (Tatzgern, Mayr, Kerbl & Steinberger,
+//! *Stochastic Substitute Trees for Real-Time Global Illumination*, I3D
+//! 2020): the CPU oracle of the trees, their substitute distributions and
+//! the sampler (`sst`, `sst_nosub`, `sst_perfect`).
 //!
 //! # The trees
 //!

@@ -1,6 +1,6 @@
-//! Real-time stochastic lightcuts (Lin & Yuksel 2020,
-//! `shared/papers/real-time-stochastic-lightcuts.txt`): the perfect light
-//! tree and the cuts sampled over any binary light tree.
+//! Real-time stochastic lightcuts (Lin & Yuksel, *Real-Time Stochastic
+//! Lightcuts*, I3D 2020): the perfect light tree and the cuts sampled over
+//! any binary light tree.
 //!
 //! * [`perfect`] — the CPU oracle of the perfect tree (§3.1, §4), sorted
 //!   by Morton code; the layout is in [`crate::lights`]' module docs.

@@ -3,7 +3,7 @@
 //! difference ([`flip()`]).
 //!
 //! Images are plain row-major slices of linear RGB pixels, `&[[f32; 3]]`,
-//! pixel (i, j) at index `j * width + i` (DESIGN.md raster convention). The
+//! pixel (i, j) at index `j * width + i` (docs/conventions.md "Raster"). The
 //! per-pixel metrics only need the two slices to be the same length, so no
 //! width or height is passed to them; FLIP filters the image spatially and
 //! therefore takes `width` and `height`.
@@ -18,12 +18,12 @@
 //! MAE(x, ref)    = 1/(3N) Σ_pixels Σ_c |x_c − ref_c|
 //! ```
 //!
-//! RelMSE is the relative MSE of the MDAS paper (Meister & Hachisuka 2022) and
-//! the project-wide definition in DESIGN.md. All three are computed on the
-//! linear values as they are (no clamping, no tone mapping). Sums are
-//! accumulated in `f64` (each term is computed in `f64` from the `f32`
-//! inputs), so the results do not depend on summation error at any realistic
-//! image size.
+//! RelMSE is the relative MSE of the MDAS paper (Meister & Hachisuka 2022)
+//! and the project-wide definition in docs/conventions.md "RelMSE". All three
+//! are computed on the linear values as they are (no clamping, no tone
+//! mapping). Sums are accumulated in `f64` (each term is computed in `f64`
+//! from the `f32` inputs), so the results do not depend on summation error at
+//! any realistic image size.
 //!
 //! # Non-finite pixels
 //!
@@ -31,9 +31,10 @@
 //! are counted in [`ErrorStats::nonfinite_pixels`] and **excluded** from the
 //! means: `N` above is the number of finite pixels, not the image size. This
 //! keeps one stray NaN from turning the whole metric into NaN, while the count
-//! makes sure it is reported rather than silently zeroed (DESIGN.md: "Non-finite
-//! pixels are counted and reported, never silently zeroed"). A caller that
-//! wants a NaN to fail a comparison must check `nonfinite_pixels == 0`. If every
+//! makes sure it is reported rather than silently zeroed (docs/conventions.md
+//! "RelMSE": non-finite pixels are counted and reported, never silently
+//! zeroed). A caller that wants a NaN to fail a comparison must check
+//! `nonfinite_pixels == 0`. If every
 //! pixel is non-finite, all three means are `f64::INFINITY`. [`flip()`] follows
 //! the same rule for its mean (see [`FlipMap`] for how such pixels enter its
 //! spatial filters and its per-pixel map).

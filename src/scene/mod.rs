@@ -2,7 +2,7 @@
 //!
 //! A [`Scene`] is loaded from a TOML file by [`crate::scene_file`] (format
 //! in `docs/scene-format.md`) and holds everything in world space
-//! (right-handed, +y up, linear RGB; see `shared/DESIGN.md`):
+//! (right-handed, +y up, linear RGB; see `docs/conventions.md`):
 //! the film, the camera, materials, triangle meshes (every shape is
 //! tessellated to triangles on load), per-mesh rigid motion over the
 //! shutter ([`motion`]), analytic lights (point, directional) and
@@ -23,7 +23,7 @@ pub mod shapes;
 use crate::film::Film;
 use glam::{Quat, Vec2, Vec3};
 
-/// Pinhole or thin-lens camera (DESIGN.md "Camera").
+/// Pinhole or thin-lens camera (docs/conventions.md "Camera").
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
     pub position: Vec3,

@@ -6,7 +6,7 @@
 //! splits quads. Any other element or property (colours, texture
 //! coordinates, edges) is read and left out: no integrand uses them.
 //! Winding is kept: the geometric normal of a face is
-//! (v1 − v0) × (v2 − v0), as everywhere else (DESIGN.md "Materials").
+//! (v1 − v0) × (v2 − v0), as everywhere else (docs/conventions.md "Materials").
 
 use super::shapes::TriMesh;
 use glam::{Vec2, Vec3};

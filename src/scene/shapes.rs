@@ -1,5 +1,5 @@
 //! Tessellation of the scene file's shapes into counter-clockwise triangle
-//! meshes (geometric normal `(v1 − v0) × (v2 − v0)`, DESIGN.md
+//! meshes (geometric normal `(v1 − v0) × (v2 − v0)`, docs/conventions.md
 //! "Materials"); the `heightfield` and `blob` generators take their noise
 //! from [`super::noise`].
 //!
@@ -34,8 +34,8 @@ pub struct TriMesh {
     pub indices: Vec<[u32; 3]>,
     /// Shading normals, one per position (an OBJ's `vn`), or empty: the
     /// geometric normal shades. They change only how a surface reflects;
-    /// the geometric normal still decides which side emits (DESIGN.md
-    /// "Materials").
+    /// the geometric normal still decides which side emits
+    /// (docs/conventions.md "Materials").
     pub normals: Vec<Vec3>,
 }
 

@@ -32,9 +32,9 @@ use glam::Vec3;
 /// Invocations per workgroup of the build kernels.
 const WG: u32 = 128;
 
-/// lavapipe stops every loop of an invocation after 65,535 iterations in
-/// all (DESIGN.md): the gathers and the shading walk stay below this on a
-/// CPU adapter, or the build is refused with the reason.
+/// lavapipe stops every loop of an invocation after 65,535 iterations in all
+/// (docs/conventions.md "Known pitfalls"): the gathers and the shading walk
+/// stay below this on a CPU adapter, or the build is refused with the reason.
 const CPU_LOOP_BUDGET: u64 = 60_000;
 
 /// Profiler phases of a build, in order.

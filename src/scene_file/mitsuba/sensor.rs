@@ -1,6 +1,6 @@
 //! `<sensor>` with its `<film>` and `<sampler>`: Mitsuba's camera frame
 //! (+z forward, +y up, +x to the image's left) and field-of-view axes
-//! turned into mdas's camera (DESIGN.md "Camera").
+//! turned into mdas's camera (docs/conventions.md "Camera").
 
 use super::plugins::{Builder, Sensor};
 use super::props::{f32v, no_nested, plugin_children, Props};
