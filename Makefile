@@ -3,12 +3,13 @@
 #                MDAS, and compare them at equal time against a reference (out/)
 #   make test  — the whole test suite (CPU Vulkan driver if there is no GPU)
 # Both install a Vulkan driver first when none is present (.ci/ensure-vulkan.sh).
+# `make help` lists every target.
 
 CARGO ?= cargo
 SCENE ?= scenes/cornell.toml
 SPP ?= 64
 
-.PHONY: run test lint crosscheck browser-test slurm-test vulkan build bench info clean mutants mutants-wgsl
+.PHONY: run test lint crosscheck browser-test slurm-test vulkan build bench info clean clean-cache help mutants mutants-wgsl
 
 vulkan:
 	@./.ci/ensure-vulkan.sh
@@ -30,7 +31,8 @@ run: build
 
 # Formatting is checked first (seconds); clippy runs in CI after the tests
 # (`.ci/run`: make test, then make lint), since a clean clippy build costs
-# another ~4–6 minutes on 2 cores and `make test` must stay under 15.
+# another ~4–6 minutes on 2 cores and `make test` must stay under 15
+# minutes on 2 cores from a clean clone.
 # The examples are built by `cargo test` (test profile, so `run --profile
 # test` reuses them instead of compiling the crate again) and run after it,
 # on small films (README, "Library").
@@ -91,6 +93,31 @@ mutants: vulkan
 mutants-wgsl: vulkan
 	./.ci/wgsl-mutants.sh
 
+# Build outputs (target/, which holds the Mitsuba venv and the examples'
+# outputs too) and out/; the reference cache (.cache/references, the
+# default --cache of every command) is kept: its renders take minutes to
+# hours and are keyed by content, so they stay valid across builds.
 clean:
 	$(CARGO) clean
-	rm -rf out .cache
+	rm -rf out
+
+# The reference cache: every cached reference is rendered again on use.
+clean-cache:
+	rm -rf .cache/references
+
+help:
+	@echo 'make run           build, print the adapter, render $(SCENE) with Halton and MDAS, compare them at equal time (out/)'
+	@echo 'make test          rustfmt check, the whole test suite, then the examples'
+	@echo 'make lint          rustfmt check and clippy on every target, warnings as errors'
+	@echo 'make crosscheck    Mitsuba 3 and mdas render tests/crosscheck/scenes/*.xml; statistical comparison'
+	@echo 'make browser-test  the comparison page driven in headless Chromium'
+	@echo 'make slurm-test    a reference and a sweep as Slurm job arrays on a one-node cluster (opt-in)'
+	@echo 'make mutants       cargo-mutants on the CPU code (hours; ONLY=..., LIST=1)'
+	@echo 'make mutants-wgsl  plants estimator bugs in the WGSL kernels; the tests must catch each (ONLY=...)'
+	@echo 'make bench         cargo bench (criterion)'
+	@echo 'make build         release build (target/release/mdas)'
+	@echo 'make info          the adapter, backend, features in use and limits'
+	@echo 'make vulkan        install a Vulkan driver (Mesa) when none is present'
+	@echo 'make clean         remove build outputs (target/) and out/; keeps the reference cache'
+	@echo 'make clean-cache   remove the reference cache (.cache/references)'
+	@echo 'make help          this list'
