@@ -525,11 +525,27 @@ fn bad_arguments_fail_cleanly() {
     );
 }
 
+/// Also issue 67 item 1: a reference rendered ahead of time by `mdas
+/// reference` with its defaults is the one `compare` looks up with its
+/// defaults (the seed was 0 for one and 1 for the other, so the cache was
+/// never hit).
 #[test]
 fn compare_json_goes_to_stdout_and_matches_the_report() {
     let dir = temp_dir("compare");
     let out = dir.join("cmp");
     let cache = dir.join("cache");
+    let r = mdas(&[
+        "-q",
+        "reference",
+        "scenes/area_light_plane.toml",
+        "--scale",
+        "0.125",
+        "--spp",
+        "16",
+        "--cache",
+        cache.to_str().unwrap(),
+    ]);
+    assert!(r.status.success(), "stderr: {}", stderr(&r));
     let o = mdas(&[
         "compare",
         "scenes/area_light_plane.toml",
@@ -551,6 +567,47 @@ fn compare_json_goes_to_stdout_and_matches_the_report() {
     let printed = String::from_utf8_lossy(&o.stdout);
     let written = std::fs::read_to_string(out.join("report.json")).unwrap();
     assert_eq!(printed.trim(), written.trim());
+    let report: serde_json::Value = serde_json::from_str(&written).unwrap();
+    assert_eq!(
+        report["reference"]["cached"], true,
+        "compare did not find the reference `mdas reference` cached: {}",
+        report["reference"]
+    );
+    // The report follows docs/report-schema.md: its version, and its
+    // top-level fields exactly those of the page's table (the optional
+    // ones may be absent).
+    assert_eq!(
+        report["schema_version"],
+        mdas::compare::REPORT_SCHEMA_VERSION
+    );
+    let page = std::fs::read_to_string("docs/report-schema.md").unwrap();
+    let table = page
+        .split("## Top level")
+        .nth(1)
+        .and_then(|t| t.split("\n## ").next())
+        .unwrap();
+    let mut documented = std::collections::BTreeSet::new();
+    let mut required = std::collections::BTreeSet::new();
+    for row in table.lines().filter(|l| l.starts_with("| `")) {
+        let cells: Vec<&str> = row.split('|').map(str::trim).collect();
+        let key = cells[1].trim_matches('`').to_string();
+        if !cells[2].contains("optional") {
+            required.insert(key.clone());
+        }
+        documented.insert(key);
+    }
+    let present: std::collections::BTreeSet<String> =
+        report.as_object().unwrap().keys().cloned().collect();
+    assert!(
+        present.is_subset(&documented),
+        "undocumented fields: {:?}",
+        present.difference(&documented).collect::<Vec<_>>()
+    );
+    assert!(
+        required.is_subset(&present),
+        "documented fields missing: {:?}",
+        required.difference(&present).collect::<Vec<_>>()
+    );
     // The table goes to stderr with --json.
     assert!(stderr(&o).contains("equal-time RelMSE ratio MDAS/Halton"));
     std::fs::remove_dir_all(&dir).ok();

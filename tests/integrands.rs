@@ -829,7 +829,7 @@ radiance = [4, 4, 4]
 /// The exact pixel means of [`tilted_scene`]: ρ/π·E(p) with E by Lambert's
 /// polygon formula (`analytic::lambert_polygon_irradiance`, which shares no
 /// code with the renderer), averaged over each pixel's footprint on an
-/// m×m midpoint grid. Rays follow the DESIGN.md pinhole camera.
+/// m×m midpoint grid. Rays follow the pinhole camera of docs/conventions.md.
 fn tilted_exact(m: usize) -> Vec<f64> {
     use glam::DVec3;
     let (pos, look) = (DVec3::new(0.0, 1.5, 3.0), DVec3::new(0.0, 0.0, -1.0));

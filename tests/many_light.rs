@@ -43,7 +43,7 @@ fn integrand_interleaved(scene: &SceneFile, film: Film, sampler: SamplerKind, m:
 }
 
 /// Exact pixel means of `scenes/tests/point_lights_plane.toml`: the camera
-/// of DESIGN.md "Conventions" (f = normalize(look_at − eye), r =
+/// of docs/conventions.md "Primary ray" (f = normalize(look_at − eye), r =
 /// normalize(f × up), u = r × f), rays hitting the plane y = 0, radiance
 /// ρ/π · Σ I_i · cosθ_i / d_i²; each pixel averaged by a 4×4 midpoint rule
 /// (the radiance is smooth over a pixel: the lights are ≥ 0.3 above the

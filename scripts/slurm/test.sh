@@ -126,6 +126,12 @@ while [ -n "$(squeue -h)" ]; do
     sleep 2
 done
 cat "$dir"/work/mdas-run-*.out "$dir"/work/mdas-merge-run-*.out
+# Every sweep part found the merged reference (same scene, spp, scale and
+# default seed): the cache still holds that one entry, none rendered anew.
+entries=$(ls "$dir"/work/cache/*.exr | wc -l)
+[ "$entries" = 1 ] || {
+    echo "FAIL: the sweep parts rendered their own reference ($entries cache entries, expected the merged one only)" >&2
+    ls "$dir"/work/cache >&2; exit 1; }
 "$MDAS" -q sweep "$scene" "${args[@]}" --out "$dir/work/sweep-one" > /dev/null
 "$python" - "$dir/work/sweep-merged/sweep.json" "$dir/work/sweep-one/sweep.json" <<'EOF'
 import json, sys

@@ -364,8 +364,9 @@ pub(crate) struct ReferenceArgs {
     #[arg(long, default_value_t = 65536, value_parser = clap::value_parser!(u32).range(1..))]
     pub(crate) ref_spp: u32,
     /// Seed of the reference (differs from the compared Halton's by default,
-    /// so their errors are independent).
-    #[arg(long, default_value_t = 1)]
+    /// so their errors are independent; `mdas reference` renders with the
+    /// same default, so a reference made ahead of time is found).
+    #[arg(long, default_value_t = mdas::session::DEFAULT_REFERENCE_SEED)]
     pub(crate) ref_seed: u32,
     /// Reference cache directory (as `mdas reference --cache`).
     #[arg(long, default_value = ".cache/references")]
@@ -409,7 +410,10 @@ pub(crate) struct ExperimentArgs {
     /// [mdas] seed for MDAS).
     #[arg(long)]
     pub(crate) seed: Option<u32>,
-    /// Timed runs per measurement, after one warm-up; times are medians.
+    /// Timed runs per measurement, after one warm-up. A sweep's times and
+    /// a budget search's runs are medians of them; compare's equal-time
+    /// target comes from max(repeats, 9) interleaved rounds of MDAS and
+    /// the bracketing Halton budgets, each method's fastest round.
     #[arg(long, default_value_t = 3)]
     pub(crate) repeats: u32,
     /// Largest spp a budget search may try (at least 1). When a search

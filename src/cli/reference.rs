@@ -12,8 +12,10 @@ pub(crate) struct ReferenceArgs {
     /// Render at this fraction of the scene's film size (same camera).
     #[arg(long, default_value_t = 1.0)]
     pub(crate) scale: f32,
-    /// Seed of the reference's random shifts.
-    #[arg(long, default_value_t = 0)]
+    /// Seed of the reference's random shifts. The default is the one
+    /// `compare`, `sweep` and `tune` look up (their --ref-seed), so they
+    /// find this reference in the cache.
+    #[arg(long, default_value_t = mdas::session::DEFAULT_REFERENCE_SEED)]
     pub(crate) seed: u32,
     /// Cache directory; references are keyed by a hash of the scene file (less its `[mdas]` table and comments) and these parameters.
     #[arg(long, default_value = ".cache/references")]

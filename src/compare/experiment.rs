@@ -596,6 +596,7 @@ fn report(
     // "mdas"; the nearer bracketing run's under a time budget).
     let mdas_relmse = seeded.mdas.relmse;
     let report = Report {
+        schema_version: super::report::REPORT_SCHEMA_VERSION,
         scene: subject.name.clone(),
         scale: spec.setup.scale,
         sampler: subject.sampler.clone(),

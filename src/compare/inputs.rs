@@ -103,7 +103,8 @@ impl Setup<'_> {
 
 impl<'a> Setup<'a> {
     /// A setup for [`super::compare_integrand`]: `name` in place of a scene file,
-    /// Halton seed 0 (the reference seed, 1, is kept apart from it), 3
+    /// Halton seed 0 (the reference seed,
+    /// [`crate::session::DEFAULT_REFERENCE_SEED`], is kept apart from it), 3
     /// timed repeats, no progress bars, and `mdas_params` (usually the
     /// identity). The fields are public: change what you need.
     pub fn new(
@@ -115,7 +116,7 @@ impl<'a> Setup<'a> {
             scene: PathBuf::from(name),
             scale: 1.0,
             ref_spp: 0,
-            ref_seed: 1,
+            ref_seed: crate::session::DEFAULT_REFERENCE_SEED,
             cache_dir: PathBuf::new(),
             halton_seed: 0,
             repeats: 3,

@@ -34,7 +34,7 @@ pub use equal_time::{
 };
 pub use experiment::{compare, compare_integrand, compare_with};
 pub use inputs::{Budget, CompareSpec, ReferenceSource, Setup, Subject};
-pub use report::Report;
+pub use report::{Report, REPORT_SCHEMA_VERSION};
 pub use samplers::{compare_samplers, SamplersSpec};
 pub use sweep::{sweep_integrand, SweepSpec};
 pub use tune::{tune_integrand, TuneSpec};

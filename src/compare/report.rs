@@ -1,6 +1,6 @@
 //! `report.json` of `mdas compare`: what was compared, how long each
 //! method took per phase, its error against the reference, and the
-//! equal-time RelMSE ratio MDAS/Halton (DESIGN.md "Equal time", "RelMSE").
+//! equal-time RelMSE ratio MDAS/Halton (docs/conventions.md "Equal time", "RelMSE").
 //!
 //! Times are milliseconds, medians over the timed repeats after a warm-up
 //! (`compare::equal_time::measure`); `time_ms.total` is the sum of the
@@ -15,9 +15,17 @@ use crate::provenance::Provenance;
 use serde::Serialize;
 use std::collections::BTreeMap;
 
+/// The version of `report.json`'s layout ([`Report::schema_version`]):
+/// raised when a field is removed, renamed or changes meaning (adding a
+/// field does not raise it). docs/report-schema.md describes version 1.
+pub const REPORT_SCHEMA_VERSION: u32 = 1;
+
 /// The whole report.
 #[derive(Clone, Debug, Serialize)]
 pub struct Report {
+    /// [`REPORT_SCHEMA_VERSION`]: what a reader checks before it trusts
+    /// the fields below.
+    pub schema_version: u32,
     pub scene: String,
     pub scale: f32,
     /// The light sampler of the compared renders (`many_light` scenes:

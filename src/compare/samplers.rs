@@ -331,6 +331,7 @@ fn run(gpu: &Gpu, spec: &SamplersSpec) -> Result<Report> {
         .as_ref()
         .map_or(mdas_main.error.relmse, |m| m.relmse);
     let report = Report {
+        schema_version: super::report::REPORT_SCHEMA_VERSION,
         scene: setup.scene.display().to_string(),
         scale: setup.scale,
         sampler: None,

@@ -30,7 +30,7 @@
 //! lavapipe an invocation of one sample costs about as much as one of
 //! eight.
 //!
-//! Phases (equal-time accounting, DESIGN.md): `evaluate` (tracing and
+//! Phases (equal-time accounting, docs/conventions.md): `evaluate` (tracing and
 //! shading) and `accumulate`.
 
 use super::{Integrator, Render};

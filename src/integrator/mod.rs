@@ -2,7 +2,7 @@
 //!
 //! An integrator chooses points of an integrand's domain, evaluates the
 //! integrand there with GPU kernels and reconstructs pixel values — the
-//! mean of the integrand over each pixel's footprint (DESIGN.md). It knows
+//! mean of the integrand over each pixel's footprint (docs/conventions.md). It knows
 //! nothing of scenes. Implementations: [`Halton`] (quasi-Monte Carlo
 //! baseline, randomly shifted) and [`Mdas`] (multidimensional adaptive
 //! sampling, `mdas/`).

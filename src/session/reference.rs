@@ -16,6 +16,13 @@ use anyhow::{bail, Context, Result};
 use sha2::{Digest, Sha256};
 use std::path::{Path, PathBuf};
 
+/// The seed of a reference unless one is named: `mdas reference` renders
+/// with it and `compare`, `sweep` and `tune` look references up with it
+/// (`--ref-seed`), so that a reference rendered or merged ahead of time is
+/// the one they find. It is not 0, the compared Halton renders' default
+/// seed, so that their errors are independent of the reference's.
+pub const DEFAULT_REFERENCE_SEED: u32 = 1;
+
 /// Parameters that identify a reference render.
 #[derive(Clone, Copy, Debug)]
 pub struct ReferenceSpec {

@@ -76,7 +76,7 @@ pub fn independent_sampling_relmse(
     sum / (3 * reference.len()) as f64
 }
 
-/// RelMSE of DESIGN.md: mean of (x − ref)² / (ref² + 0.01).
+/// RelMSE of docs/conventions.md: mean of (x − ref)² / (ref² + 0.01).
 pub fn relmse(x: &[[f32; 3]], reference: &[[f32; 3]]) -> f64 {
     let mut sum = 0.0;
     for (p, r) in x.iter().zip(reference) {

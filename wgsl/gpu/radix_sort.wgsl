@@ -1,5 +1,5 @@
 // Stable LSD radix sort of (u32 key, u32 value) pairs, one RADIX_BITS-bit
-// digit per pass, reduce-then-scan (DESIGN.md: no decoupled look-back, no
+// digit per pass, reduce-then-scan (docs/conventions.md: no decoupled look-back, no
 // spin-waits). src/gpu/radix_sort.rs documents the algorithm and owns the
 // constants WG, ITEMS, TILE = WG·ITEMS, RADIX = 2^RADIX_BITS, SCAN_WG.
 //

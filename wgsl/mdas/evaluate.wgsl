@@ -12,7 +12,7 @@
 // integrand's ray tracing is latency-bound: 4 samples per invocation
 // halved the H200's throughput, BENCHMARKS.md); on a CPU adapter it is
 // Halton's 8, since an invocation there costs about what eight samples
-// cost (DESIGN.md). No barrier and no atomic: the results
+// cost (docs/conventions.md). No barrier and no atomic: the results
 // are stored as they are, and stats.wgsl counts non-finite ones and finds
 // max |f| once, before the reconstruction.
 

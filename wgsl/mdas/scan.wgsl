@@ -1,4 +1,4 @@
-// Middle pass of the reduce-then-scan allocation (DESIGN.md: no
+// Middle pass of the reduce-then-scan allocation (docs/conventions.md: no
 // decoupled look-back): one workgroup turns the per-workgroup totals
 // (selected leaves, splits) written by adapt.wgsl `count` into exclusive
 // prefixes, in place, and stores the grand totals in state. Each

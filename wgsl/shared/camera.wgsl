@@ -1,4 +1,4 @@
-// Primary rays, exactly as DESIGN.md "Conventions" specifies. Needs the
+// Primary rays, exactly as docs/conventions.md "Primary ray" specifies. Needs the
 // `scene` uniform from shared/scene.wgsl and shared/sampling.wgsl.
 
 struct Ray {

@@ -6,7 +6,7 @@
 // radiance ρ/π · irradiance; emission one-sided (toward the geometric
 // normal), reflection two-sided unless the material is one-sided (then
 // its back — behind the shading normal — reflects nothing, as Mitsuba's
-// plain `diffuse`) (DESIGN.md "Materials", "Lights").
+// plain `diffuse`) (docs/conventions.md "Materials", "Lights").
 // Reflection takes its cosine from the shading normal (an OBJ's vertex
 // normals; the geometric normal elsewhere) and only light from the side the
 // geometric normal faces (`cos_reflect`); emission sides, ray offsets and

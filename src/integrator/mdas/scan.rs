@@ -2,7 +2,7 @@
 //!
 //! A single workgroup scans the per-workgroup totals of `adapt.wgsl`
 //! `count` in place and publishes the grand totals. There is no
-//! decoupled look-back (DESIGN.md: lavapipe gives wrong answers with
+//! decoupled look-back (docs/conventions.md: lavapipe gives wrong answers with
 //! spin-waits), and allocation does not use one atomic per workgroup
 //! either: the order in which workgroups won such an atomic would decide
 //! where a right child is stored, its index keys the random numbers, and

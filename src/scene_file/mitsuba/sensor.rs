@@ -185,7 +185,7 @@ impl Builder {
         }
         if !box_filter {
             self.warnings.push(format!(
-                "{}: mdas's pixels are box-filtered (the mean over the pixel, DESIGN.md); this film's reconstruction filter is not a box (Mitsuba's default is a Gaussian), so edges differ from Mitsuba's and means agree",
+                "{}: mdas's pixels are box-filtered (the mean over the pixel, docs/conventions.md); this film's reconstruction filter is not a box (Mitsuba's default is a Gaussian), so edges differ from Mitsuba's and means agree",
                 d.file.display()
             ));
         }
