@@ -257,22 +257,24 @@ fn compare_frames(
 
 /// One row per frame and method.
 fn frames_csv(done: &[FrameReport]) -> String {
-    let mut out = String::from("frame,method,spp,time_ms,relmse,mse,relmse_ratio\n");
-    for d in done {
-        for m in &d.report.methods {
-            out += &format!(
-                "{},{},{},{},{},{},{}\n",
-                d.frame,
-                m.name,
-                m.spp,
-                m.time_ms.get("total").copied().unwrap_or(f64::NAN),
-                m.relmse,
-                m.mse,
-                d.report.equal_time.relmse_ratio
-            );
-        }
-    }
-    out
+    let rows = done.iter().flat_map(|d| {
+        d.report.methods.iter().map(move |m| {
+            vec![
+                d.frame.to_string(),
+                m.name.clone(),
+                m.spp.to_string(),
+                m.time_ms
+                    .get("total")
+                    .copied()
+                    .unwrap_or(f64::NAN)
+                    .to_string(),
+                m.relmse.to_string(),
+                m.mse.to_string(),
+                d.report.equal_time.relmse_ratio.to_string(),
+            ]
+        })
+    });
+    mdas::compare::csv_table::csv_text("frame,method,spp,time_ms,relmse,mse,relmse_ratio", rows)
 }
 
 /// Each method's means over the frames that have it.

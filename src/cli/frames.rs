@@ -129,32 +129,30 @@ fn times_csv(records: &[FrameRecord]) -> String {
             }
         }
     }
-    let mut out = String::from(
+    let mut header = String::from(
         "frame,time,lights,setup_ms,setup_wall_ms,render_ms,samples,nonfinite_samples",
     );
     for p in &phases {
-        out += &format!(",{p}_ms");
+        header += &format!(",{p}_ms");
     }
-    out += "\n";
-    for r in records {
-        out += &format!(
-            "{},{},{},{:.4},{:.4},{:.4},{},{}",
-            r.frame,
-            r.time,
-            r.lights,
-            r.setup_ms,
-            r.setup_wall_ms,
-            r.render_ms,
-            r.samples,
-            r.nonfinite_samples
-        );
+    let rows = records.iter().map(|r| {
+        let mut row = vec![
+            r.frame.to_string(),
+            r.time.to_string(),
+            r.lights.to_string(),
+            format!("{:.4}", r.setup_ms),
+            format!("{:.4}", r.setup_wall_ms),
+            format!("{:.4}", r.render_ms),
+            r.samples.to_string(),
+            r.nonfinite_samples.to_string(),
+        ];
         for p in &phases {
             let t = r.setup_phases_ms.iter().find(|(n, _)| n == p).map(|x| x.1);
-            out += &t.map_or_else(|| ",".to_string(), |t| format!(",{t:.4}"));
+            row.push(t.map_or_else(String::new, |t| format!("{t:.4}")));
         }
-        out += "\n";
-    }
-    out
+        row
+    });
+    mdas::compare::csv_table::csv_text(&header, rows)
 }
 
 /// `mdas render --frames`.

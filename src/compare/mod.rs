@@ -10,6 +10,7 @@
 //! ([`tune`]): MDAS over a grid of parameters, and `mdas bench`
 //! ([`phases`]): MDAS's phases against Halton at equal samples.
 
+pub mod csv_table;
 pub mod equal_time;
 pub mod experiment;
 pub mod figure;

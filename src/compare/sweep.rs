@@ -74,22 +74,22 @@ pub struct SweepResult {
 pub const CSV_HEADER: &str = "method,spp,samples,time_ms,relmse,relmse_lo,relmse_hi,mse,seeds";
 
 pub fn csv(rows: &[SweepRow]) -> String {
-    let mut s = format!("{CSV_HEADER}\n");
-    for r in rows {
-        s += &format!(
-            "{},{},{},{},{},{},{},{},{}\n",
-            r.method,
-            r.spp,
-            r.samples,
-            r.time_ms,
-            r.relmse,
-            r.relmse_ci95[0],
-            r.relmse_ci95[1],
-            r.mse,
-            r.seeds.len()
-        );
-    }
-    s
+    super::csv_table::csv_text(
+        CSV_HEADER,
+        rows.iter().map(|r| {
+            vec![
+                r.method.clone(),
+                r.spp.to_string(),
+                r.samples.to_string(),
+                r.time_ms.to_string(),
+                r.relmse.to_string(),
+                r.relmse_ci95[0].to_string(),
+                r.relmse_ci95[1].to_string(),
+                r.mse.to_string(),
+                r.seeds.len().to_string(),
+            ]
+        }),
+    )
 }
 
 /// Runs the sweep on a scene file and writes `sweep.csv`, `sweep.json`,

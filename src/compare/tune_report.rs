@@ -253,29 +253,30 @@ pub fn mdas_table(p: &MdasParams) -> String {
 pub const CSV_HEADER: &str = "rank,label,relmse,relmse_lo,relmse_hi,bias_r,bias_g,bias_b,mse_bias2,mse_variance,time_ms,equal_samples_ratio,equal_time_ratio";
 
 /// The ranked rows as CSV (an empty field where a row has no equal-time
-/// ratio).
+/// ratio; a label quoted where it has a comma, a quote or a line break).
 pub fn csv(rows: &[TuneRow]) -> String {
-    let mut s = format!("{CSV_HEADER}\n");
-    for (i, r) in rows.iter().enumerate() {
-        s += &format!(
-            "{},\"{}\",{},{},{},{},{},{},{},{},{},{},{}\n",
-            i + 1,
-            r.measured.label,
-            r.measured.relmse,
-            r.measured.relmse_ci95[0],
-            r.measured.relmse_ci95[1],
-            r.measured.relative_bias[0],
-            r.measured.relative_bias[1],
-            r.measured.relative_bias[2],
-            r.measured.mse_bias2,
-            r.measured.mse_variance,
-            r.measured.time_ms,
-            r.equal_samples_ratio,
-            r.equal_time_ratio
-                .map_or_else(String::new, |x| x.to_string())
-        );
-    }
-    s
+    super::csv_table::csv_text(
+        CSV_HEADER,
+        rows.iter().enumerate().map(|(i, r)| {
+            let m = &r.measured;
+            vec![
+                (i + 1).to_string(),
+                m.label.clone(),
+                m.relmse.to_string(),
+                m.relmse_ci95[0].to_string(),
+                m.relmse_ci95[1].to_string(),
+                m.relative_bias[0].to_string(),
+                m.relative_bias[1].to_string(),
+                m.relative_bias[2].to_string(),
+                m.mse_bias2.to_string(),
+                m.mse_variance.to_string(),
+                m.time_ms.to_string(),
+                r.equal_samples_ratio.to_string(),
+                r.equal_time_ratio
+                    .map_or_else(String::new, |x| x.to_string()),
+            ]
+        }),
+    )
 }
 
 /// The console table: Halton's budgets, then the ranked configurations.
@@ -362,9 +363,8 @@ mod tests {
         assert_eq!(halton_relmse_at(&points, 16.1), None);
     }
 
-    #[test]
-    fn ranking_puts_rows_without_a_ratio_last() {
-        let row = |label: &str, relmse: f64, ratio: Option<f64>| TuneRow {
+    fn row(label: &str, relmse: f64, ratio: Option<f64>) -> TuneRow {
+        TuneRow {
             measured: Measured {
                 label: label.into(),
                 values: BTreeMap::new(),
@@ -381,7 +381,35 @@ mod tests {
             equal_time_halton_spp: None,
             equal_time_halton_relmse: None,
             equal_time_ratio: ratio,
-        };
+        }
+    }
+
+    /// `tune.csv` quotes a label with a comma or a double quote (issue 67
+    /// item 7): the row keeps its 13 fields and the label reads back as
+    /// it was; other fields are written as before.
+    #[test]
+    fn a_label_with_a_comma_and_a_quote_keeps_its_row() {
+        let label = r#"split="median, then mean" alpha=0.5"#;
+        let text = csv(&[row("alpha=0", 1e-3, None), row(label, 2e-3, Some(0.5))]);
+        let lines: Vec<&str> = text.lines().collect();
+        assert_eq!(lines[0], CSV_HEADER);
+        assert_eq!(lines[1], "1,alpha=0,0.001,0.001,0.001,0,0,0,0,0,1,1,");
+        let mut reader = ::csv::Reader::from_reader(text.as_bytes());
+        let header = reader.headers().unwrap().clone();
+        assert_eq!(header.len(), 13);
+        let rows: Vec<::csv::StringRecord> = reader.records().map(|r| r.unwrap()).collect();
+        assert_eq!(rows.len(), 2);
+        assert!(rows.iter().all(|r| r.len() == 13), "{text}");
+        assert_eq!(&rows[0][1], "alpha=0");
+        assert_eq!(&rows[1][1], label);
+        assert_eq!(
+            (&rows[1][0], &rows[1][2], &rows[1][12]),
+            ("2", "0.002", "0.5")
+        );
+    }
+
+    #[test]
+    fn ranking_puts_rows_without_a_ratio_last() {
         let mut rows = vec![
             row("a", 1e-3, None),
             row("b", 3e-3, Some(0.9)),
