@@ -320,7 +320,7 @@ pub fn scene_uniforms(
         cam_forward: f.into(),
         cam_focus_distance: cam.focus_distance,
         cam_right: r.into(),
-        cam_tan_half_fov_y: (cam.fov_y.to_radians() * 0.5).tan(),
+        cam_tan_half_fov_y: cam.tan_half_fov_y(),
         cam_up: u.into(),
         cam_aspect: film.width as f32 / film.height as f32,
         film_size: [film.width as f32, film.height as f32],

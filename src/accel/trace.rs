@@ -25,7 +25,7 @@ pub fn pinhole_rays(camera: &crate::scene::Camera, film: Film) -> Vec<Ray> {
     let f = (camera.look_at - camera.position).normalize();
     let r = f.cross(camera.up).normalize();
     let u = r.cross(f);
-    let tan = (camera.fov_y.to_radians() * 0.5).tan();
+    let tan = camera.tan_half_fov_y();
     let aspect = film.width as f32 / film.height as f32;
     let mut rays = Vec::with_capacity((film.width * film.height) as usize);
     for j in 0..film.height {

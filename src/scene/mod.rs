@@ -41,6 +41,31 @@ pub struct Camera {
     pub shutter_close: f32,
 }
 
+impl Camera {
+    /// tan(fov_y/2), in f32 as the GPU's camera uniforms carry it
+    /// ([`tan_half_fov_y`]).
+    pub fn tan_half_fov_y(&self) -> f32 {
+        tan_half_fov_y(self.fov_y)
+    }
+}
+
+/// tan of half the vertical field of view `fov_y` (degrees), computed in
+/// f32: the value the GPU's primary rays use (`cam_tan_half_fov_y`).
+pub fn tan_half_fov_y(fov_y: f32) -> f32 {
+    (fov_y.to_radians() * 0.5).tan()
+}
+
+/// Whether a camera can use `fov_y` (degrees, already an f32): strictly
+/// inside (0, 180) and with tan(fov_y/2) in f32 positive, finite and
+/// normal. A value that is inside the interval in f64 may not be in f32
+/// (179.99999999 is 180 as an f32, whose tan(fov_y/2) is negative: the
+/// image upside down), and one whose tangent is subnormal is flushed to 0
+/// by a GPU.
+pub fn fov_y_is_valid(fov_y: f32) -> bool {
+    let t = tan_half_fov_y(fov_y);
+    fov_y > 0.0 && fov_y < 180.0 && t > 0.0 && t.is_normal()
+}
+
 /// Procedural checker texture modulating albedo: the cell of world point
 /// p is floor(p / scale) per axis (x, y and z); cells whose three indices
 /// sum to an even number use the material's albedo, odd ones `albedo2`.

@@ -174,11 +174,19 @@ impl Ctx<'_> {
                 "camera up must not be parallel to the view direction",
             ));
         }
+        // Checked as the f32 the GPU uses: 179.99999999 is 180 in f32.
         let fov_y = c.fov_y.get_ref().0;
-        if !(fov_y > 0.0 && fov_y < 180.0) {
+        if !crate::scene::fov_y_is_valid(fov_y) {
+            let written = self.text.get(c.fov_y.span()).unwrap_or("").trim();
+            let found = match written.parse::<f64>() {
+                Ok(v) if v != fov_y as f64 => {
+                    format!("{written}, which is {fov_y:?} as the f32 the GPU uses")
+                }
+                _ => fov_y.to_string(),
+            };
             return Err(self.error(
                 c.fov_y.span(),
-                format!("fov_y must be in (0, 180) degrees, found {fov_y}"),
+                format!("fov_y must be in (0, 180) degrees, found {found}"),
             ));
         }
         let aperture_radius = match &c.aperture_radius {

@@ -379,3 +379,28 @@ fn limits_accept_their_own_value() {
         .to_string();
     assert!(e.contains("absurdly large"), "{e}");
 }
+
+/// A field of view inside (0, 180) in f64 but 180 as the f32 the GPU uses
+/// is refused at its position, not rendered upside down (issue 67, hostile
+/// inputs class 2); so is one whose tan(fov_y/2) is 0 in f32.
+#[test]
+fn fov_y_is_checked_as_the_f32_the_gpu_uses() {
+    assert_eq!(179.99999999f64 as f32, 180.0);
+    let e = err(&MINIMAL.replace("fov_y = 40", "fov_y = 179.99999999"));
+    assert!(
+        e.starts_with("t.toml:8:9: fov_y must be in (0, 180) degrees, found 179.99999999, which is 180.0 as the f32"),
+        "{e}"
+    );
+    let e = err(&MINIMAL.replace("fov_y = 40", "fov_y = 1e-45"));
+    assert!(
+        e.starts_with("t.toml:8:9: fov_y must be in (0, 180)"),
+        "{e}"
+    );
+    // The largest f32 below 180 still gives a positive tangent.
+    let s = parse(
+        &MINIMAL.replace("fov_y = 40", "fov_y = 179.99998"),
+        Path::new("t.toml"),
+    )
+    .unwrap();
+    assert!(s.scene.camera.tan_half_fov_y() > 1e6);
+}

@@ -85,6 +85,17 @@ impl Builder {
             }
         };
         let fov_y = (2.0 * tan_half_y.atan()).to_degrees() as f32;
+        // Checked as the f32 the GPU uses: fov 179.99999999 passes the
+        // check above in f64 and is 180 in f32, an upside-down image.
+        if !crate::scene::fov_y_is_valid(fov_y) {
+            return Err(d.node_error(
+                fov_node,
+                format!(
+                    "fov {fov:?} gives a vertical field of view of {fov_y:?} degrees as the f32 \
+                     the GPU uses; it must be in (0, 180)"
+                ),
+            ));
+        }
 
         let m = p.transform(d, "to_world")?;
         let (position, forward, up) = match &m {

@@ -74,6 +74,32 @@ fn the_camera_follows_mitsubas_frame_and_fov_axes() {
     }
 }
 
+/// A fov inside (0, 180) in f64 whose vertical field of view is 180 as
+/// the f32 the GPU uses (an upside-down image) is refused at the fov's
+/// element, on every axis (issue 67, hostile inputs class 2); so is one
+/// whose f32 is 0.
+#[test]
+fn the_fov_is_checked_as_the_f32_the_gpu_uses() {
+    for axis in ["x", "y", "smaller", "larger", "diagonal"] {
+        for fov in ["179.99999999", "1e-44"] {
+            let text = scene("").replace(
+                r#"<float name="fov" value="60"/>"#,
+                &format!(
+                    r#"<float name="fov" value="{fov}"/><string name="fov_axis" value="{axis}"/>"#
+                ),
+            );
+            let e = error(&text);
+            assert!(
+                e.starts_with(&format!(
+                    "inline.xml:4:5: fov {fov} gives a vertical field of view of "
+                )),
+                "{axis} {fov}: {e}"
+            );
+            assert!(e.contains("it must be in (0, 180)"), "{e}");
+        }
+    }
+}
+
 #[test]
 fn a_mirrored_or_sheared_camera_is_refused() {
     let mirrored = scene("").replace(
