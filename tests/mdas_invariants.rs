@@ -693,20 +693,24 @@ fn reconstruction_matches_the_cpu_oracle() {
 }
 
 /// The evaluate pass's loop (`Config::eval_per_invocation`: 8 on a CPU
-/// adapter, 1 on a GPU) changes which invocation evaluates a sample, not
-/// the sample or its value: 1, 3 and 8 samples per invocation give the
-/// same image, bit for bit, and the same sample count.
+/// adapter, 1 on a GPU) and the fewest workgroups a dispatch aims for
+/// (`with_eval_min_groups`: fewer samples per invocation where a dispatch
+/// is small) change which invocation evaluates a sample, not the sample
+/// or its value: 1, 3 and 8 samples per invocation, and 8 with 1 or 64
+/// workgroups at least, give the same image, bit for bit, and the same
+/// sample count.
 #[test]
 fn evaluate_loop_changes_nothing() {
     use mdas::integrator::{Integrator, Mdas};
     let gpu = common::gpu();
     for (name, case, dims, film, p) in cases() {
         let integrand = common::TestIntegrand::new(gpu, case, dims, film);
-        let renders: Vec<_> = [1, 3, 8]
-            .map(|n| {
+        let renders: Vec<_> = [(1, 1), (3, 1), (8, 1), (8, 64)]
+            .map(|(n, groups)| {
                 Mdas::new(p)
                     .unwrap()
                     .with_eval_per_invocation(n)
+                    .with_eval_min_groups(groups)
                     .render(gpu, &integrand)
                     .unwrap()
             })

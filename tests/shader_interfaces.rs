@@ -435,7 +435,7 @@ fn mirrors() -> BTreeMap<(&'static str, &'static str), Layout> {
     BTreeMap::from([
         (("mdas/common.wgsl", "Params"), host!(GpuParams {
             seed, budget, max_iterations, max_groups, pass_offset, width, height, select_all,
-            scale_factor, inv_alpha, epsilon, pixel_prior, pace, pace_floor, _pad,
+            scale_factor, inv_alpha, epsilon, pixel_prior, pace, pace_floor, eval_min_groups, _pad,
         })),
         (("halton.wgsl", "HaltonParams"), host!(HaltonParams {
             width, height, dims, seed, spp, first_index, samples_per_invocation, slots,

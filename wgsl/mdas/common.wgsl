@@ -49,7 +49,9 @@ struct Params {
     // an iteration aims to place (0: the paper's rule), and the fewest.
     pace: f32,
     pace_floor: u32,
-    _pad3: u32,
+    // The fewest workgroups an evaluate dispatch aims for (plan.wgsl
+    // `evaluate_groups`): four per hardware thread on a CPU adapter.
+    eval_min_groups: u32,
     _pad4: u32,
 }
 

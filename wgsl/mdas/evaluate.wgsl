@@ -5,14 +5,18 @@
 // centre of its quantum; its Morton cell was left in values[3s] by the
 // kernel that placed it.
 //
-// Invocation i of T = ⌈count / EVAL_PER_INVOCATION⌉ evaluates samples
+// Invocation i of T = ⌈count / per⌉ evaluates samples
 // first + i, first + i + T, …: neighbouring invocations take neighbouring
 // samples (one leaf's, or neighbouring leaves': coherent rays). On a GPU
 // EVAL_PER_INVOCATION is 1 and every sample is in flight at once (the
 // integrand's ray tracing is latency-bound: 4 samples per invocation
 // halved the H200's throughput, BENCHMARKS.md); on a CPU adapter it is
 // Halton's 8, since an invocation there costs about what eight samples
-// cost (docs/conventions.md). No barrier and no atomic: the results
+// cost (docs/conventions.md). Each invocation takes per =
+// state[S_EVAL_PER] ≤ EVAL_PER_INVOCATION of them: fewer where the
+// dispatch would otherwise have fewer than params.eval_min_groups
+// workgroups (plan.wgsl), so that a small adaptive iteration still
+// keeps every thread of a CPU adapter busy. No barrier and no atomic: the results
 // are stored as they are, and stats.wgsl counts non-finite ones and finds
 // max |f| once, before the reconstruction.
 
@@ -35,14 +39,18 @@ fn evaluate(@builtin(global_invocation_id) gid: vec3<u32>,
             @builtin(num_workgroups) groups: vec3<u32>) {
     let i = thread_index(gid, groups, WG);
     let count = state[S_EVAL_COUNT];
-    let invocations = (count + EVAL_PER_INVOCATION - 1u) / EVAL_PER_INVOCATION;
+    let per = state[S_EVAL_PER];
+    let invocations = (count + per - 1u) / per;
     if (i >= invocations) {
         return;
     }
+    // j < per ≤ EVAL_PER_INVOCATION: the constant bound keeps the loop
+    // within the integrand's loop budget (Config::eval_per_invocation).
     for (var j = 0u; j < EVAL_PER_INVOCATION; j++) {
         let n = i + j * invocations;
-        if (n < count) {
-            evaluate_sample(state[S_EVAL_FIRST] + n);
+        if (j >= per || n >= count) {
+            break;
         }
+        evaluate_sample(state[S_EVAL_FIRST] + n);
     }
 }

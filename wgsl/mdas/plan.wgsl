@@ -42,9 +42,16 @@ fn write_args(at: u32, groups: u32) {
     args[at + 2u] = 1u;
 }
 
-// Workgroups of the evaluate dispatch for `count` samples (one each).
+// Workgroups of the evaluate dispatch for `count` samples, and the
+// samples per invocation (state[S_EVAL_PER]): EVAL_PER_INVOCATION, or
+// fewer where that would give fewer than params.eval_min_groups
+// workgroups (never below one sample per invocation). Which invocation
+// evaluates a sample changes no result.
 fn evaluate_groups(count: u32) -> u32 {
-    let invocations = (count + EVAL_PER_INVOCATION - 1u) / EVAL_PER_INVOCATION;
+    let per_group_max = max((count + params.eval_min_groups - 1u) / max(params.eval_min_groups, 1u), 1u);
+    let per = clamp((per_group_max + WG - 1u) / WG, 1u, EVAL_PER_INVOCATION);
+    state[S_EVAL_PER] = per;
+    let invocations = (count + per - 1u) / per;
     return (invocations + WG - 1u) / WG;
 }
 

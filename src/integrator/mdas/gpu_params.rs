@@ -37,7 +37,37 @@ pub struct GpuParams {
     pub pace: f32,
     /// The fewest samples a paced iteration aims to place.
     pub pace_floor: u32,
-    pub _pad: [u32; 2],
+    /// The fewest workgroups an evaluate dispatch aims for: an invocation
+    /// takes fewer than `EVAL_PER_INVOCATION` samples where that would
+    /// leave fewer (plan.wgsl `evaluate_groups`; [`eval_min_groups`]).
+    pub eval_min_groups: u32,
+    pub _pad: u32,
+}
+
+/// The fewest workgroups an evaluate dispatch aims for on `gpu`: four per
+/// hardware thread on a CPU adapter (lavapipe runs a workgroup on one
+/// thread, so an adaptive iteration's few thousand samples in one
+/// workgroup of 8-sample invocations left the other threads idle and cost
+/// twice an initial sample, BENCHMARKS.md), 1 on a GPU, whose invocations
+/// take one sample each anyway. `MDAS_EVAL_MIN_GROUPS=n` sets it (1 gives
+/// the dispatches as they were before, for benchmarks that compare).
+pub fn eval_min_groups(gpu: &Gpu) -> u32 {
+    if let Some(n) = std::env::var("MDAS_EVAL_MIN_GROUPS")
+        .ok()
+        .and_then(|v| v.parse::<u32>().ok())
+    {
+        return n.max(1);
+    }
+    if gpu.info.device_type == wgpu::DeviceType::Cpu {
+        let threads = std::env::var("LP_NUM_THREADS")
+            .ok()
+            .and_then(|v| v.parse::<u32>().ok())
+            .filter(|&n| n > 0)
+            .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get() as u32));
+        4 * threads
+    } else {
+        1
+    }
 }
 
 /// Group 0 of every MDAS kernel (`wgsl/mdas/common.wgsl`): `params` at 0,

@@ -175,7 +175,7 @@ use crate::integrand::Integrand;
 use anyhow::Result;
 use config::Config;
 use debug::Snapshot;
-use gpu_params::{GpuParams, Grid};
+use gpu_params::{eval_min_groups, GpuParams, Grid};
 pub use params::{
     validate, InitialOffsets, MdasParams, ParamError, Reconstruction, SplitRule, PARAMS,
 };
@@ -199,6 +199,8 @@ pub struct Mdas {
     max_page_bytes: Option<u64>,
     /// Override of [`Config::eval_per_invocation`].
     eval_per_invocation: Option<u32>,
+    /// Override of [`gpu_params::eval_min_groups`].
+    eval_min_groups: Option<u32>,
     /// Override of [`Config::unroll_loops`].
     unroll_loops: Option<bool>,
     /// Statistics of the last render.
@@ -270,6 +272,7 @@ impl Mdas {
             max_iterations: MAX_ITERATIONS_DEFAULT,
             max_page_bytes: None,
             eval_per_invocation: None,
+            eval_min_groups: None,
             unroll_loops: None,
             last: None,
             last_passes: None,
@@ -366,6 +369,14 @@ impl Mdas {
             .unroll_loops
             .unwrap_or(gpu.info.device_type != wgpu::DeviceType::Cpu);
         Ok(cfg)
+    }
+
+    /// Aims every evaluate dispatch at `n` workgroups or more (fewer
+    /// samples per invocation where needed) instead of the adapter's
+    /// default ([`gpu_params::eval_min_groups`]); the image is the same.
+    pub fn with_eval_min_groups(mut self, n: u32) -> Self {
+        self.eval_min_groups = Some(n.max(1));
+        self
     }
 
     /// Lets the compiler unroll the count pass's loops, or not, instead of

@@ -34,6 +34,7 @@ impl Mdas {
                 pixel_prior: p.pixel_prior,
                 pace: p.pace,
                 pace_floor: pace_floor(p.pace, cfg.budget - cfg.initial_samples.min(cfg.budget)),
+                eval_min_groups: self.eval_min_groups.unwrap_or_else(|| eval_min_groups(gpu)),
                 ..Default::default()
             };
             let paged = |array: usize| -> Result<Vec<wgpu::Buffer>> {

@@ -58,6 +58,11 @@ pub(crate) mod state {
         /// leaf is selected with probability min(1, c·(E/E_max)^α)
         /// (adapt.wgsl `selected_now`, plan.wgsl).
         INV_PACE = 9,
+        /// Samples each invocation of the pending evaluate dispatch takes
+        /// (plan.wgsl `evaluate_groups`): at most EVAL_PER_INVOCATION,
+        /// fewer when the dispatch would otherwise have fewer than
+        /// `eval_min_groups` workgroups.
+        EVAL_PER = 10,
     }
     pub const LEN: usize = 16;
 }
