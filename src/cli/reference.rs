@@ -36,9 +36,10 @@ pub(crate) struct ReferenceArgs {
     #[arg(long, value_name = "BACKEND")]
     pub(crate) visibility: Option<VisibilityKind>,
     /// Render only part I of N: samples ⌊(I−1)·spp/N⌋ up to ⌊I·spp/N⌋ of
-    /// every pixel, written to -o (required) with a record beside it
-    /// (-o's .json), not to the cache; `mdas merge` joins the N parts into
-    /// the cache entry the whole reference would have (scripts/slurm/).
+    /// every pixel, written to -o (required, an .exr) with an sRGB .png
+    /// and a record (-o's .json) beside it, not to the cache; `mdas merge`
+    /// joins the N parts into the cache entry the whole reference would
+    /// have (scripts/slurm/).
     #[arg(long, value_name = "I/N", requires = "output")]
     pub(crate) part: Option<session::parts::Part>,
 }
@@ -157,12 +158,20 @@ pub(crate) fn run(args: ReferenceArgs, ui: Ui) -> Result<()> {
     if let Some(out) = &output {
         check_output(out)?;
         check_not_input(out, &[&scene])?;
+        // A part's EXR, PNG and record, refused now rather than after
+        // its render (issue 67, hostile inputs class 6).
+        if let Some(part) = part {
+            session::parts::check_part(part, spp, out)?;
+        }
     }
     let loaded = SceneFile::load(&scene)?;
     if let Some(out) = &output {
         // Again, now that the scene's meshes and material libraries have
         // been read: -o must not name any of them either (issue 54 item 1).
         check_output(out)?;
+        if let Some(part) = part {
+            session::parts::check_part(part, spp, out)?;
+        }
     }
     let gpu = Gpu::shared()?;
     let bar = if ui.progress() {

@@ -16,7 +16,7 @@
 use super::outputs::render_attributes;
 use super::prepare::*;
 use super::reference::{
-    pixels_sha256, plan, reference_record_path, write_entry, Plan, ReferenceSpec,
+    check_entry, pixels_sha256, plan, reference_record_path, write_entry, Plan, ReferenceSpec,
 };
 use crate::film::Film;
 use crate::gpu::Gpu;
@@ -74,6 +74,36 @@ pub struct PartJob<'a> {
     pub out: &'a Path,
 }
 
+/// The checks of a part that need no render, made before any GPU work
+/// (issue 67, hostile inputs class 6): `part.count` parts of an `spp`
+/// reference each get a sample, and `out` is an EXR path whose PNG and
+/// record (`.json`) are other files, all three writable. `-o p.png`
+/// rendered for the whole part and then failed, its EXR and PNG being
+/// one file.
+pub fn check_part(part: Part, spp: u32, out: &Path) -> Result<()> {
+    if part.count > spp {
+        bail!(
+            "{} parts of a {}-spp reference: every part needs a sample (at most {} parts)",
+            part.count,
+            spp,
+            spp
+        );
+    }
+    let is_exr = out
+        .extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+    if !is_exr {
+        bail!(
+            "a reference part (--part {}/{}) is an EXR with an sRGB .png and its .json record beside it: -o must end in .exr, found {}",
+            part.index,
+            part.count,
+            out.display()
+        );
+    }
+    check_entry(out)
+}
+
 /// Renders `job.part` of the reference of `scene` (loaded from
 /// `scene_path`) and writes it to `job.out` with an sRGB PNG and its
 /// record beside it.
@@ -91,14 +121,7 @@ pub fn reference_part(
         cache_dir,
         out,
     } = job;
-    if part.count > spec.spp {
-        bail!(
-            "{} parts of a {}-spp reference: every part needs a sample (at most {} parts)",
-            part.count,
-            spec.spp,
-            spec.spp
-        );
-    }
+    check_part(part, spec.spp, out)?;
     let Plan {
         overrides,
         extra,

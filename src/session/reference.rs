@@ -291,6 +291,10 @@ pub fn reference_of_loaded(
     }
     std::fs::create_dir_all(cache_dir)
         .with_context(|| format!("cannot create cache directory {}", cache_dir.display()))?;
+    // The entry is written after the render: refuse now what its write
+    // would refuse then (a damaged entry read above is ours to replace).
+    crate::atomic::release_input(&path);
+    check_entry(&path)?;
     let prepared = prepare_loaded(gpu, scene, scene_path, spec.scale, overrides)?;
     let mut halton = Halton::new(spec.spp, spec.seed);
     if let Some(p) = progress {
@@ -391,12 +395,44 @@ pub(super) fn write_entry(
     let mut writes = crate::atomic::AtomicWrites::new();
     // A damaged entry read above is this cache's to replace.
     crate::atomic::release_input(path);
-    image_io::stage_exr(&mut writes, path, w, h, image, attributes)?;
-    image_io::stage_png(&mut writes, &path.with_extension("png"), w, h, image)?;
-    writes.stage(&reference_record_path(path), |t| {
+    let [exr, png, json] = entry_files(path);
+    image_io::stage_exr(&mut writes, &exr, w, h, image, attributes)?;
+    image_io::stage_png(&mut writes, &png, w, h, image)?;
+    writes.stage(&json, |t| {
         std::fs::write(t, text.as_bytes()).map_err(Into::into)
     })?;
     writes.commit()?;
+    Ok(())
+}
+
+/// The files [`write_entry`] writes for an entry at `path`: the EXR, its
+/// PNG and its record.
+pub(super) fn entry_files(path: &Path) -> [PathBuf; 3] {
+    [
+        path.to_path_buf(),
+        path.with_extension("png"),
+        reference_record_path(path),
+    ]
+}
+
+/// What [`write_entry`] would refuse after the render, checked before it
+/// (issue 67, hostile inputs class 6): `path` must be an EXR path (so that
+/// its PNG and record are other files) and each of the three files
+/// writable (`crate::atomic::check_writable`).
+pub(super) fn check_entry(path: &Path) -> Result<()> {
+    let is_exr = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+    if !is_exr {
+        bail!(
+            "{} must end in .exr: it is written as an EXR with an sRGB .png and its .json record beside it",
+            path.display()
+        );
+    }
+    for file in entry_files(path) {
+        crate::atomic::check_writable(&file)?;
+    }
     Ok(())
 }
 
