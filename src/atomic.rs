@@ -369,6 +369,17 @@ fn sweep_stale_staging(target: &Path) -> usize {
     removed
 }
 
+/// What [`StagedDir::new`] refuses of `target` without writing anything:
+/// a path that exists and is not a directory. A run that makes several
+/// output directories (`compare --frames`) checks them all before its
+/// first render.
+pub fn check_dir_target(target: &Path) -> Result<()> {
+    if target.exists() && !target.is_dir() {
+        bail!("output directory {} is not a directory", target.display());
+    }
+    Ok(())
+}
+
 /// A directory of outputs written as one unit (see the module docs).
 pub struct StagedDir {
     target: PathBuf,
@@ -388,9 +399,7 @@ impl StagedDir {
             .take_while(|d| !d.as_os_str().is_empty() && !d.exists())
             .map(Path::to_path_buf)
             .collect();
-        if target.exists() && !target.is_dir() {
-            bail!("output directory {} is not a directory", target.display());
-        }
+        check_dir_target(target)?;
         fs::create_dir_all(target)
             .with_context(|| format!("cannot create output directory {}", target.display()))?;
         sweep_stale_staging(target);

@@ -1053,6 +1053,108 @@ fn mdas_capped(
     (output, secs)
 }
 
+/// Issue 67, hostile inputs class 6: what an output's write would refuse
+/// after the render is refused before it. `reference --part 1/1 -o
+/// p.png` rendered its part and then failed (its EXR and PNG are one
+/// file); a part's record or a cache entry's record that cannot be
+/// written failed the same way, and `compare --frames` failed at a frame
+/// whose directory is a file after rendering the frames before it. With an adapter that does not exist, a
+/// refusal that comes before any GPU work is the only error; each run is
+/// bounded (the million-spp renders would take hours) and writes nothing.
+#[test]
+fn output_refusals_come_before_the_render() {
+    let dir = temp_dir("late");
+    let scene = "scenes/area_light_plane.toml";
+    let cache = dir.join("cache");
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    let reference = |extra: &[String]| {
+        let mut a: Vec<String> = ["-q", "reference", scene, "--spp", "1000000"]
+            .iter()
+            .map(|x| x.to_string())
+            .collect();
+        a.extend(["--cache".to_string(), s(&cache)]);
+        a.extend(extra.iter().cloned());
+        a
+    };
+    std::fs::create_dir_all(dir.join("q.json")).unwrap();
+    let no_gpu = Some(("MDAS_ADAPTER", "no adapter is named this"));
+    let cap = std::time::Duration::from_secs(60);
+    let check = |args: Vec<String>, env: Option<(&str, &str)>, expect: &[&str]| {
+        let before = snapshot(&dir);
+        let (o, secs) = mdas_capped(&args, env, cap);
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {err}");
+        for e in expect {
+            assert!(err.contains(e), "{args:?}: expected '{e}' in: {err}");
+        }
+        assert!(
+            !err.contains("MDAS_ADAPTER"),
+            "{args:?} reached the GPU: {err}"
+        );
+        assert!(secs < 20.0, "{args:?} took {secs:.1} s to refuse");
+        assert_eq!(snapshot(&dir), before, "{args:?} wrote or changed files");
+    };
+    // A part's EXR and PNG would be one file, its record the EXR, or its
+    // record a directory.
+    for (o, expect) in [
+        ("p.png", "-o must end in .exr, found"),
+        ("p.json", "must end in .exr"),
+        ("q.exr", "q.json: it is a directory"),
+    ] {
+        let part = ["--part", "1/1", "-o"].map(String::from);
+        let mut extra = part.to_vec();
+        extra.push(s(&dir.join(o)));
+        check(reference(&extra), no_gpu, &[expect]);
+    }
+    // More parts than samples.
+    let mut a = reference(&[
+        "--part".into(),
+        "1/3".into(),
+        "-o".into(),
+        s(&dir.join("r.exr")),
+    ]);
+    a[4] = "2".into();
+    check(a, no_gpu, &["3 parts of a 2-spp reference"]);
+    // `compare --frames`: a later frame's directory is a file.
+    let cmp = dir.join("cmp");
+    std::fs::create_dir_all(&cmp).unwrap();
+    std::fs::write(cmp.join("frame-0002"), b"not a directory").unwrap();
+    let args = [
+        "-q",
+        "compare",
+        "scenes/tests/moving_lights.toml",
+        "--frames",
+        "1..=2",
+        "--ref-spp",
+        "1000000",
+        "--cache",
+        &s(&cache),
+        "--out",
+        &s(&cmp),
+    ];
+    check(
+        args.map(String::from).to_vec(),
+        no_gpu,
+        &["frame-0002 is not a directory"],
+    );
+    // The cache entry's record is a directory: refused after the adapter
+    // is opened, before the scene is uploaded or rendered.
+    let spec = mdas::session::ReferenceSpec {
+        spp: 1_000_000,
+        scale: 1.0,
+        seed: mdas::session::DEFAULT_REFERENCE_SEED,
+    };
+    let entry = mdas::session::reference_cache_path(&cache, Path::new(scene), spec).unwrap();
+    let record = mdas::session::reference_record_path(&entry);
+    std::fs::create_dir_all(&record).unwrap();
+    check(
+        reference(&[]),
+        None,
+        &[&format!("{}: it is a directory", record.display())],
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 /// Every file under `dir` with its bytes (what must not change).
 fn snapshot(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
     let mut files = Vec::new();

@@ -197,9 +197,28 @@ fn compare_frames(
         .map_err(|e| anyhow::anyhow!("cannot create {}: {e}", out.display()))?;
     let csv = out.join("frames.csv");
     mdas::atomic::check_writable(&csv)?;
+    let frame_dir = |f: u32| out.join(format!("frame-{f:04}"));
+    // Every frame's directory, before the first frame renders (issue 67,
+    // hostile inputs class 6): the entries of `out` named as one of the
+    // frames' (a range may hold billions of frames; `out` holds few).
+    let mut taken: Vec<u32> = std::fs::read_dir(out)
+        .map_err(|e| anyhow::anyhow!("cannot list {}: {e}", out.display()))?
+        .filter_map(|e| {
+            let name = e.ok()?.file_name().into_string().ok()?;
+            let f: u32 = name.strip_prefix("frame-")?.parse().ok()?;
+            let ours = name == format!("frame-{f:04}")
+                && f >= frames.start
+                && u64::from(f) < u64::from(frames.start) + u64::from(frames.count);
+            ours.then_some(f)
+        })
+        .collect();
+    taken.sort_unstable();
+    for f in taken {
+        mdas::atomic::check_dir_target(&frame_dir(f))?;
+    }
     let mut done: Vec<FrameReport> = Vec::new();
     for f in frames.iter() {
-        let dir = out.join(format!("frame-{f:04}"));
+        let dir = frame_dir(f);
         ui.note(format!("frame {f} → {}", dir.display()));
         let report = compare_at(Some(f), dir.clone())?;
         ui.result(format!(
