@@ -1002,6 +1002,11 @@ fn obj_scene_is_lit_by_its_mtl_emissive_group() {
 /// geometric normal +y) with the vertex normals `normals` at its corners,
 /// written to a fresh directory; returns the OBJ's path.
 fn smooth_square(name: &str, normals: [[f64; 3]; 4]) -> std::path::PathBuf {
+    square_obj(name, normals, "f 1//1 2//2 3//3\nf 1//1 3//3 4//4\n")
+}
+
+/// The square of [`smooth_square`] with the face lines `faces`.
+fn square_obj(name: &str, normals: [[f64; 3]; 4], faces: &str) -> std::path::PathBuf {
     let dir = std::env::temp_dir().join(format!("mdas-smooth-{name}-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let mut obj = String::new();
@@ -1011,10 +1016,51 @@ fn smooth_square(name: &str, normals: [[f64; 3]; 4]) -> std::path::PathBuf {
     for n in normals {
         obj += &format!("vn {} {} {}\n", n[0], n[1], n[2]);
     }
-    obj += "f 1//1 2//2 3//3\nf 1//1 3//3 4//4\n";
+    obj += faces;
     let path = dir.join("square.obj");
     std::fs::write(&path, obj).unwrap();
     path
+}
+
+/// Issue 67 item 2: a mesh wound against its vertex normals (common in
+/// real assets) has its front where the normals point, as Mitsuba shades
+/// it. The square with every normal +y but its faces wound to −y renders
+/// bit for bit as the square wound to +y under every integrand (direct
+/// light from a quad light facing it out of view, a point and a
+/// directional light; depth of
+/// field, motion blur, path, ambient occlusion, many-light), and is lit:
+/// when the winding decided, its lit side was its back and rendered black.
+#[test]
+fn a_mesh_wound_against_its_normals_renders_as_the_rewound_mesh() {
+    let up = [[0.0, 1.0, 0.0]; 4];
+    let along = smooth_square("wound-along", up);
+    let against = square_obj("wound-against", up, "f 1//1 3//3 2//2\nf 1//1 4//4 3//3\n");
+    let lights = "[[light]]\ntype = \"point\"\nposition = [0.3, 1, 0.2]\nintensity = [1, 1, 1]\n\
+                  [[light]]\ntype = \"directional\"\ndirection = [0.3, -1, 0.2]\nirradiance = [0.5, 0.5, 0.5]\n\
+                  [[light]]\ntype = \"quad\"\ncorners = [[1, 1.2, -0.25], [1.5, 1.2, -0.25], [1.5, 1.2, 0.25], [1, 1.2, 0.25]]\n\
+                  radiance = [2, 2, 2]\n";
+    for integrand in [
+        "type = \"area_light\"",
+        "type = \"depth_of_field\"",
+        "type = \"motion_blur\"",
+        "type = \"path\"\nmax_bounces = 1",
+        "type = \"ambient_occlusion\"\nradius = 1",
+        "type = \"many_light\"\nsampler = \"uniform\"",
+    ] {
+        let [a, b] = [&along, &against].map(|obj| {
+            let scene = smooth_scene(obj, 0.0, lights, 0.0, integrand);
+            render(&scene, 4, 3)
+        });
+        let bits = |r: &Render| {
+            r.image
+                .iter()
+                .flat_map(|p| p.map(f32::to_bits))
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(bits(&a), bits(&b), "{integrand}");
+        let mean = b.image.iter().map(|p| p[0] as f64).sum::<f64>() / b.image.len() as f64;
+        assert!(mean > 0.01, "{integrand}: the square is dark ({mean})");
+    }
 }
 
 const SQUARE: [[f64; 3]; 4] = [

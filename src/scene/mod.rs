@@ -208,6 +208,56 @@ impl Scene {
     pub fn triangle_count(&self) -> usize {
         self.meshes.iter().map(|m| m.indices.len()).sum()
     }
+
+    /// Winds every mesh's faces to agree with its shading normals
+    /// ([`Mesh::orient_to_normals`]); one warning per mesh that needed it.
+    pub fn orient_to_normals(&mut self) -> Vec<String> {
+        self.meshes
+            .iter_mut()
+            .filter_map(|m| {
+                let turned = m.orient_to_normals();
+                (turned > 0).then(|| {
+                    format!(
+                        "mesh '{}': {turned} of its {} triangles were wound against their vertex normals; \
+                         they face the side the normals point to, as Mitsuba shades such a mesh",
+                        m.name,
+                        m.indices.len()
+                    )
+                })
+            })
+            .collect()
+    }
+}
+
+impl Mesh {
+    /// Winds each triangle so that its geometric normal (v1 − v0) × (v2 −
+    /// v0) points to the side its corners' shading normals do (their sum):
+    /// a mesh with vertex normals has its front where they point. Mitsuba
+    /// shades such a mesh by its normals whatever its winding (its
+    /// one-sided BSDFs and area emitters test the shading frame), and real
+    /// assets are often wound against them; the geometric normal decides
+    /// here which side emits, which side a one-sided reflection and a
+    /// shadow ray leave from, and a face wound against its normals
+    /// rendered black (issue 67). A triangle without normals, with a zero
+    /// area or whose normals sum to zero is left as it is. Returns how
+    /// many were turned.
+    pub fn orient_to_normals(&mut self) -> usize {
+        if self.normals.len() != self.positions.len() {
+            return 0;
+        }
+        let mut turned = 0;
+        for tri in &mut self.indices {
+            let [a, b, c] = tri.map(|i| i as usize);
+            let ng = (self.positions[b] - self.positions[a])
+                .cross(self.positions[c] - self.positions[a]);
+            let ns = self.normals[a] + self.normals[b] + self.normals[c];
+            if ng.dot(ns) < 0.0 {
+                tri.swap(1, 2);
+                turned += 1;
+            }
+        }
+        turned
+    }
 }
 
 /// Reads an input file of at most `limit` bytes: devices, pipes and

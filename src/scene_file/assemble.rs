@@ -47,7 +47,7 @@ impl Ctx<'_> {
         let ShapeOutputs {
             mut materials,
             inputs,
-            warnings,
+            mut warnings,
         } = out;
 
         let mut lights = Vec::new();
@@ -111,16 +111,18 @@ impl Ctx<'_> {
             Some(m) => self.mdas(m, film)?,
             None => MdasParams::for_film(film),
         };
+        let mut scene = Scene {
+            film,
+            camera,
+            background,
+            materials,
+            meshes,
+            lights,
+            point_light_sets,
+        };
+        warnings.extend(scene.orient_to_normals());
         Ok(SceneFile {
-            scene: Scene {
-                film,
-                camera,
-                background,
-                materials,
-                meshes,
-                lights,
-                point_light_sets,
-            },
+            scene,
             integrand,
             visibility,
             voxel,

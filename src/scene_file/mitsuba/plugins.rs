@@ -342,7 +342,7 @@ impl Builder {
 
     /// The loaded scene and the integrand its integrator and emitters ask
     /// for.
-    pub(super) fn finish(self, file: &Path) -> Result<SceneFile> {
+    pub(super) fn finish(mut self, file: &Path) -> Result<SceneFile> {
         let top = (file.to_path_buf(), 1, 1);
         let Some(sensor) = self.sensor else {
             return Err(invalid(
@@ -427,16 +427,18 @@ impl Builder {
                 mdas
             }
         };
+        let mut scene = Scene {
+            film: sensor.film,
+            camera: sensor.camera,
+            background: Vec3::ZERO,
+            materials: self.materials,
+            meshes: self.meshes,
+            lights: self.lights,
+            point_light_sets: Vec::new(),
+        };
+        self.warnings.extend(scene.orient_to_normals());
         Ok(SceneFile {
-            scene: Scene {
-                film: sensor.film,
-                camera: sensor.camera,
-                background: Vec3::ZERO,
-                materials: self.materials,
-                meshes: self.meshes,
-                lights: self.lights,
-                point_light_sets: Vec::new(),
-            },
+            scene,
             integrand,
             visibility: Visibility::Bvh,
             voxel: VoxelParams::default(),
