@@ -115,6 +115,7 @@ SCENES = {
     "delta_lights": (256, "direct lighting of delta lights: point + directional"),
     "thinlens": (128, "direct lighting of delta lights, thin lens"),
     "ply_sphere": (64, "area-light direct lighting (perspective), disk light"),
+    "ply_wound": (64, "area-light direct lighting, PLY spheres wound against their vertex normals, disk + point light"),
     "path_cornell": (320, "path, max_depth 4 (2 indirect bounces), area light"),
     "path_mixed": (448, "path, max_depth 3 (1 indirect bounce), area + point + directional"),
     "checker": (256, "area-light direct lighting, checkerboard textures (rectangle, cube, PLY u v)"),

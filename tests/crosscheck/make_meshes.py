@@ -11,6 +11,8 @@ for byte (numpy only, no randomness).
   float x y z nx ny nz (vertex normals = exact sphere normals, so a loader
   that interpolates them shades it smooth), ``list uchar int
   vertex_indices``; triangles wound counter-clockwise seen from outside.
+- ``uv_sphere_cw.ply``: the same sphere with every face wound clockwise
+  seen from outside, against its (outward) vertex normals.
 - ``wedge.ply``: ASCII triangular prism, no normals, eight triangles wound
   counter-clockwise seen from outside. Its base is the triangle (-1,-1)
   (1,-1) (0,1) in z = 0, extruded to z = 1 (see WEDGE_VERTS).
@@ -141,9 +143,13 @@ def main():
     os.makedirs(out, exist_ok=True)
     v, f = uv_sphere()
     write_binary_ply(os.path.join(out, "uv_sphere.ply"), v, v, f)
+    # The same sphere wound against its normals (outward normals, faces
+    # clockwise seen from outside), as real assets often are: Mitsuba
+    # shades it by its normals, exactly as uv_sphere.ply.
+    write_binary_ply(os.path.join(out, "uv_sphere_cw.ply"), v, v, f[:, [0, 2, 1]])
     write_ascii_ply(os.path.join(out, "wedge.ply"))
     write_obj(os.path.join(out, "wedge.obj"))
-    print(f"uv_sphere.ply: {len(v)} vertices, {len(f)} triangles; "
+    print(f"uv_sphere.ply, uv_sphere_cw.ply: {len(v)} vertices, {len(f)} triangles; "
           "wedge.ply: 6 vertices, 8 triangles; wedge.obj: 2 triangles, 3 quads")
 
 
