@@ -234,6 +234,25 @@ pub fn check_writable(path: &Path) -> Result<()> {
             directory.display()
         );
     }
+    check_target(path)?;
+    let probe = temp_path_for(path)?;
+    let staged = Staged::new(probe.clone());
+    fs::write(&probe, b"").with_context(|| {
+        format!(
+            "cannot write {}: directory {} is not writable",
+            path.display(),
+            directory.display()
+        )
+    })?;
+    drop(staged);
+    Ok(())
+}
+
+/// What a rename over `path` must not replace: a directory, another file
+/// that is not a regular one (a FIFO, socket or device) or an input this
+/// process has read ([`note_input`]). [`check_writable`] and
+/// [`StagedDir::commit`] (for every file it moves in) run it.
+fn check_target(path: &Path) -> Result<()> {
     if path.is_dir() {
         bail!("cannot write {}: it is a directory", path.display());
     }
@@ -257,16 +276,6 @@ pub fn check_writable(path: &Path) -> Result<()> {
             );
         }
     }
-    let probe = temp_path_for(path)?;
-    let staged = Staged::new(probe.clone());
-    fs::write(&probe, b"").with_context(|| {
-        format!(
-            "cannot write {}: directory {} is not writable",
-            path.display(),
-            directory.display()
-        )
-    })?;
-    drop(staged);
     Ok(())
 }
 
@@ -441,11 +450,15 @@ impl StagedDir {
             .map(|e| Ok(e?.file_name().to_string_lossy().into_owned()))
             .collect::<std::io::Result<_>>()?;
         names.sort_by_key(|n| (n == last, n.clone()));
+        // Every target first, so that a refused one leaves the output
+        // directory as it was: a FIFO, device or input named like an
+        // output is refused (issue 67, hostile inputs class 4), not
+        // replaced by the rename.
+        for name in &names {
+            check_target(&self.target.join(name))?;
+        }
         for name in &names {
             let to = self.target.join(name);
-            if to.is_dir() {
-                bail!("cannot write {}: it is a directory", to.display());
-            }
             fs::rename(staging.path.join(name), &to)
                 .with_context(|| format!("cannot move {name} into {}", self.target.display()))?;
         }
@@ -580,6 +593,31 @@ mod tests {
         fs::remove_dir_all(dir.join("new")).unwrap();
         fs::write(&fresh, b"a file").unwrap();
         assert!(StagedDir::new(&fresh).is_err());
+        fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// A FIFO named like a staged file is refused at the commit and left
+    /// a FIFO, and no file of the run is moved in (issue 67, hostile
+    /// inputs class 4: the rename replaced it).
+    #[test]
+    fn a_fifo_named_like_a_staged_file_is_refused_whole() {
+        use std::os::unix::fs::FileTypeExt;
+        let dir = test_dir("fifo-target");
+        let made = std::process::Command::new("mkfifo")
+            .arg(dir.join("b.json"))
+            .status()
+            .unwrap();
+        assert!(made.success());
+        let staged = StagedDir::new(&dir).unwrap();
+        fs::write(staged.path().join("a.csv"), b"a").unwrap();
+        fs::write(staged.path().join("b.json"), b"b").unwrap();
+        let e = staged.commit("b.json").unwrap_err().to_string();
+        assert!(e.contains("not a regular file"), "{e}");
+        assert_eq!(entries(&dir), ["b.json"]);
+        let kind = fs::symlink_metadata(dir.join("b.json"))
+            .unwrap()
+            .file_type();
+        assert!(kind.is_fifo());
         fs::remove_dir_all(&dir).unwrap();
     }
 

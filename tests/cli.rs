@@ -2243,3 +2243,139 @@ fn sizes_over_the_adapter_limit_name_their_key() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// `mdas args`, killed and failed after 60 s (a read that blocks on a
+/// FIFO must fail the test, not hang the suite).
+fn mdas_within_a_minute(args: &[&str]) -> (Output, f64) {
+    let args: Vec<String> = args.iter().map(|a| a.to_string()).collect();
+    mdas_capped(&args, None, std::time::Duration::from_secs(60))
+}
+
+fn mkfifo(path: &Path) {
+    let made = Command::new("mkfifo").arg(path).status().unwrap();
+    assert!(made.success(), "mkfifo {}", path.display());
+}
+
+fn is_fifo(path: &Path) -> bool {
+    use std::os::unix::fs::FileTypeExt;
+    std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_fifo())
+}
+
+/// The names in `dir`, sorted.
+fn names_in(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    names
+}
+
+/// Issue 67, hostile inputs class 4: a FIFO named like one of the outputs
+/// of `compare --out` or `merge -o` is refused and left a FIFO, with none
+/// of the run's files moved in (it became a regular file, exit 0); a FIFO
+/// at a reference cache entry's record is refused without being opened
+/// (`reference` hung reading it).
+#[test]
+fn fifos_named_like_outputs_are_refused_not_replaced() {
+    let dir = temp_dir("fifo-outputs");
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    let scene = "scenes/area_light_plane.toml";
+    let cache = s(&dir.join("cache"));
+    let refused = |args: &[&str], fifo: &Path| {
+        let (o, secs) = mdas_within_a_minute(args);
+        let err = stderr(&o);
+        assert!(!o.status.success(), "{args:?} succeeded");
+        assert!(!err.contains("panicked"), "{args:?}: {err}");
+        assert!(
+            err.contains(&s(fifo)) && err.contains("not a regular file"),
+            "{args:?}: {err}"
+        );
+        assert!(is_fifo(fifo), "{args:?} replaced the FIFO");
+        assert!(secs < 30.0, "{args:?} took {secs:.1} s");
+    };
+    // compare --out: report.json (moved in last) is a FIFO.
+    let out = dir.join("compare");
+    std::fs::create_dir_all(&out).unwrap();
+    mkfifo(&out.join("report.json"));
+    refused(
+        &[
+            "-q",
+            "compare",
+            scene,
+            "--scale",
+            "0.125",
+            "--spp",
+            "4",
+            "--ref-spp",
+            "16",
+            "--seeds",
+            "2",
+            "--repeats",
+            "1",
+            "--cache",
+            &cache,
+            "--out",
+            &s(&out),
+        ],
+        &out.join("report.json"),
+    );
+    assert_eq!(names_in(&out), ["report.json"], "nothing else moved in");
+    // merge -o of a sweep part: sweep.csv (moved in first) is a FIFO.
+    let part = dir.join("part");
+    let (o, _) = mdas_within_a_minute(&[
+        "-q",
+        "sweep",
+        scene,
+        "--scale",
+        "0.125",
+        "--spps",
+        "4",
+        "--ref-spp",
+        "16",
+        "--seeds",
+        "2",
+        "--repeats",
+        "1",
+        "--cache",
+        &cache,
+        "--part",
+        "1/1",
+        "--out",
+        &s(&part),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let merged = dir.join("merged");
+    std::fs::create_dir_all(&merged).unwrap();
+    mkfifo(&merged.join("sweep.csv"));
+    refused(
+        &["-q", "merge", &s(&part), "-o", &s(&merged)],
+        &merged.join("sweep.csv"),
+    );
+    assert_eq!(names_in(&merged), ["sweep.csv"], "nothing else moved in");
+    // The cache entry both used, its record replaced by a FIFO.
+    let records: Vec<PathBuf> = std::fs::read_dir(&cache)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "json"))
+        .collect();
+    assert_eq!(records.len(), 1, "{records:?}");
+    std::fs::remove_file(&records[0]).unwrap();
+    mkfifo(&records[0]);
+    let args = [
+        "-q",
+        "reference",
+        scene,
+        "--scale",
+        "0.125",
+        "--spp",
+        "16",
+        "--cache",
+        &cache,
+    ];
+    refused(&args, &records[0]);
+    // No EXR beside it either: the lookup must not open the record.
+    std::fs::remove_file(records[0].with_extension("exr")).unwrap();
+    refused(&args, &records[0]);
+    std::fs::remove_dir_all(&dir).ok();
+}

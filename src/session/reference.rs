@@ -162,15 +162,38 @@ pub fn pixels_sha256(image: &[[f32; 3]]) -> String {
     digest.iter().map(|b| format!("{b:02x}")).collect()
 }
 
+/// Most bytes read from a cache entry's record (a merged entry's, which
+/// holds its parts' records, is a few kilobytes per part).
+const MAX_ENTRY_RECORD_BYTES: u64 = 64 << 20;
+
 /// A cache entry, if it is whole: its EXR reads, has the film's size, is
 /// finite, and its pixels hash to the record's `pixels_sha256` (a
 /// truncated, garbled, zeroed or half-written entry fails one of these).
+///
+/// Neither file is opened unless it is a regular file (issue 67, hostile
+/// inputs class 4): opening a FIFO for reading blocks until a writer
+/// comes, and a FIFO at the record's path hung `mdas reference`.
 fn read_cache_entry(path: &Path, film: Film) -> Result<Vec<[f32; 3]>> {
+    let record_path = reference_record_path(path);
+    for file in [path, record_path.as_path()] {
+        match std::fs::metadata(file) {
+            Ok(meta) if !meta.is_file() => bail!(
+                "{} is not a regular file (a directory, FIFO, socket or device)",
+                file.display()
+            ),
+            Ok(_) => {}
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                bail!("{} is missing", file.display())
+            }
+            Err(e) => bail!("cannot read {}: {e}", file.display()),
+        }
+    }
     let record: serde_json::Value = {
-        let record_path = reference_record_path(path);
-        let text = std::fs::read_to_string(&record_path)
-            .with_context(|| format!("its record {} is missing", record_path.display()))?;
-        serde_json::from_str(&text).context("its record is not valid JSON")?
+        // Bounded, and refused unless a regular file (checked again at the
+        // open: the file may have been replaced since).
+        let bytes = crate::scene::read_input(&record_path, MAX_ENTRY_RECORD_BYTES)
+            .with_context(|| format!("its record {} cannot be read", record_path.display()))?;
+        serde_json::from_slice(&bytes).context("its record is not valid JSON")?
     };
     let (w, h, image) = image_io::read_exr(path)?;
     if (w, h) != (film.width, film.height) {
@@ -293,7 +316,9 @@ pub fn reference_of_loaded(
         .with_context(|| format!("cannot create cache directory {}", cache_dir.display()))?;
     // The entry is written after the render: refuse now what its write
     // would refuse then (a damaged entry read above is ours to replace).
-    crate::atomic::release_input(&path);
+    for file in entry_files(&path) {
+        crate::atomic::release_input(&file);
+    }
     check_entry(&path)?;
     let prepared = prepare_loaded(gpu, scene, scene_path, spec.scale, overrides)?;
     let mut halton = Halton::new(spec.spp, spec.seed);
@@ -394,7 +419,9 @@ pub(super) fn write_entry(
     let (w, h) = (film.width, film.height);
     let mut writes = crate::atomic::AtomicWrites::new();
     // A damaged entry read above is this cache's to replace.
-    crate::atomic::release_input(path);
+    for file in entry_files(path) {
+        crate::atomic::release_input(&file);
+    }
     let [exr, png, json] = entry_files(path);
     image_io::stage_exr(&mut writes, &exr, w, h, image, attributes)?;
     image_io::stage_png(&mut writes, &png, w, h, image)?;
