@@ -2379,3 +2379,245 @@ fn fifos_named_like_outputs_are_refused_not_replaced() {
     refused(&args, &records[0]);
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Issue 67, hostile inputs class 5: `merge` checks every field of a part
+/// record against the run it claims to be part of before it allocates or
+/// writes anything. Parts of `--seeds 1` merge (their one-seed intervals
+/// are written as null); edited records — a huge film, a huge part count,
+/// an array where an object belongs, a budget that is not Halton's, a
+/// cache entry name that leaves the cache or names another kind of file —
+/// fail within seconds, naming the file and the field, without a panic
+/// and writing nothing.
+#[test]
+fn merge_checks_every_field_of_its_part_records() {
+    use serde_json::{json, Value};
+    let dir = temp_dir("merge-records");
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    let scene = "scenes/area_light_plane.toml";
+    let cache = s(&dir.join("cache"));
+    let run = |args: &[&str]| {
+        let (o, _) = mdas_within_a_minute(args);
+        assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+    };
+    let common = [
+        "--scale",
+        "0.125",
+        "--ref-spp",
+        "16",
+        "--seeds",
+        "1",
+        "--cache",
+        &cache,
+    ];
+    // One-seed sweep parts merge, as do one-seed tune parts.
+    let sweep_parts: Vec<PathBuf> = (1..=2).map(|i| dir.join(format!("sweep-{i}"))).collect();
+    for (i, p) in sweep_parts.iter().enumerate() {
+        let (part, out) = (format!("{}/2", i + 1), s(p));
+        let mut a = vec!["-q", "sweep", scene, "--spps", "4,8", "--repeats", "1"];
+        a.extend(common);
+        a.extend(["--part", &part, "--out", &out]);
+        run(&a);
+    }
+    let tune_part = dir.join("tune-1");
+    let mut a = vec![
+        "-q",
+        "tune",
+        scene,
+        "--spp",
+        "4",
+        "--grid",
+        "alpha=0,1",
+        "--equal-samples",
+    ];
+    a.extend(common);
+    let out = s(&tune_part);
+    a.extend(["--part", "1/1", "--out", &out]);
+    run(&a);
+    for (parts, record) in [
+        (vec![s(&sweep_parts[0]), s(&sweep_parts[1])], "sweep.json"),
+        (vec![s(&tune_part)], "tune.json"),
+    ] {
+        let out = dir.join(format!("merged-{record}"));
+        let mut a = vec!["-q", "merge"];
+        a.extend(parts.iter().map(String::as_str));
+        a.extend(["-o", out.to_str().unwrap()]);
+        run(&a);
+        assert!(out.join(record).is_file(), "{record}");
+    }
+    // Reference parts.
+    let ref_parts: Vec<PathBuf> = (1..=2).map(|i| dir.join(format!("ref-{i}.exr"))).collect();
+    for (i, p) in ref_parts.iter().enumerate() {
+        let part = format!("{}/2", i + 1);
+        run(&[
+            "-q",
+            "reference",
+            scene,
+            "--spp",
+            "4",
+            "--scale",
+            "0.125",
+            "--part",
+            &part,
+            "--cache",
+            &cache,
+            "-o",
+            &s(p),
+        ]);
+    }
+    let read =
+        |p: &Path| -> Value { serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap() };
+    // Each case: the part edited, the merge's other arguments, and what the
+    // error names.
+    let merged_cache = dir.join("merged-cache");
+    let merged_out = dir.join("merged-out");
+    let mut n = 0;
+    let mut refused = |kind: &str, edit: &dyn Fn(&mut Value), expect: &[&str]| {
+        n += 1;
+        let (edited, mut args) = match kind {
+            // The first part edited, with the second as it is, alone, or
+            // edited alike.
+            "reference" | "reference alone" | "reference both" => {
+                let mut args = Vec::new();
+                let mut edited = Vec::new();
+                for (k, from) in ref_parts.iter().enumerate() {
+                    let exr = dir.join(format!("edited-{n}-{k}.exr"));
+                    std::fs::copy(from, &exr).unwrap();
+                    let mut v = read(&from.with_extension("json"));
+                    if k == 0 || kind == "reference both" {
+                        edit(&mut v);
+                    }
+                    let record = exr.with_extension("json");
+                    std::fs::write(&record, v.to_string()).unwrap();
+                    if k == 0 || kind != "reference alone" {
+                        args.push(s(&exr));
+                    }
+                    edited.push(record);
+                }
+                args.extend(["--cache".into(), s(&merged_cache)]);
+                (edited.swap_remove(0), args)
+            }
+            _ => {
+                let (from, file) = match kind {
+                    "sweep" => (&sweep_parts[0], "sweep-part.json"),
+                    _ => (&tune_part, "tune-part.json"),
+                };
+                let part = dir.join(format!("edited-{n}"));
+                std::fs::create_dir_all(&part).unwrap();
+                let mut v = read(&from.join(file));
+                edit(&mut v);
+                std::fs::write(part.join(file), v.to_string()).unwrap();
+                let mut args = vec![s(&part)];
+                if kind == "sweep" {
+                    args.push(s(&sweep_parts[1]));
+                }
+                args.extend(["-o".into(), s(&merged_out)]);
+                (part.join(file), args)
+            }
+        };
+        args.insert(0, "merge".into());
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let (o, secs) = mdas_within_a_minute(&args);
+        let err = stderr(&o);
+        assert!(!o.status.success(), "{kind} {expect:?}: merged");
+        assert!(!err.contains("panicked"), "{kind} {expect:?}: {err}");
+        // A part count is checked against the parts given, not the file.
+        if kind != "reference alone" {
+            // The record or, for a reference, its EXR beside it.
+            let named = s(&edited.with_extension(""));
+            assert!(err.contains(&named), "{kind} {expect:?}: {err}");
+        }
+        for e in expect {
+            assert!(err.contains(e), "{kind}: expected '{e}' in: {err}");
+        }
+        assert!(secs < 20.0, "{kind} {expect:?} took {secs:.1} s");
+        assert!(!merged_cache.exists(), "{kind} {expect:?} wrote the cache");
+        assert!(!merged_out.exists(), "{kind} {expect:?} wrote the output");
+    };
+    // A film no reference has: it sized the sum before any EXR was read.
+    refused(
+        "reference",
+        &|v| {
+            v["width"] = json!(u32::MAX);
+            v["height"] = json!(u32::MAX);
+        },
+        &["'width'"],
+    );
+    refused(
+        "reference both",
+        &|v| v["width"] = json!(1 << 20),
+        &["its record says 1048576×"],
+    );
+    // Its part count sized a table of 2^32 slots (given alone: with the
+    // other part, its spp differs).
+    refused(
+        "reference alone",
+        &|v| {
+            v["parts"] = json!(u32::MAX);
+            v["spp"] = json!(u32::MAX);
+            v["end"] = json!(1);
+        },
+        &["parts 2/4294967295", "and 4294967278 more are missing"],
+    );
+    for entry in [
+        "../escaped.exr",
+        "/tmp/escaped.exr",
+        "sub/area_light_plane-0123456789abcdef01234567.exr",
+        "..",
+        "area_light_plane-0123456789abcdef01234567.json",
+        "area_light_plane-0123456789abcdef01234567",
+        "other-0123456789abcdef01234567.exr",
+    ] {
+        refused(
+            "reference",
+            &|v| v["cache_entry"] = json!(entry),
+            &["'cache_entry'"],
+        );
+    }
+    assert!(!dir.join("escaped.exr").exists());
+    // An array where an object belongs (serde takes a struct's fields in
+    // order): indexing it by key panicked.
+    refused(
+        "tune",
+        &|v| {
+            let fields = [
+                "scene",
+                "scale",
+                "spp",
+                "mdas_seeds",
+                "halton_seeds",
+                "reference_spp",
+                "reference_seed",
+                "reference_path",
+                "reference_exact",
+                "equal_samples",
+                "grid",
+                "budgets",
+                "skipped",
+                "provenance",
+            ];
+            let head = fields.iter().map(|f| v["head"][f].clone()).collect();
+            v["head"] = Value::Array(head);
+        },
+        &["'head'"],
+    );
+    // A budget that is not Halton's: ranking looked it up and panicked.
+    refused(
+        "tune",
+        &|v| v["head"]["spp"] = json!(5.0),
+        &["'head.budgets'"],
+    );
+    refused(
+        "tune",
+        &|v| v["head"]["budgets"] = json!([1, 2, 4, 8, 16]),
+        &["'head.budgets'"],
+    );
+    // Sizes that disagree with the run's head.
+    refused("sweep", &|v| v["parts"] = json!(u32::MAX), &["'parts'"]);
+    refused(
+        "sweep",
+        &|v| v["points"] = json!([["halton", 4], ["halton", 8]]),
+        &["'points'"],
+    );
+    refused("sweep", &|v| v["seeds"] = json!(2), &["seeds"]);
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -97,7 +97,7 @@ impl PartKind {
 }
 
 /// What a merge needs of a part record's kind.
-trait PartRecord: DeserializeOwned {
+trait PartRecord: DeserializeOwned + serde::Serialize {
     /// The file a part writes in its directory, and its format tag.
     const FILE: &'static str;
     const FORMAT: &'static str;
@@ -106,6 +106,11 @@ trait PartRecord: DeserializeOwned {
     const OWN: &'static [&'static str];
     fn part(&self) -> Part;
     fn provenance(&self) -> &crate::provenance::Provenance;
+    /// Checks every field a merge sizes, indexes or writes something by
+    /// against the run the record says it is part of (its own head: the
+    /// budgets, points, seeds and part count), naming the field; run on
+    /// each part before anything is allocated or written.
+    fn check(&self) -> std::result::Result<(), String>;
 }
 
 impl PartRecord for SweepPart {
@@ -128,6 +133,82 @@ impl PartRecord for SweepPart {
     fn provenance(&self) -> &crate::provenance::Provenance {
         &self.result.provenance
     }
+    fn check(&self) -> std::result::Result<(), String> {
+        if self.spps.is_empty() || self.spps.contains(&0) {
+            return Err(format!("'spps' {:?} are not budgets", self.spps));
+        }
+        let mut sorted = self.spps.clone();
+        sorted.sort_unstable();
+        if sorted.windows(2).any(|w| w[0] == w[1]) {
+            return Err(format!("'spps' {:?} list a budget twice", self.spps));
+        }
+        let skipped = &self.result.mdas_skipped;
+        if !skipped.iter().all(|s| self.spps.contains(s)) || {
+            let mut k = skipped.clone();
+            k.sort_unstable();
+            k.windows(2).any(|w| w[0] == w[1])
+        } {
+            return Err(format!(
+                "'result.mdas_skipped' {skipped:?} are not budgets of 'spps' {:?}",
+                self.spps
+            ));
+        }
+        let points: Vec<(String, u32)> = self
+            .spps
+            .iter()
+            .filter(|s| !skipped.contains(s))
+            .map(|&s| ("mdas".to_string(), s))
+            .chain(self.spps.iter().map(|&s| ("halton".to_string(), s)))
+            .collect();
+        if self.points != points {
+            return Err(format!(
+                "'points' are not the sweep of 'spps' {:?} less 'result.mdas_skipped' for MDAS",
+                self.spps
+            ));
+        }
+        check_seeds(self.seeds)?;
+        if let Some(row) = self
+            .result
+            .rows
+            .iter()
+            .find(|r| r.seeds.len() != self.seeds as usize)
+        {
+            return Err(format!(
+                "'result.rows' {} {} spp has {} seeds, not 'seeds' {}",
+                row.method,
+                row.spp,
+                row.seeds.len(),
+                self.seeds
+            ));
+        }
+        check_count(self.part(), points.len(), "points")
+    }
+}
+
+/// A record's seeds per point or configuration: as `--seeds` takes them.
+fn check_seeds(seeds: u32) -> std::result::Result<(), String> {
+    let max = super::intervals::MAX_SEEDS;
+    if !(1..=max).contains(&seeds) {
+        return Err(format!("'seeds' {seeds} is not in 1..={max}"));
+    }
+    Ok(())
+}
+
+/// That `part` is one of at most `items` parts (each part holds an item).
+fn check_count(part: Part, items: usize, what: &str) -> std::result::Result<(), String> {
+    if part.count == 0 || part.index == 0 || part.index > part.count {
+        return Err(format!(
+            "'part' {} of 'parts' {} is not a part",
+            part.index, part.count
+        ));
+    }
+    if part.count as usize > items {
+        return Err(format!(
+            "'parts' {} is more than the run's {items} {what} (each part holds one)",
+            part.count
+        ));
+    }
+    Ok(())
 }
 
 impl PartRecord for TunePart {
@@ -154,7 +235,52 @@ impl PartRecord for TunePart {
     fn provenance(&self) -> &crate::provenance::Provenance {
         &self.head.provenance
     }
+    fn check(&self) -> std::result::Result<(), String> {
+        let head = &self.head;
+        if !(head.spp.is_finite() && head.spp >= 1.0 && head.spp <= MAX_TUNE_SPP) {
+            return Err(format!(
+                "'head.spp' {} is not a budget (1..={MAX_TUNE_SPP})",
+                head.spp
+            ));
+        }
+        let budgets = tune::halton_budgets(head.spp);
+        if head.budgets != budgets {
+            return Err(format!(
+                "'head.budgets' {:?} are not Halton's budgets at 'head.spp' {} ({budgets:?})",
+                head.budgets, head.spp
+            ));
+        }
+        let seeds = head.mdas_seeds.len();
+        check_seeds(u32::try_from(seeds).unwrap_or(u32::MAX))
+            .map_err(|e| e.replace("'seeds'", "'head.mdas_seeds' has"))?;
+        if head.halton_seeds.len() != seeds {
+            return Err(format!(
+                "'head.halton_seeds' has {} seeds, 'head.mdas_seeds' {seeds}",
+                head.halton_seeds.len()
+            ));
+        }
+        // The configurations are the grid's, at most its product.
+        let product = head
+            .grid
+            .iter()
+            .try_fold(1usize, |n, (_, values)| n.checked_mul(values.len()));
+        if product.is_none_or(|n| self.configurations.len() > n) {
+            return Err(format!(
+                "'configurations' ({}) are more than 'head.grid' makes",
+                self.configurations.len()
+            ));
+        }
+        check_count(
+            self.part(),
+            budgets.len() + self.configurations.len(),
+            "Halton budgets and configurations",
+        )
+    }
 }
+
+/// The largest budget of a search whose part a merge takes: `--spp` is an
+/// f32 whose Halton budgets (up to 4×) are u32s.
+const MAX_TUNE_SPP: f32 = (1u32 << 29) as f32;
 
 /// Reads the parts at `paths` and checks that they are the parts
 /// 1..=N of one run ([`check_parts`]); returns them in index order.
@@ -207,7 +333,7 @@ struct Read<T> {
     value: Value,
 }
 
-fn read_part<T: DeserializeOwned>(path: &Path, part_file: &str, format: &str) -> Result<Read<T>> {
+fn read_part<T: PartRecord>(path: &Path, part_file: &str, format: &str) -> Result<Read<T>> {
     let file = record_file(path, part_file);
     let value = read_value(&file)?;
     if value["format"] != format {
@@ -216,8 +342,24 @@ fn read_part<T: DeserializeOwned>(path: &Path, part_file: &str, format: &str) ->
             file.display()
         );
     }
-    let record = serde_json::from_value(value.clone())
+    let record: T = serde_json::from_value(value.clone())
         .with_context(|| format!("{}: not a valid {format} record", file.display()))?;
+    // The record as `mdas` writes it, and nothing else: serde takes an
+    // array for an object and ignores unknown fields, and the checks
+    // below read the JSON as well as the typed record (written as text
+    // and read back, so that f32s compare as written).
+    let written: Value = serde_json::from_str(&serde_json::to_string(&record)?)?;
+    if let Some(field) = first_difference(&written, &value, "") {
+        bail!(
+            "{}: '{field}' is not as `mdas` writes a {format} record (found {}, expected {})",
+            file.display(),
+            shortened(pointer(&value, &field)),
+            shortened(pointer(&written, &field))
+        );
+    }
+    if let Err(e) = record.check() {
+        bail!("{}: {e}", file.display());
+    }
     Ok(Read {
         file,
         record,
@@ -260,11 +402,15 @@ fn without(v: &Value, paths: &[&str]) -> Value {
     for path in paths {
         let mut keys: Vec<&str> = path.split('.').collect();
         let last = keys.pop().expect("a path has a key");
-        let mut at = &mut v;
+        // Through objects only (indexing an array by a key panics); the
+        // records are checked to be objects there ([`read_part`]).
+        let mut at = Some(&mut v);
         for k in keys {
-            at = &mut at[k];
+            at = at
+                .and_then(|a| a.as_object_mut())
+                .and_then(|o| o.get_mut(k));
         }
-        if let Some(o) = at.as_object_mut() {
+        if let Some(o) = at.and_then(|a| a.as_object_mut()) {
             o.remove(last);
         }
     }
@@ -294,6 +440,14 @@ fn check_parts<T: PartRecord>(parts: &[Read<T>], own: &[&str]) -> Result<Vec<usi
         .map(|p| (p.record.part().index, p.file.as_path()))
         .collect();
     crate::session::parts::in_order(first.record.part().count, &indexed)
+}
+
+/// `text`, cut after 80 characters.
+fn shortened(text: String) -> String {
+    match text.char_indices().nth(80) {
+        Some((at, _)) => format!("{}…", &text[..at]),
+        None => text,
+    }
 }
 
 /// The value at a dotted path with `[i]` indices, as text.

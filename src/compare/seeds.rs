@@ -54,6 +54,23 @@ pub fn mean_ci95(values: &[f64]) -> (f64, [f64; 2]) {
     (mean, [mean - half, mean + half])
 }
 
+/// Reads back an interval of [`mean_ci95`] as a record wrote it: JSON has
+/// no infinities, so one seed's (−∞, +∞) is written `[null, null]`; a null
+/// lower bound reads back as −∞ and a null upper bound as +∞, which write
+/// back as the same nulls (issue 67, hostile inputs class 5: parts of
+/// `--seeds 1` could not be merged). For
+/// `#[serde(deserialize_with = "...")]`.
+pub fn de_interval<'de, D: serde::Deserializer<'de>>(d: D) -> Result<[f64; 2], D::Error> {
+    let [lo, hi]: [Option<f64>; 2] = serde::Deserialize::deserialize(d)?;
+    Ok([lo.unwrap_or(f64::NEG_INFINITY), hi.unwrap_or(f64::INFINITY)])
+}
+
+/// [`de_interval`] per channel.
+pub fn de_intervals3<'de, D: serde::Deserializer<'de>>(d: D) -> Result<[[f64; 2]; 3], D::Error> {
+    let v: [[Option<f64>; 2]; 3] = serde::Deserialize::deserialize(d)?;
+    Ok(v.map(|[lo, hi]| [lo.unwrap_or(f64::NEG_INFINITY), hi.unwrap_or(f64::INFINITY)]))
+}
+
 /// One method over K seeds (module docs). Serialized into a method's
 /// report entry, whose own `relmse`, `mse` and `seeds` stand for the
 /// fields skipped here.
@@ -230,6 +247,32 @@ pub fn bootstrap_ci95(groups: &[&[f64]], statistic: impl Fn(&[Vec<f64>]) -> f64)
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// One seed's interval, (−∞, +∞), is written as nulls and reads back
+    /// as itself (issue 67, hostile inputs class 5).
+    #[test]
+    fn one_seed_intervals_read_back_as_written() {
+        #[derive(Serialize, serde::Deserialize)]
+        struct Row {
+            #[serde(deserialize_with = "de_interval")]
+            ci: [f64; 2],
+            #[serde(deserialize_with = "de_intervals3")]
+            ci3: [[f64; 2]; 3],
+        }
+        let (_, ci) = mean_ci95(&[0.5]);
+        let row = Row {
+            ci,
+            ci3: [ci, [1.0, 2.0], ci],
+        };
+        let text = serde_json::to_string(&row).unwrap();
+        assert_eq!(
+            text,
+            r#"{"ci":[null,null],"ci3":[[null,null],[1.0,2.0],[null,null]]}"#
+        );
+        let back: Row = serde_json::from_str(&text).unwrap();
+        assert_eq!((back.ci, back.ci3), (row.ci, row.ci3));
+        assert_eq!(serde_json::to_string(&back).unwrap(), text);
+    }
 
     /// Deterministic normal deviates (Box–Muller on splitmix64).
     fn normals(seed: u64, n: usize) -> Vec<f64> {

@@ -42,6 +42,7 @@ pub struct SweepRow {
     pub time_ms: f64,
     /// Mean over the seeds, and its 95% interval ([relmse; 2] for one seed).
     pub relmse: f64,
+    #[serde(deserialize_with = "super::seeds::de_interval")]
     pub relmse_ci95: [f64; 2],
     /// Mean over the seeds.
     pub mse: f64,

@@ -436,7 +436,7 @@ pub fn tune_part(gpu: &Gpu, spec: &TuneSpec, part: session::parts::Part) -> Resu
 }
 
 /// Halton's budgets around `spp` ([`HALTON_FACTORS`]), whole, distinct.
-fn halton_budgets(spp: f32) -> Vec<u32> {
+pub(super) fn halton_budgets(spp: f32) -> Vec<u32> {
     let mut b: Vec<u32> = HALTON_FACTORS
         .iter()
         .map(|f| ((f64::from(spp) * f).round() as u32).max(1))

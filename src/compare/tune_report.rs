@@ -19,6 +19,7 @@ use std::path::Path;
 pub struct HaltonPoint {
     pub spp: u32,
     pub relmse: f64,
+    #[serde(deserialize_with = "super::seeds::de_interval")]
     pub relmse_ci95: [f64; 2],
     pub relative_bias: [f64; 3],
     /// Fastest render (ms).
@@ -48,8 +49,10 @@ pub struct Measured {
     pub values: BTreeMap<String, f64>,
     pub params: MdasParams,
     pub relmse: f64,
+    #[serde(deserialize_with = "super::seeds::de_interval")]
     pub relmse_ci95: [f64; 2],
     pub relative_bias: [f64; 3],
+    #[serde(deserialize_with = "super::seeds::de_intervals3")]
     pub relative_bias_ci95: [[f64; 2]; 3],
     pub mse_bias2: f64,
     pub mse_variance: f64,

@@ -185,28 +185,40 @@ pub fn reference_part(
 /// parts (references here, sweeps and searches in `compare::merge`)
 /// orders its parts through it.
 pub fn in_order(count: u32, parts: &[(u32, &Path)]) -> Result<Vec<usize>> {
-    let mut by_index: Vec<Option<usize>> = vec![None; count as usize];
+    // Nothing is sized by `count`, which a record gives (u32::MAX made a
+    // 64 GiB table): only by the parts given.
+    let mut by_index: std::collections::BTreeMap<u32, usize> = Default::default();
     for (k, &(i, file)) in parts.iter().enumerate() {
         if i == 0 || i > count {
             bail!("{}: its part {i}/{count} is not a part", file.display());
         }
-        if let Some(other) = by_index[i as usize - 1] {
+        if let Some(&other) = by_index.get(&i) {
             bail!(
                 "part {i}/{count} is given twice: {} and {}",
                 parts[other].1.display(),
                 file.display()
             );
         }
-        by_index[i as usize - 1] = Some(k);
+        by_index.insert(i, k);
     }
-    let missing: Vec<String> = (1..=count)
-        .filter(|i| by_index[*i as usize - 1].is_none())
-        .map(|i| format!("{i}/{count}"))
-        .collect();
-    if !missing.is_empty() {
-        bail!("parts {} are missing", missing.join(", "));
+    if by_index.len() as u64 != u64::from(count) {
+        // At most this many are named; each is found within the given
+        // parts' indices and as many more.
+        const NAMED: usize = 16;
+        let missing: Vec<String> = (1..=count)
+            .filter(|i| !by_index.contains_key(i))
+            .take(NAMED)
+            .map(|i| format!("{i}/{count}"))
+            .collect();
+        let left = u64::from(count) - by_index.len() as u64;
+        let more = if left > missing.len() as u64 {
+            format!(" and {} more", left - missing.len() as u64)
+        } else {
+            String::new()
+        };
+        bail!("parts {}{more} are missing", missing.join(", "));
     }
-    Ok(by_index.into_iter().flatten().collect())
+    Ok(by_index.into_values().collect())
 }
 
 /// One part as read back for a merge.
@@ -256,12 +268,64 @@ fn read_part(file: &Path) -> Result<ReadPart> {
             range.end
         );
     }
+    // What the merge sizes and writes from the record is checked before
+    // anything is allocated or written (issue 67, hostile inputs class 5).
+    num("seed")?;
+    let (width, height) = (num("width")?, num("height")?);
+    if width == 0 || height == 0 || u64::from(width) * u64::from(height) > image_io::MAX_EXR_PIXELS
+    {
+        bail!(
+            "{}: its record's 'width' × 'height' {width}×{height} is no film a reference can have (at least 1×1, at most {} pixels)",
+            record_path.display(),
+            image_io::MAX_EXR_PIXELS
+        );
+    }
+    let scale = record["scale"].as_f64().unwrap_or(f64::NAN);
+    if !(scale > 0.0 && scale <= 16.0) {
+        bail!(
+            "{}: its record's 'scale' {} is not a film scale (in (0, 16])",
+            record_path.display(),
+            record["scale"]
+        );
+    }
+    check_entry_name(&record_path, &record)?;
     Ok(ReadPart {
         file: file.to_path_buf(),
         record,
         index,
         range,
     })
+}
+
+/// That a part's record names its cache entry as `mdas reference` names
+/// one: `{stem}-{24 hex digits}.exr`, a plain file name in the cache whose
+/// stem is the record's scene's (or `scene`, for a scene path that is not
+/// UTF-8). A record naming `../x.exr`, `/x.exr` or another kind of file of
+/// the cache (`x.json`, `x.png`, a name without `.exr`, whose PNG and
+/// record beside it would replace other files) is refused.
+fn check_entry_name(record_path: &Path, record: &serde_json::Value) -> Result<()> {
+    let entry = record["cache_entry"].as_str().unwrap_or("");
+    let scene = record["scene"].as_str().unwrap_or("");
+    let stem = Path::new(scene).file_stem().and_then(|s| s.to_str());
+    let valid = entry
+        .strip_suffix(".exr")
+        .and_then(|e| e.rsplit_once('-'))
+        .is_some_and(|(s, hex)| {
+            (Some(s) == stem || s == "scene")
+                && !s.contains(['/', '\\'])
+                && hex.len() == 24
+                && hex
+                    .bytes()
+                    .all(|b| b.is_ascii_digit() || (b'a'..=b'f').contains(&b))
+        });
+    if !valid || Path::new(entry).file_name().and_then(|n| n.to_str()) != Some(entry) {
+        bail!(
+            "{}: its record's 'cache_entry' {} is not the name of a reference cache entry of {scene:?} ({{scene stem}}-{{24 hex digits}}.exr, a file name in the cache)",
+            record_path.display(),
+            record["cache_entry"]
+        );
+    }
+    Ok(())
 }
 
 /// Merges the parts `files` into the reference cache entry in `cache_dir`
@@ -315,7 +379,15 @@ pub fn merge_parts(files: &[PathBuf], cache_dir: &Path) -> Result<(PathBuf, Film
         width: first.record["width"].as_u64().unwrap_or(0) as u32,
         height: first.record["height"].as_u64().unwrap_or(0) as u32,
     };
-    let mut sum = vec![[0f64; 3]; film.width as usize * film.height as usize];
+    let entry = first.record["cache_entry"].as_str().unwrap_or("");
+    let path = cache_dir.join(entry);
+    if cache_dir.is_dir() {
+        // What the write would refuse, refused before the parts are read.
+        check_entry(&path)?;
+    }
+    // Sized once the first part's EXR (whose header read_exr bounds) has
+    // shown the record's film to be its own.
+    let mut sum: Vec<[f64; 3]> = Vec::new();
     for p in &parts {
         let (w, h, image) =
             image_io::read_exr(&p.file).with_context(|| format!("part {}/{count}", p.index))?;
@@ -333,6 +405,9 @@ pub fn merge_parts(files: &[PathBuf], cache_dir: &Path) -> Result<(PathBuf, Film
                 p.file.display()
             );
         }
+        if sum.is_empty() {
+            sum = vec![[0f64; 3]; image.len()];
+        }
         let share = (p.range.end - p.range.start) as f64;
         for (s, v) in sum.iter_mut().zip(&image) {
             for c in 0..3 {
@@ -344,16 +419,8 @@ pub fn merge_parts(files: &[PathBuf], cache_dir: &Path) -> Result<(PathBuf, Film
         .iter()
         .map(|s| s.map(|v| (v / spp as f64) as f32))
         .collect();
-    let entry = first.record["cache_entry"].as_str().unwrap_or("");
-    if entry.is_empty() || entry.contains('/') || entry.contains('\\') {
-        bail!(
-            "{}: its record names no valid cache entry",
-            first.file.display()
-        );
-    }
     std::fs::create_dir_all(cache_dir)
         .with_context(|| format!("cannot create cache directory {}", cache_dir.display()))?;
-    let path = cache_dir.join(entry);
     let record = serde_json::json!({
         "pixels_sha256": pixels_sha256(&image),
         "width": film.width,
@@ -380,6 +447,22 @@ pub fn merge_parts(files: &[PathBuf], cache_dir: &Path) -> Result<(PathBuf, Film
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Nothing is sized by a record's part count (u32::MAX made a 64 GiB
+    /// table, issue 67 class 5); the parts missing are named, 16 at most.
+    #[test]
+    fn parts_are_ordered_without_a_table_of_the_count() {
+        let (a, b) = (Path::new("a"), Path::new("b"));
+        assert_eq!(in_order(2, &[(2, a), (1, b)]).unwrap(), [1, 0]);
+        let e = in_order(u32::MAX, &[(1, a)]).unwrap_err().to_string();
+        assert!(e.contains("parts 2/4294967295, 3/4294967295"), "{e}");
+        assert!(e.ends_with(" and 4294967278 more are missing"), "{e}");
+        let e = in_order(3, &[(1, a)]).unwrap_err().to_string();
+        assert_eq!(e, "parts 2/3, 3/3 are missing");
+        let e = in_order(3, &[(1, a), (1, b)]).unwrap_err().to_string();
+        assert_eq!(e, "part 1/3 is given twice: a and b");
+        assert!(in_order(0, &[(1, a)]).is_err());
+    }
 
     #[test]
     fn parts_parse_and_split_the_samples_exactly_once() {
