@@ -1,6 +1,24 @@
-//! Records the git commit the crate is built from (when built from a
-//! checkout with git available) as `MDAS_GIT_COMMIT`, for the provenance
-//! `mdas compare` writes into report.json.
+//! Records the git commit the crate is built from as `MDAS_GIT_COMMIT`,
+//! for the provenance `mdas compare` writes into report.json — only when
+//! the crate's own directory is the top of a git work tree (a checkout of
+//! this repository). A crate built from a package unpacked inside another
+//! repository (a vendored dependency, a registry source in a project's
+//! tree) would otherwise name that repository's commit.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn git(dir: &Path, args: &[&str]) -> Option<String> {
+    Command::new("git")
+        .arg("-C")
+        .arg(dir)
+        .args(args)
+        .output()
+        .ok()
+        .filter(|o| o.status.success())
+        .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
+        .filter(|s| !s.is_empty())
+}
 
 fn main() {
     println!("cargo:rerun-if-changed=.git/HEAD");
@@ -10,14 +28,15 @@ fn main() {
             println!("cargo:rerun-if-changed=.git/{}", reference.trim());
         }
     }
-    let commit = std::process::Command::new("git")
-        .args(["rev-parse", "HEAD"])
-        .output()
-        .ok()
-        .filter(|o| o.status.success())
-        .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
-        .filter(|c| !c.is_empty());
-    if let Some(commit) = commit {
+    let manifest = PathBuf::from(std::env::var_os("CARGO_MANIFEST_DIR").unwrap_or_default());
+    let canonical = |p: &Path| std::fs::canonicalize(p).ok();
+    let own_checkout = git(&manifest, &["rev-parse", "--show-toplevel"]).is_some_and(|top| {
+        canonical(Path::new(&top)).is_some() && canonical(Path::new(&top)) == canonical(&manifest)
+    });
+    if !own_checkout {
+        return;
+    }
+    if let Some(commit) = git(&manifest, &["rev-parse", "HEAD"]) {
         println!("cargo:rustc-env=MDAS_GIT_COMMIT={commit}");
     }
 }
