@@ -72,7 +72,9 @@
 //! Halton's, `accumulate` adds the slots in order (Kahan-compensated, no
 //! atomics: the image is a deterministic function of the integrand,
 //! parameters and seed on a given adapter), then `check` and `dilate`.
-//! One host round trip per round. [`simulate`] is the CPU oracle of the
+//! One host round trip per round. The WGSL: `wgsl/adaptive.wgsl` (the
+//! declarations both modules share), `adaptive_control.wgsl` (the control
+//! kernels, no integrand) and `adaptive_evaluate.wgsl` (over the integrand). [`simulate`] is the CPU oracle of the
 //! whole schedule.
 //!
 //! Phases (equal-time accounting): `evaluate`, `accumulate` and `adaptive`
@@ -421,16 +423,16 @@ impl AdaptiveHalton {
     }
 }
 
-/// Group 0 of the control kernels (`wgsl/adaptive.wgsl`).
-fn control_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
-    let mut v = evaluate_entries();
+/// Group 0 of the control kernels (`wgsl/adaptive_control.wgsl`).
+pub fn control_layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
+    let mut v = evaluate_layout_entries();
     v.extend((3..7).map(|b| storage_entry(b, false)));
     v
 }
 
 /// Group 0 of the evaluate kernels: the parameters, the partial sums and
 /// the list (few bindings, leaving the integrand room).
-fn evaluate_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
+pub fn evaluate_layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
     let mut params = uniform_entry(0);
     if let wgpu::BindingType::Buffer {
         has_dynamic_offset, ..
@@ -443,7 +445,9 @@ fn evaluate_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
 
 /// The control kernels' WGSL.
 pub fn control_source() -> Wgsl {
-    Wgsl::new().part(wgsl_file!("adaptive.wgsl"))
+    Wgsl::new()
+        .part(wgsl_file!("adaptive.wgsl"))
+        .part(wgsl_file!("adaptive_control.wgsl"))
 }
 
 /// The evaluate kernels' WGSL over an integrand's.
@@ -501,8 +505,9 @@ impl Integrator for AdaptiveHalton {
         let groups_count = pixels.div_ceil(SCAN_WG as u64);
         let max_chunks = max_slots.div_ceil((TARGET_INVOCATIONS / pixels).clamp(1, max_slots));
 
-        let control = gpu.bind_group_layout("mdas.adaptive.control", &control_entries());
-        let eval_layout = gpu.bind_group_layout("mdas.adaptive.evaluate", &evaluate_entries());
+        let control = gpu.bind_group_layout("mdas.adaptive.control", &control_layout_entries());
+        let eval_layout =
+            gpu.bind_group_layout("mdas.adaptive.evaluate", &evaluate_layout_entries());
         let csrc = control_source();
         let pipe = |entry: &str| {
             gpu.compute_pipeline(&format!("mdas.adaptive.{entry}"), &csrc, entry, &[&control])
