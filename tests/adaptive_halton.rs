@@ -320,6 +320,15 @@ fn the_budget_is_never_exceeded() {
     let (r, counts) = render(&integrand, params);
     assert!(counts.iter().all(|&c| c == 100));
     assert_eq!(r.samples, 100 * pixels);
+    // A cap below the first check (80): no check, every pixel at the cap.
+    let params = AdaptiveParams {
+        spp_max: 40,
+        ..AdaptiveParams::new(1000.0, 2)
+    };
+    let (r, counts) = render(&integrand, params);
+    assert!(counts.iter().all(|&c| c == 40), "{counts:?}");
+    assert_eq!(r.samples, 40 * pixels);
+    assert!(r.image.iter().all(|p| p.iter().all(|c| c.is_finite())));
 }
 
 #[test]

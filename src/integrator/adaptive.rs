@@ -417,6 +417,18 @@ impl AdaptiveHalton {
         self
     }
 
+    /// Sets the seed of the next render.
+    pub fn set_seed(&mut self, seed: u32) {
+        self.params.seed = seed;
+    }
+
+    /// Sets the average budget per pixel of the next render.
+    pub fn set_spp(&mut self, spp: f64) -> Result<()> {
+        AdaptiveParams { spp, ..self.params }.validate()?;
+        self.params.spp = spp;
+        Ok(())
+    }
+
     /// Samples each pixel took in the last render, row-major.
     pub fn sample_counts(&self) -> &[u32] {
         &self.counts
@@ -647,7 +659,8 @@ impl Integrator for AdaptiveHalton {
                 };
                 let used = asked.min(remaining);
                 // Evaluate and accumulate in chunks of slots.
-                let slots = k.div_ceil(per_invocation) as u64;
+                // No pixel takes more than spp_max in a round.
+                let slots = k.min(p.spp_max).div_ceil(per_invocation) as u64;
                 let per_chunk = (TARGET_INVOCATIONS / wanting).clamp(1, slots);
                 let chunks = slots.div_ceil(per_chunk);
                 for c in 0..chunks {
