@@ -323,15 +323,15 @@ pub fn simulate(
             prefix += asks[p] as u64;
             for index in counts[p]..counts[p] + take {
                 if let Some(f) = sample(p as u32, index) {
-                    for c in 0..3 {
-                        whole[p].0[c] += f[c];
-                    }
-                    whole[p].1 += 1;
-                    if class_a(index) {
-                        for c in 0..3 {
-                            half[p].0[c] += f[c];
+                    let add = |(sum, n): &mut ([f64; 3], u64)| {
+                        for (s, v) in sum.iter_mut().zip(f) {
+                            *s += v;
                         }
-                        half[p].1 += 1;
+                        *n += 1;
+                    };
+                    add(&mut whole[p]);
+                    if class_a(index) {
+                        add(&mut half[p]);
                     }
                 }
             }
@@ -358,7 +358,8 @@ pub fn simulate(
                 }
                 let e = pixel_error(mean(whole[p]), mean(half[p]));
                 margin = margin.min((e / limit - 1.0).abs());
-                !(e < limit)
+                // NaN (a negative intensity) is unconverged, as on the GPU.
+                e >= limit || e.is_nan()
             })
             .collect();
         active = dilate(film, &unconverged);
