@@ -340,6 +340,57 @@ fn render_with_mdas_and_its_overrides() {
 }
 
 #[test]
+fn render_with_adaptive_halton() {
+    let dir = temp_dir("adaptive");
+    let out = dir.join("plane.exr");
+    let o = mdas(&[
+        "render",
+        "scenes/area_light_plane.toml",
+        "--integrator",
+        "adaptive",
+        "--spp",
+        "100.5",
+        "--seed",
+        "2",
+        "--scale",
+        "0.25",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "stderr: {}", stderr(&o));
+    assert!(stderr(&o).contains(", adaptive, adapter"), "{}", stderr(&o));
+    // At most the budget: 100.5 spp on 32×24 pixels.
+    let samples: u64 = stdout
+        .split_whitespace()
+        .next()
+        .and_then(|w| w.parse().ok())
+        .unwrap_or_else(|| panic!("{stdout}"));
+    assert!(samples > 0 && samples <= 100 * 768 + 384, "{stdout}");
+    let (w, h, image) = mdas::image_io::read_exr(&out).unwrap();
+    assert_eq!((w, h), (32, 24));
+    assert!(image.iter().all(|p| p.iter().all(|c| c.is_finite())));
+    // MDAS's flags are refused.
+    let o = mdas(&[
+        "render",
+        "scenes/area_light_plane.toml",
+        "--integrator",
+        "adaptive",
+        "--alpha",
+        "2",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(
+        stderr(&o).contains("--integrator is adaptive"),
+        "{}",
+        stderr(&o)
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
 fn reference_is_cached() {
     let dir = temp_dir("ref");
     let cache = dir.join("cache");

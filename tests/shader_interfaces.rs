@@ -42,11 +42,11 @@ use mdas::gpu::shader::Wgsl;
 use mdas::integrand::{
     ambient_occlusion, area_light, depth_of_field, many_light, motion_blur, path,
 };
-use mdas::integrator::halton;
 use mdas::integrator::mdas::MdasParams;
 use mdas::integrator::mdas::{
     adapt, config::Config, error, evaluate, gpu_params, initial, plan, reconstruct, scan, stats,
 };
+use mdas::integrator::{adaptive, halton};
 use mdas::lights::gpu_sampler::{BatchSampler, GpuSamplerData, SampleAnswer, SampleQuery};
 use mdas::lights::lgh::gpu::{GpuLgh, LghBuildParams};
 use mdas::lights::lgh::GridLight;
@@ -194,12 +194,21 @@ fn kernels() -> Vec<Kernel> {
         let groups = [halton::layout_entries(), i.group1.clone()];
         let source = halton::source(i.wgsl.clone());
         all.push(kernel(format!("halton[{}]", i.name), &source, &groups));
+        let groups = [adaptive::evaluate_layout_entries(), i.group1.clone()];
+        let source = adaptive::evaluate_source(i.wgsl.clone());
+        all.push(kernel(format!("adaptive[{}]", i.name), &source, &groups));
         if i.name.starts_with("many_light") {
             let groups = [many_light::cuts_layout_entries(), i.group1];
             let cuts = many_light::cuts_source(i.wgsl, 100);
             all.push(kernel(format!("{}.cuts", i.name), &cuts, &groups));
         }
     }
+    let control = [adaptive::control_layout_entries()];
+    all.push(kernel(
+        "adaptive.control",
+        &adaptive::control_source(),
+        &control,
+    ));
     let trace = [TraceKernel::layout_entries(), GpuScene::layout_entries()];
     all.push(kernel("trace", &TraceKernel::source(), &trace));
     let sort = [radix_sort::RadixSort::layout_entries()];
@@ -425,6 +434,7 @@ fn mirrors() -> BTreeMap<(&'static str, &'static str), Layout> {
     use mdas::accel::voxel::{VoxelFrame, VoxelObject};
     use mdas::lights::substitute::Substitute;
     use mdas::lights::LightCone;
+    use mdas::integrator::adaptive::AdaptiveGpuParams;
     use mdas::integrator::halton::HaltonParams;
     use mdas::integrator::mdas::gpu_params::GpuParams;
     use obvhs::cwbvh::node::CwBvhNode;
@@ -440,6 +450,10 @@ fn mirrors() -> BTreeMap<(&'static str, &'static str), Layout> {
         (("halton.wgsl", "HaltonParams"), host!(HaltonParams {
             width, height, dims, seed, spp, first_index, samples_per_invocation, slots,
             row_invocations, _pad,
+        })),
+        (("adaptive.wgsl", "AdaptiveParams"), host!(AdaptiveGpuParams {
+            width, height, dims, seed, round_samples, remaining, spp_max, entries, first_slot,
+            slots, samples_per_invocation, threshold, pixel_groups, _pad,
         })),
         ((scene, "SceneUniforms"), host!(SceneUniforms {
             cam_position, cam_lens_radius, cam_forward, cam_focus_distance, cam_right,

@@ -36,16 +36,10 @@ struct HaltonParams {
 
 const WORKGROUP_SIZE: u32 = 64u;
 
-// Sample `index` of `pixel` (whose lower corner is `px`): the film point
-// from dimensions 0-1, the integrand's dimensions 2.. after it.
+// Sample `index` of `pixel` (whose lower corner is `px`):
+// shared/halton_point.wgsl.
 fn halton_point(index: u32, pixel: u32, px: vec2<f32>) -> IntegrandPoint {
-    var point: IntegrandPoint;
-    point.film = px + vec2<f32>(halton_sample(0u, index, pixel, params.seed),
-                                halton_sample(1u, index, pixel, params.seed));
-    for (var d = 2u; d < params.dims; d++) {
-        point.u[d - 2u] = halton_sample(d, index, pixel, params.seed);
-    }
-    return point;
+    return halton_integrand_point(index, pixel, px, params.dims, params.seed);
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)

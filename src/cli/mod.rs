@@ -20,7 +20,9 @@ pub(crate) use mdas::gpu::Gpu;
 use mdas::integrator::mdas::params::{Kind, Param};
 pub(crate) use mdas::integrator::mdas::MdasParams;
 use mdas::integrator::mdas::PARAMS;
-pub(crate) use mdas::integrator::{Halton, Integrator, Mdas, Render};
+pub(crate) use mdas::integrator::{
+    AdaptiveHalton, AdaptiveParams, Halton, Integrator, Mdas, Render,
+};
 pub(crate) use mdas::lights::registry::SamplerKind;
 pub(crate) use mdas::lights::sampler::CutSampling;
 pub(crate) use mdas::scene_file::SceneFile;
@@ -156,6 +158,10 @@ pub(crate) enum IntegratorKind {
     Halton,
     /// Multidimensional adaptive sampling (parameters from the scene's [mdas] table).
     Mdas,
+    /// Per-pixel adaptive Halton with Blender Cycles' rule (noise threshold
+    /// 0.01, 64 samples before a check every 16, at most 4096 a pixel);
+    /// --spp is the average budget per pixel, as MDAS's.
+    Adaptive,
 }
 
 impl IntegratorKind {
@@ -163,6 +169,7 @@ impl IntegratorKind {
         match self {
             IntegratorKind::Halton => "halton",
             IntegratorKind::Mdas => "mdas",
+            IntegratorKind::Adaptive => "adaptive",
         }
     }
 }

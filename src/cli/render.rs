@@ -17,11 +17,12 @@ pub(crate) struct RenderArgs {
     #[arg(long, value_enum, default_value = "halton")]
     pub(crate) integrator: IntegratorKind,
     /// Samples per pixel. Halton: a whole number in 1..=2^24 (default 16); MDAS: the
-    /// average budget, may be fractional (default: the scene's [mdas] spp).
+    /// average budget, may be fractional (default: the scene's [mdas] spp);
+    /// adaptive: the average budget, may be fractional (default 16).
     #[arg(long)]
     pub(crate) spp: Option<f32>,
     /// Random seed; same seed, same image on one adapter (default: 0 for
-    /// Halton, the scene's [mdas] seed for MDAS).
+    /// Halton and adaptive, the scene's [mdas] seed for MDAS).
     #[arg(long)]
     pub(crate) seed: Option<u32>,
     /// Output path: X.exr writes the linear EXR (with method, spp, seed and
@@ -274,11 +275,12 @@ pub(crate) fn check_sampling(
     mdas: &MdasArgs,
 ) -> Result<()> {
     let ignored = mdas.given();
-    if integrator == IntegratorKind::Halton && !ignored.is_empty() {
+    if integrator != IntegratorKind::Mdas && !ignored.is_empty() {
         bail!(
-            "{} set{} MDAS parameters, but --integrator is halton; add --integrator mdas",
+            "{} set{} MDAS parameters, but --integrator is {}; add --integrator mdas",
             ignored.join(", "),
-            if ignored.len() == 1 { "s" } else { "" }
+            if ignored.len() == 1 { "s" } else { "" },
+            integrator.name()
         );
     }
     if let Some(s) = spp {
@@ -327,6 +329,11 @@ pub(crate) fn integrator_for(
                 }));
             }
             (Box::new(m), params.seed)
+        }
+        IntegratorKind::Adaptive => {
+            let seed = seed.unwrap_or(0);
+            let params = AdaptiveParams::new(spp.map_or(16.0, |s| s as f64), seed);
+            (Box::new(AdaptiveHalton::new(params)?), seed)
         }
     })
 }

@@ -216,6 +216,7 @@ pub fn with_halton_points(integrand: Wgsl, kernel: (&'static str, &'static str))
                 .part(wgsl_file!("shared/sampling.wgsl")),
         )
         .part(wgsl_file!("shared/halton.wgsl"))
+        .part(wgsl_file!("shared/halton_point.wgsl"))
         .part(kernel)
 }
 

@@ -4,9 +4,11 @@
 //! integrand there with GPU kernels and reconstructs pixel values — the
 //! mean of the integrand over each pixel's footprint (docs/conventions.md). It knows
 //! nothing of scenes. Implementations: [`Halton`] (quasi-Monte Carlo
-//! baseline, randomly shifted) and [`Mdas`] (multidimensional adaptive
-//! sampling, `mdas/`).
+//! baseline, randomly shifted), [`Mdas`] (multidimensional adaptive
+//! sampling, `mdas/`) and [`AdaptiveHalton`] (per-pixel adaptive Halton
+//! with Blender Cycles' rule, `adaptive.rs`).
 
+pub mod adaptive;
 pub mod halton;
 pub mod mdas;
 
@@ -16,6 +18,7 @@ use crate::gpu::Gpu;
 use crate::integrand::Integrand;
 use anyhow::Result;
 
+pub use adaptive::{AdaptiveHalton, AdaptiveParams};
 pub use halton::Halton;
 pub use mdas::Mdas;
 
