@@ -15,7 +15,9 @@
 //!   leaves the previous run's files untouched; files of the output
 //!   directory that this run does not write are never touched.
 //! - A target is never something the run reads or a special file:
-//!   [`check_writable`] (which every write above runs first) refuses a
+//!   [`check_writable`] (which every write above runs first, and whose
+//!   checks [`StagedDir::commit`] runs on every file of the directory
+//!   before it moves any in) refuses a
 //!   path that exists and is not a regular file (a rename would replace a
 //!   FIFO or a device node with a file) and one the process has read as
 //!   an input ([`note_input`]: scenes, meshes, material libraries, EXR
