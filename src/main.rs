@@ -58,6 +58,21 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Bench(args) => cli::bench::run(args, ui),
         Command::Scene(args) => cli::scene::run(args, ui),
         Command::View(args) => cli::view::run(args, ui),
+        Command::Completions { shell } => {
+            use clap::CommandFactory;
+            use std::io::Write;
+            // Into a buffer first: clap_complete panics on a failed write
+            // (a closed pipe), where a write of our own returns the error.
+            let mut script = Vec::new();
+            clap_complete::generate(shell, &mut Cli::command(), "mdas", &mut script);
+            std::io::stdout().write_all(&script)?;
+            Ok(())
+        }
+        Command::Man => {
+            use clap::CommandFactory;
+            clap_mangen::Man::new(Cli::command()).render(&mut std::io::stdout())?;
+            Ok(())
+        }
         Command::Info => {
             let gpu = mdas::gpu::Gpu::shared()?;
             ui.result(format!(

@@ -427,6 +427,49 @@ fn reference_is_cached() {
     assert!(attributes.contains(&("spp".into(), mdas::image_io::ExrAttribute::F64(8.0))));
 }
 
+/// Issue 67: shell completions and the man page come from the clap
+/// definitions, so they name every subcommand (a new one cannot be
+/// forgotten) and need no adapter.
+#[test]
+fn completions_and_man_page_name_every_subcommand() {
+    let subcommands = [
+        "render",
+        "reference",
+        "merge",
+        "compare",
+        "sweep",
+        "tune",
+        "bench",
+        "info",
+        "scene",
+        "view",
+    ];
+    for shell in ["bash", "zsh", "fish"] {
+        let o = mdas(&["completions", shell]);
+        assert!(o.status.success(), "{shell}: {}", stderr(&o));
+        let script = String::from_utf8(o.stdout).unwrap();
+        for sub in subcommands {
+            assert!(script.contains(sub), "{shell} completions lack '{sub}'");
+        }
+        assert!(
+            script.contains("--ref-seed"),
+            "{shell} completions lack --ref-seed"
+        );
+    }
+    let o = mdas(&["man"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let page = String::from_utf8(o.stdout).unwrap();
+    assert!(
+        page.starts_with(".ie") && page.contains(".TH mdas 1"),
+        "{page}"
+    );
+    for sub in subcommands {
+        assert!(page.contains(sub), "the man page lacks '{sub}'");
+    }
+    let o = mdas(&["completions", "tcsh-like-nonsense"]);
+    assert!(!o.status.success());
+}
+
 #[test]
 fn info_names_the_adapter() {
     let o = mdas(&["info"]);

@@ -357,6 +357,17 @@ pub(crate) enum Command {
     /// tune: one self-contained page (images, maps, figures, provenance)
     /// to open in a browser (docs/comparisons.md).
     View(view::ViewArgs),
+    /// Print a shell completion script on stdout, generated from these
+    /// definitions: `mdas completions bash > /etc/bash_completion.d/mdas`,
+    /// `mdas completions zsh > ~/.zfunc/_mdas`, `mdas completions fish >
+    /// ~/.config/fish/completions/mdas.fish`.
+    Completions {
+        #[arg(value_enum)]
+        shell: clap_complete::Shell,
+    },
+    /// Print the man page (roff) on stdout, generated from these
+    /// definitions: `mdas man > mdas.1 && man ./mdas.1`.
+    Man,
 }
 
 /// The film scale and the reference of an experiment (`compare`, `sweep`,
