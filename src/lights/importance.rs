@@ -41,6 +41,12 @@
 //! distance is divided by (the singular case, `x` inside both boxes, falls
 //! back to `W_j / (W_j + W_k)`), `p_max` likewise, `p_left = (p_min + p_max)/2`
 //! and `p_right = 1 − p_left`.
+//!
+//! The greedy cut ranks nodes by the authors' key `W / max(dmin², ε²)`
+//! with `ε = 10⁻³ ·` the diagonal of the root's box ([`cut_key`]): finite
+//! inside a box, 0 for `W = 0`. docs/light-sampling.md ("Sources") says
+//! which rules follow the paper, which the authors' code, and which depart
+//! from both.
 
 use super::{LightCone, TreeNode};
 use glam::Vec3;
@@ -205,14 +211,39 @@ pub fn choose_child(p_left: f32, u: f32) -> (bool, f32, f32) {
     (left, p, u.min(ONE_MINUS_EPSILON))
 }
 
-/// Greedy-cut key of a refinable node: `+∞` when `dmin² == 0`, else
-/// `W/dmin²` (docs: "Cuts").
-pub fn cut_key(imp: &NodeImportance) -> f32 {
-    if imp.dmin2 == 0.0 {
-        f32::INFINITY
-    } else {
-        imp.w / imp.dmin2
+/// The fraction of the diagonal of the whole lights' box below which the
+/// cut key stops growing as `dmin` shrinks (the authors' `errorLimit`,
+/// "Min Node Error Bound", 0.001).
+pub const CUT_KEY_NEAR: f32 = 1e-3;
+
+/// The squared floor of the cut key's distance for a tree whose root is
+/// `root`: `(CUT_KEY_NEAR · |bmax − bmin|)²`, 0 for EMPTY bounds. The
+/// authors call the length `sceneLightBoundRadius` but store the length of
+/// the lights' box diagonal in it (`FindVPLBboxMinCS.hlsl`,
+/// `CPULightCuts::globalBoundDiag`); this follows what they store.
+pub fn cut_key_floor2(root: &TreeNode) -> f32 {
+    if root.is_empty() {
+        return 0.0;
     }
+    let d: [f32; 3] = std::array::from_fn(|a| root.max[a] - root.min[a]);
+    let e = CUT_KEY_NEAR * (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+    e * e
+}
+
+/// Greedy-cut key of a refinable node (docs: "Cuts"; the authors'
+/// `errorFunction`): `W / max(dmin², floor2)` with `floor2` from
+/// [`cut_key_floor2`], 0 when `W = 0`, at most `f32::MAX` (a floor of 0
+/// with `dmin² = 0` gives `f32::MAX`). Finite: a node around the
+/// representative is ranked by its weight, not put first whatever it is.
+pub fn cut_key(imp: &NodeImportance, floor2: f32) -> f32 {
+    if imp.w == 0.0 {
+        return 0.0;
+    }
+    let d = imp.dmin2.max(floor2);
+    if d == 0.0 {
+        return f32::MAX;
+    }
+    (imp.w / d).min(f32::MAX)
 }
 
 /// Selection probabilities of the nodes of a cut at one shading point
@@ -708,6 +739,8 @@ mod tests {
         assert_eq!(choose_child(0.25, 0.25), (false, 0.75, 0.0));
     }
 
+    /// The authors' finite key W / max(dmin², floor²) (the old key was +∞
+    /// for dmin² = 0, whatever W).
     #[test]
     fn cut_keys() {
         let imp = |dmin2: f32, w: f32| NodeImportance {
@@ -715,9 +748,25 @@ mod tests {
             dmax2: 9.0,
             w,
         };
-        assert_eq!(cut_key(&imp(4.0, 2.0)), 0.5);
-        assert_eq!(cut_key(&imp(0.0, 2.0)), f32::INFINITY);
-        assert_eq!(cut_key(&imp(4.0, 0.0)), 0.0);
+        let floor2 = 0.25;
+        assert_eq!(cut_key(&imp(4.0, 2.0), floor2), 0.5);
+        // Inside the box: W over the floor, not +∞.
+        assert_eq!(cut_key(&imp(0.0, 2.0), floor2), 8.0);
+        assert_eq!(cut_key(&imp(0.125, 2.0), floor2), 8.0);
+        // W = 0 gives 0, inside the box too.
+        assert_eq!(cut_key(&imp(4.0, 0.0), floor2), 0.0);
+        assert_eq!(cut_key(&imp(0.0, 0.0), floor2), 0.0);
+        assert_eq!(cut_key(&imp(0.0, 0.0), 0.0), 0.0);
+        // No floor (lights at one point) inside the box: the largest f32;
+        // an overflowing quotient is capped there too.
+        assert_eq!(cut_key(&imp(0.0, 2.0), 0.0), f32::MAX);
+        assert_eq!(cut_key(&imp(1e-30, 1e30), 0.0), f32::MAX);
+        // The floor: (10⁻³ · diagonal)², the diagonal of [0, 3] × [0, 4] ×
+        // {1} being 5; 0 for EMPTY bounds.
+        let root = node([0.0, 0.0, 1.0], [3.0, 4.0, 1.0], 1.0);
+        let e = 1e-3f32 * 5.0;
+        assert_eq!(cut_key_floor2(&root), e * e);
+        assert_eq!(cut_key_floor2(&TreeNode::EMPTY), 0.0);
     }
 
     /// Cut node probabilities against eq. 2 over n nodes worked by hand.

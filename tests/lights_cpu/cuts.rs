@@ -79,7 +79,8 @@ pub(crate) fn greedy_cut_oracle<T: LightTree>(
             .iter()
             .copied()
             .filter(|&c| t.children(c).is_some() && t.nodes()[c].intensity > 0.0);
-        let key = |c: usize| mdas::lights::importance::cut_key(&imp.of(t, c, s));
+        let floor2 = mdas::lights::importance::cut_key_floor2(&t.nodes()[0]);
+        let key = |c: usize| mdas::lights::importance::cut_key(&imp.of(t, c, s), floor2);
         // Largest key; on equal keys the smaller index (compared as
         // (key, −index)).
         let Some(best) = refinable.max_by(|&a, &b| {
@@ -100,9 +101,9 @@ pub(crate) fn greedy_cut_oracle<T: LightTree>(
 }
 
 /// `select_cut` against [`greedy_cut_oracle`] on random scenes (zero-
-/// intensity padding in the perfect trees; shading points inside node
-/// bounds, whose key is +∞, give ties) and on a symmetric one with an exact
-/// tie between the root's children.
+/// intensity padding in the perfect trees; nodes whose W is 0 at the point
+/// have key 0 and tie) and on a symmetric one with an exact tie between
+/// the root's children.
 #[test]
 fn cut_is_the_greedy_cut_with_ties_to_the_smaller_node() {
     let mut rng = StdRng::seed_from_u64(41);
@@ -139,7 +140,8 @@ fn cut_is_the_greedy_cut_with_ties_to_the_smaller_node() {
                     "bvh, {n} lights, size {size}"
                 );
             }
-            let key = |c| mdas::lights::importance::cut_key(&imp.of(&t, c, &s));
+            let floor2 = mdas::lights::importance::cut_key_floor2(&t.nodes[0]);
+            let key = |c| mdas::lights::importance::cut_key(&imp.of(&t, c, &s), floor2);
             ties += usize::from(key(1) == key(2));
         }
     }
@@ -156,7 +158,8 @@ fn cut_is_the_greedy_cut_with_ties_to_the_smaller_node() {
         p: Vec3::new(0.0, 2.0, 0.0),
         n: Vec3::ZERO,
     };
-    let key = |c| mdas::lights::importance::cut_key(&Importance::Plain.of(&t, c, &s));
+    let floor2 = mdas::lights::importance::cut_key_floor2(&t.nodes[0]);
+    let key = |c| mdas::lights::importance::cut_key(&Importance::Plain.of(&t, c, &s), floor2);
     assert_eq!(key(1), key(2), "the case needs a tie");
     let mut c = select_cut(&t, Importance::Plain, &s, 3);
     c.sort_unstable();

@@ -599,18 +599,34 @@ fn light_pmf_subtree(s_p: vec3<f32>, s_n: vec3<f32>, cut_base: u32, light: u32) 
     return light_pmf_perfect(s_p, s_n, cut_base, light, true);
 }
 
-// Greedy-cut key (docs "Cuts"): −1 = not refinable (a leaf or I = 0); a point
-// inside the box gives the largest f32 (the CPU's +∞), other keys W/dmin²
-// stay below it.
-fn light_cut_key(node: u32, x: vec3<f32>, n: vec3<f32>) -> f32 {
+// The squared floor of the cut key's distance, (10⁻³·|bmax − bmin|)² of the
+// root's box (importance.rs cut_key_floor2; 0 for EMPTY bounds).
+fn light_cut_key_floor2() -> f32 {
+    let root = light_nodes[0];
+    if (root.bmin.x > root.bmax.x) {
+        return 0.0;
+    }
+    let d = root.bmax - root.bmin;
+    let e = 1e-3 * sqrt(d.x * d.x + d.y * d.y + d.z * d.z);
+    return e * e;
+}
+
+// Greedy-cut key (docs "Cuts", importance.rs cut_key): −1 = not refinable
+// (a leaf or I = 0); else W / max(dmin², floor2), 0 when W = 0, at most the
+// largest f32 (also when both distances are 0).
+fn light_cut_key(node: u32, x: vec3<f32>, n: vec3<f32>, floor2: f32) -> f32 {
     if (light_is_leaf(node) || !(light_nodes[node].intensity > 0.0)) {
         return -1.0;
     }
     let imp = light_importance_of(node, x, n);
-    if (imp.dmin2 == 0.0) {
+    if (imp.w == 0.0) {
+        return 0.0;
+    }
+    let d = max(imp.dmin2, floor2);
+    if (d == 0.0) {
         return bitcast<f32>(0x7f7fffffu);
     }
-    return min(imp.w / imp.dmin2, bitcast<f32>(0x7f7ffffeu));
+    return min(imp.w / d, bitcast<f32>(0x7f7fffffu));
 }
 
 // The greedy cut of at most light_params.cut_size nodes for the
@@ -623,7 +639,8 @@ fn select_cut(p: vec3<f32>, n: vec3<f32>, out: ptr<function, array<u32, MAX_CUT>
     let size = clamp(light_params.cut_size, 1u, MAX_CUT);
     var keys: array<f32, MAX_CUT>;
     (*out)[0] = 0u;
-    keys[0] = light_cut_key(0u, p, n);
+    let floor2 = light_cut_key_floor2();
+    keys[0] = light_cut_key(0u, p, n, floor2);
     var len = 1u;
     for (var it = 1u; it < MAX_CUT; it++) {
         if (len >= size) {
@@ -644,9 +661,9 @@ fn select_cut(p: vec3<f32>, n: vec3<f32>, out: ptr<function, array<u32, MAX_CUT>
         }
         let l = light_left_child((*out)[best]);
         (*out)[best] = l;
-        keys[best] = light_cut_key(l, p, n);
+        keys[best] = light_cut_key(l, p, n, floor2);
         (*out)[len] = l + 1u;
-        keys[len] = light_cut_key(l + 1u, p, n);
+        keys[len] = light_cut_key(l + 1u, p, n, floor2);
         len += 1u;
     }
     return len;

@@ -14,8 +14,9 @@
 //! The cut is chosen greedily for a *representative* shading point (one
 //! per k×k pixel block on the GPU, "cut sharing" §3.3): starting from the
 //! root, the refinable node (internal, `I > 0`) with the largest key
-//! `W/dmin²` (`+∞` when the point is inside its box) is replaced by its
-//! two children until the cut holds `cut_size` nodes. With `cut_size = 1`
+//! `W/max(dmin², (10⁻³·D)²)` (D the diagonal of the root's box; the
+//! authors' key, finite inside a box) is replaced by its two children
+//! until the cut holds `cut_size` nodes. With `cut_size = 1`
 //! the cut is the root: plain hierarchical sampling ("no cuts").
 //!
 //! [`LightTree`] abstracts the two node layouts: the perfect tree
@@ -29,8 +30,8 @@
 
 use super::perfect::PerfectTree;
 use crate::lights::importance::{
-    choose_child, choose_cut_node, cut_key, cut_probabilities, node_importance, p_left,
-    NodeImportance, Shading,
+    choose_child, choose_cut_node, cut_key, cut_key_floor2, cut_probabilities, node_importance,
+    p_left, NodeImportance, Shading,
 };
 use crate::lights::sampler::{LightSample, LightSampler};
 use crate::lights::{LightCone, TreeNode, NO_LIGHT};
@@ -107,10 +108,13 @@ pub fn select_cut<T: LightTree + ?Sized>(
     );
     let nodes = tree.nodes();
     let mut cut = vec![0u32];
+    let floor2 = cut_key_floor2(&nodes[0]);
     // Keys of the cut nodes (NaN = not refinable), kept beside the cut.
     let key = |node: usize| -> f32 {
         match tree.children(node) {
-            Some(_) if nodes[node].intensity > 0.0 => cut_key(&importance.of(tree, node, s)),
+            Some(_) if nodes[node].intensity > 0.0 => {
+                cut_key(&importance.of(tree, node, s), floor2)
+            }
             _ => f32::NAN,
         }
     };
