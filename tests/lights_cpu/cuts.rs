@@ -341,13 +341,14 @@ fn each_cut_subtree_samples_its_own_lights_with_their_pmf() {
 
 /// The paper's estimator Σ_j f(l_j)/pmf_j(l_j) is unbiased for Σ f over
 /// the lights it can draw (pmf > 0), with the GPU's random numbers:
-/// subtree j uses u shifted by j·0.8566749 mod 1 (`ml_direct`). f is a
-/// random positive weight per light; 65,536 stratified u; the mean must
-/// lie within 6 standard errors (the estimates are i.i.d. only in their
-/// stratum, which makes the standard error conservative).
+/// subtree 0 uses u, subtree j > 0 the number hashed from u and j
+/// (`subtree_random`, `ml_subtree_u`). f is a random positive weight per
+/// light; 65,536 stratified u; the mean must lie within 6 standard errors
+/// (the estimates are i.i.d. only in their stratum, which makes the
+/// standard error conservative).
 #[test]
 fn the_cut_estimator_is_unbiased() {
-    const STEP: f32 = 0.856_674_9;
+    use mdas::lights::tree::cut::subtree_random;
     let mut rng = StdRng::seed_from_u64(22);
     let m = 65_536u32;
     for n in [60, 300] {
@@ -368,7 +369,7 @@ fn the_cut_estimator_is_unbiased() {
                         let u = (k as f32 + 0.5) / m as f32;
                         (0..est.cut_len())
                             .filter_map(|j| {
-                                let uj = (u + j as f32 * STEP).fract();
+                                let uj = subtree_random([u, 0.5, 0.5, 0.5], j as u32)[0];
                                 est.sample_subtree(&rep, j, uj)
                             })
                             .map(|ls| f[ls.light as usize] / ls.pmf)

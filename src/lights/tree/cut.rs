@@ -142,6 +142,23 @@ pub fn select_cut<T: LightTree + ?Sized>(
     cut
 }
 
+/// The random numbers of subtree `j` under the paper's estimator on the
+/// GPU (`ml_subtree_u` of `wgsl/many_light.wgsl`, bit for bit): subtree 0
+/// takes the evaluation's own `u`; subtree `j > 0` four numbers hashed
+/// from the bits of `u` and `j` with `shared/rng.wgsl`'s hashes, so the
+/// terms are independent (the authors draw a new number per cut node) and
+/// each is uniform in `[0, 1)` (24 bits), which keeps each term unbiased.
+pub fn subtree_random(u: [f32; 4], j: u32) -> [f32; 4] {
+    use crate::integrator::mdas::cpu_oracle::{hash3, hash_u32};
+    if j == 0 {
+        return u;
+    }
+    let b = u.map(f32::to_bits);
+    let key = hash3(b[0], b[1], hash3(b[2], b[3], j));
+    let unit = |x: u32| (x >> 8) as f32 * (1.0 / 16_777_216.0);
+    [0u32, 0x9e37_79b9, 0x3c6e_f372, 0xdaa6_6d2b].map(|k| unit(hash_u32(key.wrapping_add(k))))
+}
+
 /// Hierarchical importance sampling below `node` with `u`, the pmf so far
 /// multiplied by every child probability taken. `None` on a dead branch.
 fn descend<T: LightTree + ?Sized>(
