@@ -166,7 +166,7 @@ pub fn reflectance_bound(node: &TreeNode, s: &Shading) -> f32 {
     }
     let x = s.p.to_array();
     let (_, a_max) = range_along(node, x, n);
-    if !(a_max > 0.0) {
+    if a_max <= 0.0 {
         return 0.0;
     }
     let (t, b) = tangent_frame(n);

@@ -140,7 +140,7 @@ fn light_reflectance_bound(node: TreeNode, x: vec3<f32>, n: vec3<f32>) -> f32 {
         return 1.0;
     }
     let a_max = light_range_along(node, x, n).y;
-    if (!(a_max > 0.0)) {
+    if (a_max <= 0.0) {
         return 0.0;
     }
     var t: vec3<f32>;
