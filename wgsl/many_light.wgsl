@@ -35,22 +35,25 @@ fn ml_pixel(film: vec2<f32>) -> vec2<u32> {
 
 // The random numbers of subtree j of the paper's estimator (src/lights/
 // tree/cut.rs subtree_random): subtree 0 takes the evaluation's own u;
-// subtree j > 0 four numbers hashed (shared/rng.wgsl) from the bits of u
-// and j, so the terms are independent (the authors draw one per cut node)
-// and the result stays a pure function of the sample. Each term's numbers
-// are uniform, so each term stays unbiased.
-fn ml_subtree_u(u: vec4<f32>, j: u32) -> vec4<f32> {
+// subtree j > 0 takes u rotated (mod 1) by four numbers hashed
+// (shared/rng.wgsl) from the pixel and j. Each subtree draws with its own
+// random offset (the authors draw a new number per cut node), and across
+// a pixel's samples each subtree's numbers keep the stratification of
+// the pixel's sequence: hashing u itself instead gave white noise and
+// 6–12 % more variance on cornell_lights (BENCHMARKS.md). Each term's
+// numbers are uniform, so each term stays unbiased.
+fn ml_subtree_u(u: vec4<f32>, px: vec2<u32>, j: u32) -> vec4<f32> {
     if (j == 0u) {
         return u;
     }
-    let b = bitcast<vec4<u32>>(u);
-    let key = hash3(b.x, b.y, hash3(b.z, b.w, j));
-    return vec4<f32>(
+    let key = hash3(px.x, px.y, j);
+    let r = vec4<f32>(
         u32_to_unit_float(hash_u32(key)),
         u32_to_unit_float(hash_u32(key + 0x9e3779b9u)),
         u32_to_unit_float(hash_u32(key + 0x3c6ef372u)),
         u32_to_unit_float(hash_u32(key + 0xdaa66d2bu)),
     );
+    return fract(u + r);
 }
 
 // Radiance reflected at s from the sampler's lights. The kinds with cuts
@@ -69,7 +72,7 @@ fn ml_direct(s: Surface, px: vec2<u32>, u: vec4<f32>, time: f32) -> vec3<f32> {
             len = 0u;
         }
         for (var j = 0u; j < len; j++) {
-            let uj = ml_subtree_u(u, j);
+            let uj = ml_subtree_u(u, px, j);
             sum += ml_pick(s, light_descend_subtree(s.x, s.ns, base, j, uj.x), uj.yzw, time);
         }
     } else {

@@ -5,8 +5,9 @@
 //! from each subtree of the pixel's share of its block's cut, each divided
 //! by its probability within its subtree and summed (n shadow rays for a
 //! cut of n nodes; subtree 0 takes the evaluation's random numbers, subtree
-//! j > 0 its own, hashed from them and j — independent and uniform, so
-//! every term stays unbiased: `ml_subtree_u`, `tree::cut::subtree_random`).
+//! j > 0 them rotated by its own random offset per pixel — uniform, so
+//! every term stays unbiased, and stratified over the pixel's samples:
+//! `ml_subtree_u`, `tree::cut::subtree_random`).
 //!
 //! Dimensions: 0–1 film point (raster units); 2 selects the light through
 //! the sampler (`light_sample`, so MDAS adapts over the selection too);

@@ -341,7 +341,7 @@ fn each_cut_subtree_samples_its_own_lights_with_their_pmf() {
 
 /// The paper's estimator Σ_j f(l_j)/pmf_j(l_j) is unbiased for Σ f over
 /// the lights it can draw (pmf > 0), with the GPU's random numbers:
-/// subtree 0 uses u, subtree j > 0 the number hashed from u and j
+/// subtree 0 uses u, subtree j > 0 u rotated by a number hashed from the pixel and j
 /// (`subtree_random`, `ml_subtree_u`). f is a random positive weight per
 /// light; 65,536 stratified u; the mean must lie within 6 standard errors
 /// (the estimates are i.i.d. only in their stratum, which makes the
@@ -369,7 +369,7 @@ fn the_cut_estimator_is_unbiased() {
                         let u = (k as f32 + 0.5) / m as f32;
                         (0..est.cut_len())
                             .filter_map(|j| {
-                                let uj = subtree_random([u, 0.5, 0.5, 0.5], j as u32)[0];
+                                let uj = subtree_random([u, 0.5, 0.5, 0.5], [3, 5], j as u32)[0];
                                 est.sample_subtree(&rep, j, uj)
                             })
                             .map(|ls| f[ls.light as usize] / ls.pmf)
@@ -422,7 +422,7 @@ fn contribution(l: &LightPrim, s: &Shading) -> f64 {
 /// chosen at x itself and at a point beside it: every light with f > 0
 /// has pmf > 0 in its subtree (so the paper's estimator is unbiased for
 /// Σ f), and the estimator's mean over 16,384 stratified u (the GPU's
-/// numbers per subtree, `subtree_random`) is Σ f within 6 standard errors.
+/// numbers per subtree, `subtree_random` at one pixel) is Σ f within 6 standard errors.
 /// The setup asserts that in the perfect tree some internal node holding
 /// only lights of A has x inside its box.
 #[test]
@@ -527,7 +527,8 @@ fn the_descent_does_not_starve_lights_beside_a_dead_box_around_the_point() {
                             let u = (k as f32 + 0.5) / m as f32;
                             (0..est.cut_len())
                                 .filter_map(|j| {
-                                    let uj = subtree_random([u, 0.5, 0.5, 0.5], j as u32)[0];
+                                    let uj =
+                                        subtree_random([u, 0.5, 0.5, 0.5], [3, 5], j as u32)[0];
                                     est.sample_subtree(s, j, uj)
                                 })
                                 .map(|ls| f[ls.light as usize] / ls.pmf)

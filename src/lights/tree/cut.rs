@@ -142,21 +142,28 @@ pub fn select_cut<T: LightTree + ?Sized>(
     cut
 }
 
-/// The random numbers of subtree `j` under the paper's estimator on the
-/// GPU (`ml_subtree_u` of `wgsl/many_light.wgsl`, bit for bit): subtree 0
-/// takes the evaluation's own `u`; subtree `j > 0` four numbers hashed
-/// from the bits of `u` and `j` with `shared/rng.wgsl`'s hashes, so the
-/// terms are independent (the authors draw a new number per cut node) and
-/// each is uniform in `[0, 1)` (24 bits), which keeps each term unbiased.
-pub fn subtree_random(u: [f32; 4], j: u32) -> [f32; 4] {
+/// The random numbers of subtree `j` under the paper's estimator at film
+/// pixel `px` on the GPU (`ml_subtree_u` of `wgsl/many_light.wgsl`, bit
+/// for bit): subtree 0 takes the evaluation's own `u`; subtree `j > 0`
+/// takes `u` rotated mod 1 by four numbers hashed from `px` and `j` with
+/// `shared/rng.wgsl`'s hashes. Each subtree draws with its own random
+/// offset (the authors draw a new number per cut node) and keeps the
+/// stratification of the pixel's sequence (hashing `u` itself cost 6–12 %
+/// more variance, BENCHMARKS.md); each number stays uniform in `[0, 1)`,
+/// which keeps each term unbiased.
+pub fn subtree_random(u: [f32; 4], px: [u32; 2], j: u32) -> [f32; 4] {
     use crate::integrator::mdas::cpu_oracle::{hash3, hash_u32};
     if j == 0 {
         return u;
     }
-    let b = u.map(f32::to_bits);
-    let key = hash3(b[0], b[1], hash3(b[2], b[3], j));
+    let key = hash3(px[0], px[1], j);
     let unit = |x: u32| (x >> 8) as f32 * (1.0 / 16_777_216.0);
-    [0u32, 0x9e37_79b9, 0x3c6e_f372, 0xdaa6_6d2b].map(|k| unit(hash_u32(key.wrapping_add(k))))
+    let r =
+        [0u32, 0x9e37_79b9, 0x3c6e_f372, 0xdaa6_6d2b].map(|k| unit(hash_u32(key.wrapping_add(k))));
+    std::array::from_fn(|c| {
+        let x = u[c] + r[c];
+        x - x.floor()
+    })
 }
 
 /// Hierarchical importance sampling below `node` with `u`, the pmf so far
