@@ -6,7 +6,8 @@
 //   L_e(x) + ρ(x)/π · C(y) · cosθ_x · V(x, y) / pmf(light),
 // or, for the kinds with cuts under the paper's estimator, the sum of that
 // term over one light per subtree of the pixel's share of the cut (pmf
-// within its subtree; subtree j's numbers shifted by j·ML_SUBTREE_STEP),
+// within its subtree; subtree j > 0 with its own hashed numbers,
+// ml_subtree_u),
 // C = I/d² (point), L_e·cosθ_y·area/d² (one-sided triangle) or
 // I·cosθ_v/max(d², clamp²) (VPL, a cosine lobe about its normal; a
 // substitute is a VPL at a drawn position with its node's summed intensity
@@ -32,10 +33,28 @@ fn ml_pixel(film: vec2<f32>) -> vec2<u32> {
     return min(px, size - vec2<u32>(1u));
 }
 
-// Kronecker steps (R4, powers of 1/φ₄ with φ₄⁵ = φ₄ + 1; Roberts 2018) that
-// shift the random numbers of subtree j by j·step mod 1: each subtree's
-// numbers stay uniform, so each term stays unbiased.
-const ML_SUBTREE_STEP: vec4<f32> = vec4<f32>(0.8566749, 0.7338919, 0.6287067, 0.5385973);
+// The random numbers of subtree j of the paper's estimator (src/lights/
+// tree/cut.rs subtree_random): subtree 0 takes the evaluation's own u;
+// subtree j > 0 takes u rotated (mod 1) by four numbers hashed
+// (shared/rng.wgsl) from the pixel and j. Each subtree draws with its own
+// random offset (the authors draw a new number per cut node), and across
+// a pixel's samples each subtree's numbers keep the stratification of
+// the pixel's sequence: hashing u itself instead gave white noise and
+// 6–12 % more variance on cornell_lights (BENCHMARKS.md). Each term's
+// numbers are uniform, so each term stays unbiased.
+fn ml_subtree_u(u: vec4<f32>, px: vec2<u32>, j: u32) -> vec4<f32> {
+    if (j == 0u) {
+        return u;
+    }
+    let key = hash3(px.x, px.y, j);
+    let r = vec4<f32>(
+        u32_to_unit_float(hash_u32(key)),
+        u32_to_unit_float(hash_u32(key + 0x9e3779b9u)),
+        u32_to_unit_float(hash_u32(key + 0x3c6ef372u)),
+        u32_to_unit_float(hash_u32(key + 0xdaa66d2bu)),
+    );
+    return fract(u + r);
+}
 
 // Radiance reflected at s from the sampler's lights. The kinds with cuts
 // under the paper's estimator (light_per_subtree): one light from each
@@ -53,7 +72,7 @@ fn ml_direct(s: Surface, px: vec2<u32>, u: vec4<f32>, time: f32) -> vec3<f32> {
             len = 0u;
         }
         for (var j = 0u; j < len; j++) {
-            let uj = fract(u + f32(j) * ML_SUBTREE_STEP);
+            let uj = ml_subtree_u(u, px, j);
             sum += ml_pick(s, light_descend_subtree(s.x, s.ns, base, j, uj.x), uj.yzw, time);
         }
     } else {

@@ -4,8 +4,10 @@
 //! `cut_sampling = "subtrees"` (the default, the paper's estimator), one
 //! from each subtree of the pixel's share of its block's cut, each divided
 //! by its probability within its subtree and summed (n shadow rays for a
-//! cut of n nodes; subtree j's random numbers are the evaluation's shifted
-//! by j times an R4 step, mod 1, so every term stays unbiased).
+//! cut of n nodes; subtree 0 takes the evaluation's random numbers, subtree
+//! j > 0 them rotated by its own random offset per pixel — uniform, so
+//! every term stays unbiased, and stratified over the pixel's samples:
+//! `ml_subtree_u`, `tree::cut::subtree_random`).
 //!
 //! Dimensions: 0–1 film point (raster units); 2 selects the light through
 //! the sampler (`light_sample`, so MDAS adapts over the selection too);
@@ -171,6 +173,7 @@ pub fn source_for_cuts(triangles: bool, kind: SamplerKind, capacity: u32) -> Wgs
         .constant("ML_TRIANGLES", triangles as u32)
         .constant("ML_SUBSTITUTES", kind.stops_at_substitutes() as u32)
         .constant("ML_LGH", (kind.structure() == Structure::Grid) as u32)
+        .part(wgsl_file!("shared/rng.wgsl"))
         .part(wgsl_file!("many_light.wgsl"))
 }
 
@@ -188,7 +191,7 @@ pub fn cuts_source(integrand: Wgsl, blocks: u32) -> Wgsl {
     integrand
         .constant("CUT_WG", CUT_WG)
         .constant("CUT_BLOCKS", blocks)
-        .part(wgsl_file!("shared/rng.wgsl"))
+        .include(&Wgsl::new().part(wgsl_file!("shared/rng.wgsl")))
         .part(wgsl_file!("many_light_cuts.wgsl"))
 }
 

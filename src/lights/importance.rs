@@ -9,8 +9,10 @@
 //! * `dmin²`, `dmax²`: squared distances from `x` to the nearest and the
 //!   farthest point of the box (`dmin² = 0` inside it);
 //! * `F`: an upper bound of the clamped cosine `max(0, n·ω)` over the
-//!   directions `ω` toward the node's bounding sphere (1 when `x` is inside
-//!   the sphere or `n = 0`);
+//!   directions `ω` toward the points of the node's box, as the authors'
+//!   code bounds it (`GeomTermBound`; the paper only says "a bound on the
+//!   cosine"): 0 when the box lies wholly on or below the tangent plane,
+//!   1 when `x` is inside the box or `n = 0` ([`reflectance_bound`]);
 //! * `W = F·I`, 0 for dead nodes (zero intensity or EMPTY bounds).
 //!
 //! The cone kinds (`tree_cone`, `unbalanced`, `unbalanced_nocut`) also
@@ -39,6 +41,12 @@
 //! distance is divided by (the singular case, `x` inside both boxes, falls
 //! back to `W_j / (W_j + W_k)`), `p_max` likewise, `p_left = (p_min + p_max)/2`
 //! and `p_right = 1 − p_left`.
+//!
+//! The greedy cut ranks nodes by the authors' key `W / max(dmin², ε²)`
+//! with `ε = 10⁻³ ·` the diagonal of the root's box ([`cut_key`]): finite
+//! inside a box, 0 for `W = 0`. docs/light-sampling.md ("Sources") says
+//! which rules follow the paper, which the authors' code, and which depart
+//! from both.
 
 use super::{LightCone, TreeNode};
 use glam::Vec3;
@@ -110,33 +118,62 @@ pub fn node_importance(node: &TreeNode, cone: Option<&LightCone>, s: &Shading) -
     }
 }
 
-fn length(v: [f32; 3]) -> f32 {
-    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
+/// `(lo, hi)`: the range of `d·(y − x)` over the points `y` of the node's
+/// box, per axis the smaller and the larger of `d_a·(bmin_a − x_a)` and
+/// `d_a·(bmax_a − x_a)`, summed x, y, z (the WGSL twin sums in the same
+/// order).
+fn range_along(node: &TreeNode, x: [f32; 3], d: [f32; 3]) -> (f32, f32) {
+    let e0: [f32; 3] = std::array::from_fn(|a| d[a] * (node.min[a] - x[a]));
+    let e1: [f32; 3] = std::array::from_fn(|a| d[a] * (node.max[a] - x[a]));
+    let lo = e0[0].min(e1[0]) + e0[1].min(e1[1]) + e0[2].min(e1[2]);
+    let hi = e0[0].max(e1[0]) + e0[1].max(e1[1]) + e0[2].max(e1[2]);
+    (lo, hi)
 }
 
-/// The cosine bound F of the node's bounding sphere (docs: "Reflectance
-/// bound"). Not for dead nodes.
+/// The tangents `(t, b)` of the unit normal `n` (not 0) that the
+/// reflectance bound measures along: the authors' `CoordinateSystem_`
+/// (`t ⊥ n` from the two larger components, `b = n × t`), `b` left
+/// unnormalized (it is unit within rounding).
+fn tangent_frame(n: [f32; 3]) -> ([f32; 3], [f32; 3]) {
+    let t = if n[0].abs() > n[1].abs() {
+        let l = (n[0] * n[0] + n[2] * n[2]).sqrt();
+        [-n[2] / l, 0.0, n[0] / l]
+    } else {
+        let l = (n[1] * n[1] + n[2] * n[2]).sqrt();
+        [0.0, n[2] / l, -n[1] / l]
+    };
+    let b = [
+        n[1] * t[2] - n[2] * t[1],
+        n[2] * t[0] - n[0] * t[2],
+        n[0] * t[1] - n[1] * t[0],
+    ];
+    (t, b)
+}
+
+/// The cosine bound F over the node's box (docs: "Reflectance bound"; the
+/// authors' `GeomTermBound`): with `a`, `b`, `c` the coordinates of
+/// `y − x` along `n` and two tangents, the largest `a` over the box
+/// (`a_max`) and the smallest `|b|`, `|c|` (0 when the box straddles the
+/// plane), `F = a_max / sqrt(b_min² + c_min² + a_max²)`, and `F = 0` when
+/// `a_max ≤ 0` (the box lies wholly on or below the tangent plane). For
+/// every `y` in the box `cos = a/sqrt(a² + b² + c²)` grows with `a` and
+/// shrinks with `|b|`, `|c|`, so F bounds the clamped cosine over the box
+/// from above. Not for dead nodes.
 pub fn reflectance_bound(node: &TreeNode, s: &Shading) -> f32 {
     let n = s.n.to_array();
     if n == [0.0; 3] {
         return 1.0;
     }
     let x = s.p.to_array();
-    let c: [f32; 3] = std::array::from_fn(|a| 0.5 * (node.min[a] + node.max[a]));
-    let r = length(std::array::from_fn(|a| 0.5 * (node.max[a] - node.min[a])));
-    let v: [f32; 3] = std::array::from_fn(|a| c[a] - x[a]);
-    let dist = length(v);
-    if dist <= r {
-        return 1.0;
+    let (_, a_max) = range_along(node, x, n);
+    if a_max <= 0.0 {
+        return 0.0;
     }
-    let cos_n = (n[0] * v[0] + n[1] * v[1] + n[2] * v[2]) / dist;
-    let sin_b = r / dist;
-    let cos_b = (1.0 - sin_b * sin_b).max(0.0).sqrt();
-    if cos_n >= cos_b {
-        return 1.0;
-    }
-    let sin_n = (1.0 - cos_n * cos_n).max(0.0).sqrt();
-    (cos_n * cos_b + sin_n * sin_b).max(0.0)
+    let (t, b) = tangent_frame(n);
+    let gap = |(lo, hi): (f32, f32)| lo.max(-hi).max(0.0);
+    let b_min = gap(range_along(node, x, t));
+    let c_min = gap(range_along(node, x, b));
+    (a_max / (b_min * b_min + c_min * c_min + a_max * a_max).sqrt()).min(1.0)
 }
 
 /// `a/(a + b)` for weights `a = W_j·d_k`, `b = W_k·d_j`, falling back to
@@ -174,14 +211,39 @@ pub fn choose_child(p_left: f32, u: f32) -> (bool, f32, f32) {
     (left, p, u.min(ONE_MINUS_EPSILON))
 }
 
-/// Greedy-cut key of a refinable node: `+∞` when `dmin² == 0`, else
-/// `W/dmin²` (docs: "Cuts").
-pub fn cut_key(imp: &NodeImportance) -> f32 {
-    if imp.dmin2 == 0.0 {
-        f32::INFINITY
-    } else {
-        imp.w / imp.dmin2
+/// The fraction of the diagonal of the whole lights' box below which the
+/// cut key stops growing as `dmin` shrinks (the authors' `errorLimit`,
+/// "Min Node Error Bound", 0.001).
+pub const CUT_KEY_NEAR: f32 = 1e-3;
+
+/// The squared floor of the cut key's distance for a tree whose root is
+/// `root`: `(CUT_KEY_NEAR · |bmax − bmin|)²`, 0 for EMPTY bounds. The
+/// authors call the length `sceneLightBoundRadius` but store the length of
+/// the lights' box diagonal in it (`FindVPLBboxMinCS.hlsl`,
+/// `CPULightCuts::globalBoundDiag`); this follows what they store.
+pub fn cut_key_floor2(root: &TreeNode) -> f32 {
+    if root.is_empty() {
+        return 0.0;
     }
+    let d: [f32; 3] = std::array::from_fn(|a| root.max[a] - root.min[a]);
+    let e = CUT_KEY_NEAR * (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+    e * e
+}
+
+/// Greedy-cut key of a refinable node (docs: "Cuts"; the authors'
+/// `errorFunction`): `W / max(dmin², floor2)` with `floor2` from
+/// [`cut_key_floor2`], 0 when `W = 0`, at most `f32::MAX` (a floor of 0
+/// with `dmin² = 0` gives `f32::MAX`). Finite: a node around the
+/// representative is ranked by its weight, not put first whatever it is.
+pub fn cut_key(imp: &NodeImportance, floor2: f32) -> f32 {
+    if imp.w == 0.0 {
+        return 0.0;
+    }
+    let d = imp.dmin2.max(floor2);
+    if d == 0.0 {
+        return f32::MAX;
+    }
+    (imp.w / d).min(f32::MAX)
 }
 
 /// Selection probabilities of the nodes of a cut at one shading point
@@ -357,75 +419,271 @@ mod tests {
         assert!(!choose_child(0.0, 0.0).0);
     }
 
-    /// The reflectance bound against its closed form: for a sphere of
-    /// half-angle θ_b (sin θ_b = r/dist) whose centre is θ_n away from the
-    /// normal, F = cos(θ_n − θ_b) when θ_n > θ_b, else 1. The node is the
-    /// segment [3, 5] × {0} × {0} (centre (4, 0, 0), r = 1) seen from the
-    /// origin, so sin θ_b = 1/4; the f64 angles share no code with the
-    /// bound. Tolerance: a few f32 ulps of values near 1 (1e-6).
+    /// The reflectance bound against its closed form. The node is the
+    /// segment [3, 5] × {0} × {0} seen from the origin with the normal
+    /// θ away from +x in the xy plane: along n the box reaches at most
+    /// a_max = 5·cos θ, and along the tangent in the xy plane it is at
+    /// least 3·sin θ away (the other tangent is z, where the segment has
+    /// gap 0), so F = 5·cos θ / sqrt(25·cos²θ + 9·sin²θ) for θ < 90°, 0
+    /// beyond. (The old sphere bound gave cos(θ − asin(1/4)) here; the box
+    /// bound separates the largest a from the smallest tangent gaps, which
+    /// is why it is not the exact cos θ of every direction to the segment.)
+    /// The f64 closed form shares no code with the bound. Tolerance 1e-6
+    /// relative (a dozen f32 roundings).
     #[test]
-    fn reflectance_bound_is_the_cosine_of_the_angle_beyond_the_sphere() {
+    fn reflectance_bound_over_the_box_known_answers() {
         let seg = node([3.0, 0.0, 0.0], [5.0, 0.0, 0.0], 1.0);
-        let theta_b = (0.25f64).asin();
-        let at = |n: Vec3| {
+        let at = |p: Vec3, n: Vec3| {
             reflectance_bound(
                 &seg,
                 &Shading {
-                    p: Vec3::ZERO,
+                    p,
                     n: n.normalize(),
                 },
             )
         };
-        for theta_n_deg in [30.0f64, 60.0, 90.0, 100.0] {
-            let t = theta_n_deg.to_radians();
+        for theta_deg in [10.0f64, 30.0, 45.0, 60.0, 89.0] {
+            let t = theta_deg.to_radians();
             let n = Vec3::new(t.cos() as f32, t.sin() as f32, 0.0);
-            let want = (t - theta_b).cos().max(0.0);
-            let got = at(n) as f64;
+            let (c, s) = (t.cos(), t.sin());
+            let want = 5.0 * c / (25.0 * c * c + 9.0 * s * s).sqrt();
+            let got = at(Vec3::ZERO, n) as f64;
             assert!(
-                (got - want).abs() < 1e-6,
-                "θ_n = {theta_n_deg}°: F = {got}, closed form {want}"
+                (got - want).abs() < 1e-6 * want,
+                "θ = {theta_deg}°: F = {got}, closed form {want}"
             );
+            // Conservative: at least the true cosine, cos θ.
+            assert!(got >= c - 1e-7, "θ = {theta_deg}°: F = {got} < cos θ = {c}");
         }
-        // Normal within θ_b of the centre (10° < 14.48°), or beyond 90° + θ_b.
-        assert_eq!(
-            at(Vec3::new(
-                10f32.to_radians().cos(),
-                10f32.to_radians().sin(),
-                0.0
-            )),
-            1.0
-        );
-        assert_eq!(at(Vec3::new(-1.0, 0.2, 0.0)), 0.0);
+        // The segment on the tangent plane (n = +y) or behind it: 0.
+        assert_eq!(at(Vec3::ZERO, Vec3::Y), 0.0);
+        assert_eq!(at(Vec3::ZERO, Vec3::new(-1.0, 0.2, 0.0)), 0.0);
         // No normal: 1.
-        assert_eq!(
-            reflectance_bound(
-                &seg,
-                &Shading {
-                    p: Vec3::ZERO,
-                    n: Vec3::ZERO
+        assert_eq!(reflectance_bound(&seg, &Shading::default()), 1.0);
+        // From the segment's end (3, 0, 0) every direction to it is +x: a
+        // normal facing away gets 0 (the sphere bound said 1 here: the
+        // point lies on the sphere, and "inside the sphere" was 1), …
+        let end = Vec3::new(3.0, 0.0, 0.0);
+        assert_eq!(at(end, Vec3::new(-0.6, 0.8, 0.0)), 0.0);
+        // … a normal facing it 1 (the point is on the box: the tangent
+        // gaps are 0).
+        assert_eq!(at(end, Vec3::new(0.6, 0.8, 0.0)), 1.0);
+        // Inside a solid box: 1 whatever the normal.
+        let cube = node([-1.0; 3], [1.0; 3], 1.0);
+        let inside = |n: Vec3| reflectance_bound(&cube, &Shading { p: Vec3::ZERO, n });
+        assert_eq!(inside(Vec3::new(0.6, -0.8, 0.0)), 1.0);
+        assert_eq!(inside(-Vec3::Z), 1.0);
+    }
+
+    /// The closed form x·(a, b, c) ↦ a/sqrt(a² + b² + c²) of the clamped
+    /// cosine from `x` with normal `n` toward `y`, in f64.
+    fn cosine_to(x: Vec3, n: Vec3, y: [f64; 3]) -> Option<f64> {
+        let d = [y[0] - x.x as f64, y[1] - x.y as f64, y[2] - x.z as f64];
+        let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+        (len > 1e-9).then(|| {
+            let n = n.as_dvec3();
+            ((n.x * d[0] + n.y * d[1] + n.z * d[2]) / len).max(0.0)
+        })
+    }
+
+    /// F never falls below the true maximum of the clamped cosine over the
+    /// box, checked against dense sampling (a 17³ lattice through the box,
+    /// faces and corners included, plus 2,000 uniform points) on 3,000
+    /// random boxes (some flat along one or two axes), shading points
+    /// (outside, near, on the faces of and inside the box) and unit
+    /// normals. The sampled maximum is at most the true one, so F ≥ it is
+    /// necessary; the slack 1e-5 covers f32 rounding of F and of the
+    /// inputs. Also: F ≤ 1, and the bound is not vacuous (F < 1 in most
+    /// cases with the point outside).
+    #[test]
+    fn reflectance_bound_is_conservative_over_random_boxes() {
+        use rand::rngs::StdRng;
+        use rand::{RngExt, SeedableRng};
+        let mut rng = StdRng::seed_from_u64(66);
+        let mut below_one = 0;
+        let mut outside = 0;
+        for case in 0..3000 {
+            let c: [f32; 3] = std::array::from_fn(|_| rng.random_range(-3.0..3.0));
+            let mut h: [f32; 3] = std::array::from_fn(|_| rng.random_range(0.0..2.0));
+            if case % 5 == 1 {
+                h[case % 3] = 0.0;
+            }
+            if case % 7 == 2 {
+                h[(case + 1) % 3] = 0.0;
+                h[(case + 2) % 3] = 0.0;
+            }
+            let b = node(
+                std::array::from_fn(|a| c[a] - h[a]),
+                std::array::from_fn(|a| c[a] + h[a]),
+                1.0,
+            );
+            let mut p = Vec3::new(
+                rng.random_range(-6.0..6.0),
+                rng.random_range(-6.0..6.0),
+                rng.random_range(-6.0..6.0),
+            );
+            match case % 4 {
+                // On a face (clamped onto the box, then one axis to a side).
+                1 => {
+                    let a = rng.random_range(0..3usize);
+                    p = Vec3::from_array(std::array::from_fn(|k| p[k].clamp(b.min[k], b.max[k])));
+                    p[a] = if rng.random::<bool>() {
+                        b.min[a]
+                    } else {
+                        b.max[a]
+                    };
                 }
-            ),
-            1.0
+                // Inside (or on a flat box).
+                2 => {
+                    p = Vec3::from_array(std::array::from_fn(|k| {
+                        rng.random_range(b.min[k]..=b.max[k])
+                    }))
+                }
+                _ => {}
+            }
+            let n = loop {
+                let v = Vec3::new(
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(-1.0..1.0),
+                );
+                if v.length() > 0.1 && v.length() <= 1.0 {
+                    break v.normalize();
+                }
+            };
+            let f = reflectance_bound(&b, &Shading { p, n }) as f64;
+            assert!((0.0..=1.0).contains(&f), "F = {f}");
+            let lerp = |a: usize, t: f64| b.min[a] as f64 + t * (b.max[a] - b.min[a]) as f64;
+            let m = 16;
+            let mut best = 0.0f64;
+            for i in 0..=m {
+                for j in 0..=m {
+                    for k in 0..=m {
+                        let y = [
+                            lerp(0, i as f64 / m as f64),
+                            lerp(1, j as f64 / m as f64),
+                            lerp(2, k as f64 / m as f64),
+                        ];
+                        best = best.max(cosine_to(p, n, y).unwrap_or(0.0));
+                    }
+                }
+            }
+            for _ in 0..2000 {
+                let y = std::array::from_fn(|a| lerp(a, rng.random::<f64>()));
+                best = best.max(cosine_to(p, n, y).unwrap_or(0.0));
+            }
+            assert!(
+                f >= best - 1e-5,
+                "case {case}: box {b:?}, x = {p}, n = {n}: F = {f} < sampled max {best}"
+            );
+            let inside = (0..3).all(|a| b.min[a] <= p[a] && p[a] <= b.max[a]);
+            if !inside {
+                outside += 1;
+                below_one += usize::from(f < 1.0);
+            }
+        }
+        assert!(
+            below_one * 2 > outside,
+            "F < 1 in only {below_one} of {outside} cases outside the box"
         );
-        // On the sphere itself (dist = r exactly, from (3, 0, 0)) the point
-        // counts as inside: 1, although the formula would give 0.8 there
-        // with this normal (cos_n = −0.6, θ_b = 90°).
-        let on = Shading {
-            p: Vec3::new(3.0, 0.0, 0.0),
-            n: Vec3::new(-0.6, 0.8, 0.0),
-        };
-        assert_eq!(reflectance_bound(&seg, &on), 1.0);
+    }
+
+    /// A box wholly on or below the tangent plane gets F = 0, hence W = 0:
+    /// boxes with a face on the plane of an axis normal (exact: every
+    /// n·(y − x) is 0 or negative in f32 too), and boxes below a random
+    /// tilted plane by a margin (every corner at least 1e-3 below it,
+    /// which f32 rounding cannot cross). The same boxes a little above the
+    /// plane get F > 0.
+    #[test]
+    fn reflectance_bound_is_zero_below_the_tangent_plane() {
+        use rand::rngs::StdRng;
+        use rand::{RngExt, SeedableRng};
+        let mut rng = StdRng::seed_from_u64(67);
+        let axes = [Vec3::X, Vec3::Y, Vec3::Z, -Vec3::X, -Vec3::Y, -Vec3::Z];
+        for case in 0..600 {
+            let n = axes[case % 6];
+            let lo: [f32; 3] = std::array::from_fn(|_| rng.random_range(-3.0..3.0));
+            let hi: [f32; 3] = std::array::from_fn(|a| lo[a] + rng.random_range(0.0..2.0));
+            let b = node(lo, hi, 1.0);
+            // x on the plane of the box's face toward n, or beyond it.
+            let a = case % 3;
+            let mut p = Vec3::new(
+                rng.random_range(-6.0..6.0),
+                rng.random_range(-6.0..6.0),
+                rng.random_range(-6.0..6.0),
+            );
+            let sign = n[a];
+            let face = if sign > 0.0 { hi[a] } else { lo[a] };
+            p[a] = face
+                + sign
+                    * if case % 2 == 0 {
+                        0.0
+                    } else {
+                        rng.random_range(0.0..2.0)
+                    };
+            let s = Shading { p, n };
+            assert_eq!(reflectance_bound(&b, &s), 0.0, "{b:?} from {p} along {n}");
+            assert_eq!(node_importance(&b, None, &s).w, 0.0);
+            // Raise x' plane below the box's far side: F > 0.
+            let far = if sign > 0.0 { lo[a] } else { hi[a] };
+            let mut q = p;
+            q[a] = far - sign * 0.5;
+            let f = reflectance_bound(&b, &Shading { p: q, n });
+            assert!(f > 0.0, "{b:?} from {q} along {n}: F = {f}");
+        }
+        for _ in 0..600 {
+            let n = Vec3::new(
+                rng.random_range(-1.0..1.0),
+                rng.random_range(-1.0..1.0),
+                rng.random_range(-1.0..1.0),
+            )
+            .normalize();
+            let p = Vec3::new(
+                rng.random_range(-3.0..3.0),
+                rng.random_range(-3.0..3.0),
+                rng.random_range(-3.0..3.0),
+            );
+            // A box around a centre `depth` below the plane (moved along
+            // it at random), small enough that every corner stays at
+            // least 1e-3 below: n·(±h) ≤ Σ|n_a|·h_a ≤ depth − 1e-3.
+            let depth = rng.random_range(0.01..3.0f32);
+            let w = Vec3::new(
+                rng.random_range(-2.0..2.0),
+                rng.random_range(-2.0..2.0),
+                rng.random_range(-2.0..2.0),
+            );
+            let c = p - depth * n + (w - n * n.dot(w));
+            let reach = (depth - 1e-3) / (n.x.abs() + n.y.abs() + n.z.abs());
+            let h = Vec3::new(
+                rng.random_range(0.0..=reach),
+                rng.random_range(0.0..=reach),
+                rng.random_range(0.0..=reach),
+            );
+            let b = node((c - h).to_array(), (c + h).to_array(), 1.0);
+            for i in 0..8 {
+                let y = Vec3::new(
+                    if i & 1 == 0 { b.min[0] } else { b.max[0] },
+                    if i & 2 == 0 { b.min[1] } else { b.max[1] },
+                    if i & 4 == 0 { b.min[2] } else { b.max[2] },
+                );
+                assert!(n.as_dvec3().dot((y - p).as_dvec3()) < -5e-4, "setup");
+            }
+            assert_eq!(reflectance_bound(&b, &Shading { p, n }), 0.0);
+        }
     }
 
     /// W = F·G·I with an orientation cone, against the closed form: the
     /// node is the square [−1, 1] × {2} × [−1, 1] (centre (0, 2, 0),
     /// r = √2) emitting downward (axis −y, θ_o = 0, θ_e = 90°), seen from
-    /// x = (4, 0, 0) with normal +y. The centre is θ_n = atan2(4, 2) from
-    /// the normal and θ_w = atan2(4, 2) from the axis, the sphere's
-    /// half-angle is θ_b = asin(√2/√20); F = cos(θ_n − θ_b), G = cos(θ_w −
-    /// θ_b), both cos 45°, so W = I/2. The near clamp r²/16 = 1/8 is below
-    /// dmin² = 9 + 4 = 13 and leaves it. Tolerance 1e-6 relative (f32
-    /// rounding of a dozen operations).
+    /// x = (4, 0, 0) with normal +y. F is over the box: the square reaches
+    /// a_max = 2 along n, and is at least 3 away along the tangent −x (0
+    /// along z, which it straddles), so F = 2/√13 — here the exact largest
+    /// cosine, at the square's point (1, 2, 0). G is over the sphere: the
+    /// centre is θ_w = atan2(4, 2) from the axis, the sphere's half-angle
+    /// θ_b = asin(√2/√20), G = cos(θ_w − θ_b) = cos 45°. So W = I·2/√13·
+    /// cos 45° (with the old sphere bound F was cos 45° as well: W = I/2).
+    /// The near clamp r²/16 = 1/8 is below dmin² = 9 + 4 = 13 and leaves
+    /// it. Tolerance 1e-6 relative (f32 rounding of a dozen operations).
     #[test]
     fn cone_importance_is_the_product_of_both_bounds() {
         let square = node([-1.0, 2.0, -1.0], [1.0, 2.0, 1.0], 3.0);
@@ -444,13 +702,13 @@ mod tests {
         let imp = node_importance(&square, Some(&cone), &s);
         let theta = (4.0f64).atan2(2.0);
         let theta_b = (2.0f64.sqrt() / 20.0f64.sqrt()).asin();
-        let want = 3.0 * (theta - theta_b).cos() * (theta - theta_b).cos();
+        let want = 3.0 * (2.0 / 13.0f64.sqrt()) * (theta - theta_b).cos();
         assert!(
             ((imp.w as f64) - want).abs() < 1e-6 * want,
             "W = {}, closed form {want}",
             imp.w
         );
-        assert!((want - 1.5).abs() < 1e-12);
+        assert!((want - 3.0 * (2.0 / 13.0f64.sqrt()) * 0.5f64.sqrt()).abs() < 1e-12);
         // dmin²: gaps 3, 2, 0; dmax²: 5, 2, 1.
         assert_eq!((imp.dmin2, imp.dmax2), (13.0, 30.0));
         // The same node emitting upward faces away from x: W = 0.
@@ -481,6 +739,8 @@ mod tests {
         assert_eq!(choose_child(0.25, 0.25), (false, 0.75, 0.0));
     }
 
+    /// The authors' finite key W / max(dmin², floor²) (the old key was +∞
+    /// for dmin² = 0, whatever W).
     #[test]
     fn cut_keys() {
         let imp = |dmin2: f32, w: f32| NodeImportance {
@@ -488,9 +748,25 @@ mod tests {
             dmax2: 9.0,
             w,
         };
-        assert_eq!(cut_key(&imp(4.0, 2.0)), 0.5);
-        assert_eq!(cut_key(&imp(0.0, 2.0)), f32::INFINITY);
-        assert_eq!(cut_key(&imp(4.0, 0.0)), 0.0);
+        let floor2 = 0.25;
+        assert_eq!(cut_key(&imp(4.0, 2.0), floor2), 0.5);
+        // Inside the box: W over the floor, not +∞.
+        assert_eq!(cut_key(&imp(0.0, 2.0), floor2), 8.0);
+        assert_eq!(cut_key(&imp(0.125, 2.0), floor2), 8.0);
+        // W = 0 gives 0, inside the box too.
+        assert_eq!(cut_key(&imp(4.0, 0.0), floor2), 0.0);
+        assert_eq!(cut_key(&imp(0.0, 0.0), floor2), 0.0);
+        assert_eq!(cut_key(&imp(0.0, 0.0), 0.0), 0.0);
+        // No floor (lights at one point) inside the box: the largest f32;
+        // an overflowing quotient is capped there too.
+        assert_eq!(cut_key(&imp(0.0, 2.0), 0.0), f32::MAX);
+        assert_eq!(cut_key(&imp(1e-30, 1e30), 0.0), f32::MAX);
+        // The floor: (10⁻³ · diagonal)², the diagonal of [0, 3] × [0, 4] ×
+        // {1} being 5; 0 for EMPTY bounds.
+        let root = node([0.0, 0.0, 1.0], [3.0, 4.0, 1.0], 1.0);
+        let e = 1e-3f32 * 5.0;
+        assert_eq!(cut_key_floor2(&root), e * e);
+        assert_eq!(cut_key_floor2(&TreeNode::EMPTY), 0.0);
     }
 
     /// Cut node probabilities against eq. 2 over n nodes worked by hand.

@@ -216,13 +216,19 @@ fn dead_branches_return_no_light() {
             )
         })
         .collect();
-    // Two lights below the surface whose common box reaches the shading
-    // point (the root looks alive, both children are dead).
+    // Two lights below a tilted surface (x + y = 0) whose common box
+    // reaches above it, to the corner (4, 4, 0): the root looks alive, both
+    // children are dead. (With an axis normal no such pair exists for the
+    // box bound: the union box rises no higher than its children.)
     let pair = [
-        LightPrim::point(Vec3::new(-10.0, -1.0, 0.0), Vec3::ONE),
-        LightPrim::point(Vec3::new(10.0, -1.0, 0.0), Vec3::ONE),
+        LightPrim::point(Vec3::new(-5.0, 4.0, 0.0), Vec3::ONE),
+        LightPrim::point(Vec3::new(4.0, -5.0, 0.0), Vec3::ONE),
     ];
-    for prims in [&below[..], &pair[..]] {
+    let tilted = Shading {
+        p: Vec3::ZERO,
+        n: Vec3::new(1.0, 1.0, 0.0).normalize(),
+    };
+    for (prims, s) in [(&below[..], s), (&pair[..], tilted)] {
         for (name, sampler) in samplers(prims, &s) {
             if name == "uniform" || name == "power" {
                 continue;
@@ -234,7 +240,7 @@ fn dead_branches_return_no_light() {
         }
     }
     let t = perfect::build(&pair).unwrap();
-    assert!(node_importance(&t.nodes[0], None, &s).w > 0.0);
+    assert!(node_importance(&t.nodes[0], None, &tilted).w > 0.0);
 }
 
 #[test]

@@ -92,8 +92,9 @@ fn light_length(v: vec3<f32>) -> f32 {
 
 // A node's bounding sphere seen from x: v = c − x, dist = |v|, the squared
 // radius, and the sine and cosine of its half-angle θ_b (meaningless when
-// x is inside, dist ≤ r). Shared by both bounds; each value is computed by
-// the same f32 operations as importance.rs and cone.rs compute it.
+// x is inside, dist ≤ r). For the emission bound G and the near clamp (the
+// reflectance bound F is over the box); each value is computed by the same
+// f32 operations as importance.rs and cone.rs compute it.
 struct LightSphere {
     v: vec3<f32>,
     dist: f32,
@@ -115,18 +116,45 @@ fn light_sphere(node: TreeNode, x: vec3<f32>) -> LightSphere {
     return LightSphere(v, dist, r2, dist <= r, sin_b, cos_b);
 }
 
-// The cosine bound F of the node's bounding sphere (importance.rs).
-fn light_reflectance_bound(sp: LightSphere, n: vec3<f32>) -> f32 {
-    if (all(n == vec3<f32>(0.0)) || sp.inside) {
+// The range (lo, hi) of d·(y − x) over the points y of the node's box
+// (importance.rs range_along, summed x, y, z).
+fn light_range_along(node: TreeNode, x: vec3<f32>, d: vec3<f32>) -> vec2<f32> {
+    let e0 = d * (node.bmin - x);
+    let e1 = d * (node.bmax - x);
+    let lo = min(e0.x, e1.x) + min(e0.y, e1.y) + min(e0.z, e1.z);
+    let hi = max(e0.x, e1.x) + max(e0.y, e1.y) + max(e0.z, e1.z);
+    return vec2<f32>(lo, hi);
+}
+
+// The distance from 0 to the range r (0 when it straddles 0).
+fn light_range_gap(r: vec2<f32>) -> f32 {
+    return max(max(r.x, -r.y), 0.0);
+}
+
+// The cosine bound F over the node's box (importance.rs reflectance_bound,
+// the authors' GeomTermBound): 0 for a box wholly on or below the tangent
+// plane, else a_max / sqrt(b_min² + c_min² + a_max²) along n and the
+// tangents t, b = n × t (importance.rs tangent_frame).
+fn light_reflectance_bound(node: TreeNode, x: vec3<f32>, n: vec3<f32>) -> f32 {
+    if (all(n == vec3<f32>(0.0))) {
         return 1.0;
     }
-    let v = sp.v;
-    let cos_n = (n.x * v.x + n.y * v.y + n.z * v.z) / sp.dist;
-    if (cos_n >= sp.cos_b) {
-        return 1.0;
+    let a_max = light_range_along(node, x, n).y;
+    if (a_max <= 0.0) {
+        return 0.0;
     }
-    let sin_n = sqrt(max(1.0 - cos_n * cos_n, 0.0));
-    return max(cos_n * sp.cos_b + sin_n * sp.sin_b, 0.0);
+    var t: vec3<f32>;
+    if (abs(n.x) > abs(n.y)) {
+        let l = sqrt(n.x * n.x + n.z * n.z);
+        t = vec3<f32>(-n.z / l, 0.0, n.x / l);
+    } else {
+        let l = sqrt(n.y * n.y + n.z * n.z);
+        t = vec3<f32>(0.0, n.z / l, -n.y / l);
+    }
+    let b = vec3<f32>(n.y * t.z - n.z * t.y, n.z * t.x - n.x * t.z, n.x * t.y - n.y * t.x);
+    let b_min = light_range_gap(light_range_along(node, x, t));
+    let c_min = light_range_gap(light_range_along(node, x, b));
+    return min(a_max / sqrt(b_min * b_min + c_min * c_min + a_max * a_max), 1.0);
 }
 
 // The emission bound G = cos θ' of the node's cone toward x
@@ -170,11 +198,11 @@ fn light_node_importance(node: TreeNode, index: u32, cones: bool, x: vec3<f32>, 
     let dmax = max(abs(x - node.bmin), abs(x - node.bmax));
     let dmin2 = dmin.x * dmin.x + dmin.y * dmin.y + dmin.z * dmin.z;
     let dmax2 = dmax.x * dmax.x + dmax.y * dmax.y + dmax.z * dmax.z;
-    let sp = light_sphere(node, x);
-    let f = light_reflectance_bound(sp, n);
+    let f = light_reflectance_bound(node, x, n);
     if (!cones) {
         return NodeImportance(dmin2, dmax2, f * node.intensity);
     }
+    let sp = light_sphere(node, x);
     let cone = light_cones[index];
     var near = dmin2;
     if (cone.points == 0u) {
@@ -571,18 +599,34 @@ fn light_pmf_subtree(s_p: vec3<f32>, s_n: vec3<f32>, cut_base: u32, light: u32) 
     return light_pmf_perfect(s_p, s_n, cut_base, light, true);
 }
 
-// Greedy-cut key (docs "Cuts"): −1 = not refinable (a leaf or I = 0); a point
-// inside the box gives the largest f32 (the CPU's +∞), other keys W/dmin²
-// stay below it.
-fn light_cut_key(node: u32, x: vec3<f32>, n: vec3<f32>) -> f32 {
+// The squared floor of the cut key's distance, (10⁻³·|bmax − bmin|)² of the
+// root's box (importance.rs cut_key_floor2; 0 for EMPTY bounds).
+fn light_cut_key_floor2() -> f32 {
+    let root = light_nodes[0];
+    if (root.bmin.x > root.bmax.x) {
+        return 0.0;
+    }
+    let d = root.bmax - root.bmin;
+    let e = 1e-3 * sqrt(d.x * d.x + d.y * d.y + d.z * d.z);
+    return e * e;
+}
+
+// Greedy-cut key (docs "Cuts", importance.rs cut_key): −1 = not refinable
+// (a leaf or I = 0); else W / max(dmin², floor2), 0 when W = 0, at most the
+// largest f32 (also when both distances are 0).
+fn light_cut_key(node: u32, x: vec3<f32>, n: vec3<f32>, floor2: f32) -> f32 {
     if (light_is_leaf(node) || !(light_nodes[node].intensity > 0.0)) {
         return -1.0;
     }
     let imp = light_importance_of(node, x, n);
-    if (imp.dmin2 == 0.0) {
+    if (imp.w == 0.0) {
+        return 0.0;
+    }
+    let d = max(imp.dmin2, floor2);
+    if (d == 0.0) {
         return bitcast<f32>(0x7f7fffffu);
     }
-    return min(imp.w / imp.dmin2, bitcast<f32>(0x7f7ffffeu));
+    return min(imp.w / d, bitcast<f32>(0x7f7fffffu));
 }
 
 // The greedy cut of at most light_params.cut_size nodes for the
@@ -595,7 +639,8 @@ fn select_cut(p: vec3<f32>, n: vec3<f32>, out: ptr<function, array<u32, MAX_CUT>
     let size = clamp(light_params.cut_size, 1u, MAX_CUT);
     var keys: array<f32, MAX_CUT>;
     (*out)[0] = 0u;
-    keys[0] = light_cut_key(0u, p, n);
+    let floor2 = light_cut_key_floor2();
+    keys[0] = light_cut_key(0u, p, n, floor2);
     var len = 1u;
     for (var it = 1u; it < MAX_CUT; it++) {
         if (len >= size) {
@@ -616,9 +661,9 @@ fn select_cut(p: vec3<f32>, n: vec3<f32>, out: ptr<function, array<u32, MAX_CUT>
         }
         let l = light_left_child((*out)[best]);
         (*out)[best] = l;
-        keys[best] = light_cut_key(l, p, n);
+        keys[best] = light_cut_key(l, p, n, floor2);
         (*out)[len] = l + 1u;
-        keys[len] = light_cut_key(l + 1u, p, n);
+        keys[len] = light_cut_key(l + 1u, p, n, floor2);
         len += 1u;
     }
     return len;

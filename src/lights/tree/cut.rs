@@ -14,8 +14,9 @@
 //! The cut is chosen greedily for a *representative* shading point (one
 //! per k×k pixel block on the GPU, "cut sharing" §3.3): starting from the
 //! root, the refinable node (internal, `I > 0`) with the largest key
-//! `W/dmin²` (`+∞` when the point is inside its box) is replaced by its
-//! two children until the cut holds `cut_size` nodes. With `cut_size = 1`
+//! `W/max(dmin², (10⁻³·D)²)` (D the diagonal of the root's box; the
+//! authors' key, finite inside a box) is replaced by its two children
+//! until the cut holds `cut_size` nodes. With `cut_size = 1`
 //! the cut is the root: plain hierarchical sampling ("no cuts").
 //!
 //! [`LightTree`] abstracts the two node layouts: the perfect tree
@@ -29,8 +30,8 @@
 
 use super::perfect::PerfectTree;
 use crate::lights::importance::{
-    choose_child, choose_cut_node, cut_key, cut_probabilities, node_importance, p_left,
-    NodeImportance, Shading,
+    choose_child, choose_cut_node, cut_key, cut_key_floor2, cut_probabilities, node_importance,
+    p_left, NodeImportance, Shading,
 };
 use crate::lights::sampler::{LightSample, LightSampler};
 use crate::lights::{LightCone, TreeNode, NO_LIGHT};
@@ -107,10 +108,13 @@ pub fn select_cut<T: LightTree + ?Sized>(
     );
     let nodes = tree.nodes();
     let mut cut = vec![0u32];
+    let floor2 = cut_key_floor2(&nodes[0]);
     // Keys of the cut nodes (NaN = not refinable), kept beside the cut.
     let key = |node: usize| -> f32 {
         match tree.children(node) {
-            Some(_) if nodes[node].intensity > 0.0 => cut_key(&importance.of(tree, node, s)),
+            Some(_) if nodes[node].intensity > 0.0 => {
+                cut_key(&importance.of(tree, node, s), floor2)
+            }
             _ => f32::NAN,
         }
     };
@@ -136,6 +140,30 @@ pub fn select_cut<T: LightTree + ?Sized>(
         keys.push(key(r));
     }
     cut
+}
+
+/// The random numbers of subtree `j` under the paper's estimator at film
+/// pixel `px` on the GPU (`ml_subtree_u` of `wgsl/many_light.wgsl`, bit
+/// for bit): subtree 0 takes the evaluation's own `u`; subtree `j > 0`
+/// takes `u` rotated mod 1 by four numbers hashed from `px` and `j` with
+/// `shared/rng.wgsl`'s hashes. Each subtree draws with its own random
+/// offset (the authors draw a new number per cut node) and keeps the
+/// stratification of the pixel's sequence (hashing `u` itself cost 6–12 %
+/// more variance, BENCHMARKS.md); each number stays uniform in `[0, 1)`,
+/// which keeps each term unbiased.
+pub fn subtree_random(u: [f32; 4], px: [u32; 2], j: u32) -> [f32; 4] {
+    use crate::integrator::mdas::cpu_oracle::{hash3, hash_u32};
+    if j == 0 {
+        return u;
+    }
+    let key = hash3(px[0], px[1], j);
+    let unit = |x: u32| (x >> 8) as f32 * (1.0 / 16_777_216.0);
+    let r =
+        [0u32, 0x9e37_79b9, 0x3c6e_f372, 0xdaa6_6d2b].map(|k| unit(hash_u32(key.wrapping_add(k))));
+    std::array::from_fn(|c| {
+        let x = u[c] + r[c];
+        x - x.floor()
+    })
 }
 
 /// Hierarchical importance sampling below `node` with `u`, the pmf so far
