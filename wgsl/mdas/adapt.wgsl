@@ -284,10 +284,6 @@ var<workgroup> wg_list: array<u32, WG>;
 var<workgroup> wg_listed: atomic<u32>;
 var<workgroup> wg_selected: atomic<u32>;
 var<workgroup> wg_splits: atomic<u32>;
-// The largest error this workgroup's leaves keep into the next iteration:
-// those neither selected nor collapsed (a listed leaf is selected or
-// collapses: its error is recomputed by evaluate.wgsl, or it leaves E_max).
-var<workgroup> wg_kept: atomic<u32>;
 
 @compute @workgroup_size(WG)
 fn count(@builtin(global_invocation_id) gid: vec3<u32>,
@@ -296,16 +292,13 @@ fn count(@builtin(global_invocation_id) gid: vec3<u32>,
          @builtin(num_workgroups) groups: vec3<u32>) {
     let k = thread_index(gid, groups, WG);
     if (lid == 0u) {
-        wg_emax = atomicLoad(&counters[emax_word(iteration())]);
+        wg_emax = atomicLoad(&counters[C_EMAX]);
         atomicStore(&wg_listed, 0u);
         atomicStore(&wg_selected, 0u);
         atomicStore(&wg_splits, 0u);
-        atomicStore(&wg_kept, 0u);
     }
     if (selected_now(k, workgroupUniformLoad(&wg_emax))) {
         wg_list[atomicAdd(&wg_listed, 1u)] = k;
-    } else if (k < leaf_count() && !header_collapsed(leaves_get(leaf_base(k) + 1u))) {
-        atomicMax(&wg_kept, leaves_get(leaf_base(k) + 2u));
     }
     workgroupBarrier();
     let listed = atomicLoad(&wg_listed);
@@ -329,7 +322,6 @@ fn count(@builtin(global_invocation_id) gid: vec3<u32>,
     if (lid == 0u && g < leaf_groups()) {
         partials[2u * g] = atomicLoad(&wg_selected);
         partials[2u * g + 1u] = atomicLoad(&wg_splits);
-        atomicMax(&counters[emax_word(iteration() + 1u)], atomicLoad(&wg_kept));
     }
 }
 
@@ -445,13 +437,9 @@ fn apply_leaf(k: u32, local: vec2<u32>, g: u32) {
         samples_set(slot * SAMPLE_STRIDE + w, words[w]);
     }
     values_set(3u * slot, leaves_get(base));
-    // Until it is evaluated, the sample's other value words name the
-    // leaves whose errors its evaluation completes (evaluate.wgsl).
-    values_set(3u * slot + 1u, k);
     let count = header_count(h);
 
     if (!d.split || truncate) {
-        values_set(3u * slot + 2u, NO_LEAF);
         // Appended in slot `count` (≤ MAX_PER_LEAF: a trimmed iteration
         // may fill a full leaf's last slot, the error word marked DIRTY
         // above; no error pass follows that iteration).
@@ -476,7 +464,6 @@ fn apply_leaf(k: u32, local: vec2<u32>, g: u32) {
         side[i] = sample_q(all[i], d.axis) >= d.plane;
     }
     let right = leaf_total + partials[2u * g + 1u] + local.y;
-    values_set(3u * slot + 2u, right);
     var left_count = 0u;
     var right_count = 0u;
     var left_first = 0u;

@@ -82,18 +82,6 @@ fn iteration() -> u32 {
     return state[S_ITERATION];
 }
 
-// The counters word of iteration t's E_max (C_EMAX or C_EMAX + 1): the
-// count pass of t reads it and gathers t + 1's into the other, which the
-// evaluate pass of t completes (evaluate.wgsl); plan.wgsl clears t's once
-// its count pass has read it.
-fn emax_word(t: u32) -> u32 {
-    return C_EMAX + (t & 1u);
-}
-
-// values[3s + 1] of a sample an iteration placed, before it is evaluated,
-// when its leaf did not split (values[3s + 2]: no right child).
-const NO_LEAF: u32 = 0xffffffffu;
-
 // Linear thread index of a 2D dispatch of `groups.x × groups.y`
 // workgroups of `size` invocations (direct or indirect: the width comes
 // from the num_workgroups built-in).

@@ -16,37 +16,11 @@
 // state[S_EVAL_PER] ≤ EVAL_PER_INVOCATION of them: fewer where the
 // dispatch would otherwise have fewer than params.eval_min_groups
 // workgroups (plan.wgsl), so that a small adaptive iteration still
-// keeps every thread of a CPU adapter busy. No barrier, and no atomic but
-// E_max's: the results are stored as they are, and stats.wgsl counts
-// non-finite ones and finds max |f| once, before the reconstruction.
-//
-// An iteration's sample then completes the leaves it changed: the
-// evaluating invocation recomputes the error of the leaf that took it and
-// of that leaf's new right child, and enters them into the next
-// iteration's E_max, so that no pass sweeps every leaf for errors.
+// keeps every thread of a CPU adapter busy. No barrier and no atomic: the results
+// are stored as they are, and stats.wgsl counts non-finite ones and finds
+// max |f| once, before the reconstruction.
 
-// The error of leaf k, recomputed (leaf_error.wgsl) into its error word
-// and entered into the next iteration's E_max (common.wgsl emax_word; the
-// word is read first, so that few invocations contend for the atomic).
-fn update_leaf_error(k: u32) {
-    let bits = bitcast<u32>(leaf_error(k));
-    leaves_set(leaf_base(k) + 2u, bits);
-    let word = emax_word(iteration());
-    if (bits > atomicLoad(&counters[word])) {
-        atomicMax(&counters[word], bits);
-    }
-}
-
-fn evaluate_sample(s: u32, adaptive: bool) {
-    // An iteration's sample names the leaf that took it and that leaf's
-    // new right child (adapt.wgsl apply_leaf), read before the value
-    // overwrites them.
-    var leaf = NO_LEAF;
-    var right = NO_LEAF;
-    if (adaptive) {
-        leaf = values_get(3u * s + 1u);
-        right = values_get(3u * s + 2u);
-    }
+fn evaluate_sample(s: u32) {
     let cell = morton_decode(values_get(3u * s), DIMS, BITS_PER_DIM, EXTRA_BITS);
     var point: IntegrandPoint;
     point.film = vec2<f32>(sample_raster(0u, cell[0], sample_q(s, 0u)),
@@ -58,14 +32,6 @@ fn evaluate_sample(s: u32, adaptive: bool) {
     values_set(3u * s, bits.x);
     values_set(3u * s + 1u, bits.y);
     values_set(3u * s + 2u, bits.z);
-    // The two leaves hold no other unevaluated sample: each selected leaf
-    // took one sample, and a split shares only the leaf's own samples.
-    if (adaptive) {
-        update_leaf_error(leaf);
-        if (right != NO_LEAF) {
-            update_leaf_error(right);
-        }
-    }
 }
 
 @compute @workgroup_size(WG)
@@ -74,10 +40,6 @@ fn evaluate(@builtin(global_invocation_id) gid: vec3<u32>,
     let i = thread_index(gid, groups, WG);
     let count = state[S_EVAL_COUNT];
     let per = state[S_EVAL_PER];
-    // An iteration's samples (plan.wgsl has advanced the iteration past
-    // 1) whose leaves' errors a later iteration reads (not done); the
-    // initial grid's errors come from error.wgsl.
-    let adaptive = iteration() >= 2u && state[S_DONE] == 0u;
     let invocations = (count + per - 1u) / per;
     if (i >= invocations) {
         return;
@@ -89,6 +51,6 @@ fn evaluate(@builtin(global_invocation_id) gid: vec3<u32>,
         if (j >= per || n >= count) {
             break;
         }
-        evaluate_sample(state[S_EVAL_FIRST] + n, adaptive);
+        evaluate_sample(state[S_EVAL_FIRST] + n);
     }
 }

@@ -8,9 +8,7 @@
 //   * the render is done when nothing was added, the budget is reached or
 //     the iteration cap (params.max_iterations) was this iteration;
 //     otherwise the iteration number advances;
-//   * this iteration's E_max word is cleared for iteration + 2 (the next
-//     iteration's is gathered by count and evaluate, common.wgsl
-//     `emax_word`);
+//   * E_max is reset for the next error pass;
 //   * with the paced selection (params.pace > 0), the selection's factor
 //     c (state[S_INV_PACE] = 1/c, adapt.wgsl) is fed back from this
 //     iteration's count: the next iteration aims to place
@@ -108,7 +106,5 @@ fn plan() {
             pace_next(selected, params.budget - n);
         }
     }
-    // This iteration's E_max has been read (count); the word serves
-    // iteration it + 2.
-    atomicStore(&counters[emax_word(it)], 0u);
+    atomicStore(&counters[C_EMAX], 0u);
 }

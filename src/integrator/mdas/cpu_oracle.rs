@@ -257,7 +257,7 @@ fn floor_mul_div(a: u32, b: u32, c: u32) -> u32 {
     (a as u64 * b as u64 / c as u64) as u32
 }
 
-/// One iteration from `before` (taken before it, errors current).
+/// One iteration from `before` (taken after the error pass).
 pub fn step(before: &Snapshot) -> Predicted {
     let ls = before.leaf_stride();
     let ss = before.sample_stride();

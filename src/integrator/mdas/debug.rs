@@ -8,7 +8,7 @@ use crate::film::Film;
 use super::words::leaf::{self, COLLAPSED_BIT};
 pub use super::words::leaf::{DIRTY, INDEX_MASK};
 
-/// The state before an iteration (errors current, `emax_bits` set), or
+/// The state after an error pass (errors current, `emax_bits` set), or
 /// after the last iteration (`is_final`: errors of changed leaves DIRTY).
 #[derive(Clone, Debug)]
 pub struct Snapshot {

@@ -1,14 +1,5 @@
 //! Integrand evaluation of the new samples only: `wgsl/mdas/evaluate.wgsl`.
 //!
-//! After an iteration's sample is evaluated, the same invocation
-//! recomputes the contrast error of the leaf that took it and of that
-//! leaf's new right child (the only leaves the iteration changed; each
-//! holds no other unevaluated sample) and enters them into the next
-//! iteration's E_max: the error of a leaf is computed where its new
-//! sample is evaluated, and no pass sweeps every leaf per iteration. The
-//! count pass adds the maximum of the errors it left unchanged, so E_max
-//! is the same as a sweep's, bit for bit.
-//!
 //! Samples are appended, so each iteration's new samples are one index
 //! range, which [`plan`] leaves in the state together with the dispatch
 //! size. One invocation per sample, with no barrier or atomic around the
@@ -25,7 +16,6 @@ use crate::wgsl_file;
 pub fn source(base: &Wgsl, integrand: Wgsl) -> Wgsl {
     integrand
         .include(base)
-        .part(wgsl_file!("mdas/leaf_error.wgsl"))
         .part(wgsl_file!("mdas/evaluate.wgsl"))
 }
 

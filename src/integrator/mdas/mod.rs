@@ -21,12 +21,12 @@
 //! |---|---|---|
 //! | `initial` | [`initial`]: Morton grid, l stratified samples per cell | §4.1 |
 //! | `evaluate` | [`evaluate`]: the integrand at new samples only | — |
-//! | `error` | [`error`]: contrast error of the initial grid's cells, E_max (later leaves' errors are computed in `evaluate`) | eq. 4, §4.2 |
+//! | `error` | [`error`]: contrast error of changed leaves, E_max | eq. 4, §4.2 |
 //! | `adaptive` | [`adapt`] + [`scan`] + [`plan`]: selection, best candidate, median split; the loop's bookkeeping | §4.2 |
 //! | `reconstruction` | [`stats`] + [`reconstruct`]: max \|f\| and non-finite count, exact-overlap splatting (box or per pixel), fixed point | eq. 7, §4.3 |
 //!
-//! The driver ([`Mdas::render`]) runs initial + evaluate + error, then
-//! iterations of adaptive → evaluate until the budget N = round(spp × pixels) is
+//! The driver ([`Mdas::render`]) runs initial + evaluate, then iterations of
+//! error → adaptive → evaluate until the budget N = round(spp × pixels) is
 //! reached (the last iteration is trimmed to exactly N), no leaf can be
 //! selected (all collapsed), or [`Mdas::max_iterations`] have run; then
 //! reconstruction. `Render::samples` is the achieved count.
@@ -37,16 +37,7 @@
 //! once done). The host records iterations in submissions of 2, 4, 8, …
 //! up to 32 and reads the state once per submission (progress and the stop
 //! test), never inside an iteration; with an observer
-//! ([`Mdas::render_observed`]) it submits before every iteration instead.
-//!
-//! No pass sweeps every leaf for errors after the initial grid's: an
-//! iteration's evaluate pass recomputes the errors of the leaves the
-//! iteration changed (the selected leaf and its new right child, once the
-//! one new sample they hold is evaluated) and gathers their maximum, and
-//! the count pass gathers the maximum of the errors it leaves unchanged;
-//! together they are the E_max a sweep would find, bit for bit (the paper
-//! recomputes the errors of the leaves that changed, §4.4, in a pass of
-//! its own).
+//! ([`Mdas::render_observed`]) it submits after every error pass instead.
 //! [`Mdas::last_pass_times`] splits the adaptive phase into its passes and
 //! evaluate into the initial samples' and the adaptive ones'.
 //! [`Mdas::render_with_density`] also returns the samples per pixel of the
@@ -475,7 +466,7 @@ impl Mdas {
     }
 
     /// Renders like [`Integrator::render`], handing `observe` a read-back
-    /// [`Snapshot`] before every iteration (errors and E_max current) and one after the last
+    /// [`Snapshot`] after every error pass and one after the last
     /// iteration (for invariant and oracle tests; slow).
     #[doc(hidden)]
     pub fn render_observed(

@@ -175,8 +175,7 @@ impl Mdas {
                     budget: cfg.budget,
                     leaf_count: leaves,
                     sample_count: n,
-                    // The E_max this iteration's count pass selects with.
-                    emax_bits: read_counters()?[counter::EMAX + (state.iteration() & 1) as usize],
+                    emax_bits: read_counters()?[counter::EMAX],
                     inv_alpha: gp.inv_alpha,
                     inv_pace: state.inv_pace(),
                     select_all: gp.select_all != 0,
@@ -195,24 +194,19 @@ impl Mdas {
                 })
             };
 
-            // The initial grid's errors and E_max: the one error pass.
-            // Each iteration's evaluate pass recomputes the errors of the
-            // leaves it changed (evaluate.wgsl).
-            batch.phase("error", |e, ts| {
-                error::record(&mut e.begin_compute_pass(&pass("mdas.error", ts)), &k)
-            })?;
-
-            // Iterations adaptive → evaluate, recorded in batches that
-            // grow from FIRST_BATCH to MAX_BATCH; the host reads the state
-            // once per batch (progress and the stop test). An observer
-            // needs the state before each iteration (its errors and
-            // E_max), so it gets one iteration per batch and a submission
-            // before the iteration.
+            // Iterations error → adaptive → evaluate, recorded in batches
+            // that grow from FIRST_BATCH to MAX_BATCH; the host reads the
+            // state once per batch (progress and the stop test). An
+            // observer needs the state after each error pass, so it gets
+            // one iteration per batch and a submission after the error pass.
             let observing = observe.is_some() && !final_only;
             let mut batch_size = if observing { 1 } else { FIRST_BATCH };
             let mut state = State(initial_state.to_vec());
             while !state.done() {
                 for _ in 0..batch_size {
+                    batch.phase("error", |e, ts| {
+                        error::record(&mut e.begin_compute_pass(&pass("mdas.error", ts)), &k)
+                    })?;
                     if observing {
                         batch.submit();
                         let state = read_state()?;

@@ -18,12 +18,8 @@ macro_rules! word_indices {
 /// (reductions over many invocations), `C_<NAME>` in the WGSL.
 pub(crate) mod counter {
     word_indices! { "C_";
-        /// Two words, EMAX + (t mod 2): the E_max (f32 bits) that
-        /// iteration t's count pass selects with. The other word gathers
-        /// the next iteration's: the errors the count pass leaves
-        /// unchanged and those the evaluate pass recomputes
-        /// (`emax_word` in common.wgsl).
-        EMAX = 6,
+        /// E_max of the current error pass (f32 bits).
+        EMAX = 0,
         /// Non-finite samples (stats.wgsl).
         NONFINITE = 1,
         /// Three words: largest finite |f| per channel (f32 bits, stats.wgsl).
