@@ -23,6 +23,7 @@ pub mod kernel_base;
 pub mod lights;
 pub mod metrics;
 pub mod provenance;
+pub mod rng;
 pub mod scene;
 pub mod scene_file;
 pub mod scene_gen;

@@ -175,17 +175,17 @@ const MAX_ENTRY_RECORD_BYTES: u64 = 64 << 20;
 /// comes, and a FIFO at the record's path hung `mdas reference`.
 fn read_cache_entry(path: &Path, film: Film) -> Result<Vec<[f32; 3]>> {
     let record_path = reference_record_path(path);
-    for file in [path, record_path.as_path()] {
+    for (what, file) in [("image", path), ("record", record_path.as_path())] {
         match std::fs::metadata(file) {
             Ok(meta) if !meta.is_file() => bail!(
-                "{} is not a regular file (a directory, FIFO, socket or device)",
+                "its {what} {} is not a regular file (a directory, FIFO, socket or device)",
                 file.display()
             ),
             Ok(_) => {}
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
-                bail!("{} is missing", file.display())
+                bail!("its {what} {} is missing", file.display())
             }
-            Err(e) => bail!("cannot read {}: {e}", file.display()),
+            Err(e) => bail!("cannot read its {what} {}: {e}", file.display()),
         }
     }
     let record: serde_json::Value = {

@@ -9,18 +9,7 @@ use super::debug::Snapshot;
 use super::params::SplitRule;
 use super::words::leaf::{self, COLLAPSED_BIT, DIRTY};
 
-pub fn hash_u32(mut x: u32) -> u32 {
-    x ^= x >> 16;
-    x = x.wrapping_mul(0x7feb352d);
-    x ^= x >> 15;
-    x = x.wrapping_mul(0x846ca68b);
-    x ^= x >> 16;
-    x
-}
-
-pub fn hash3(a: u32, b: u32, c: u32) -> u32 {
-    hash_u32(a ^ hash_u32(b ^ hash_u32(c.wrapping_add(0x9e3779b9))))
-}
+pub use crate::rng::{hash3, hash_u32};
 
 /// `leaf_key` of `wgsl/mdas/common.wgsl`.
 pub fn leaf_key(seed: u32, leaf: u32, iteration: u32) -> u32 {

@@ -152,7 +152,7 @@ pub fn select_cut<T: LightTree + ?Sized>(
 /// more variance, BENCHMARKS.md); each number stays uniform in `[0, 1)`,
 /// which keeps each term unbiased.
 pub fn subtree_random(u: [f32; 4], px: [u32; 2], j: u32) -> [f32; 4] {
-    use crate::integrator::mdas::cpu_oracle::{hash3, hash_u32};
+    use crate::rng::{hash3, hash_u32};
     if j == 0 {
         return u;
     }
