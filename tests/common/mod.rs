@@ -99,20 +99,11 @@ pub fn radical_inverse_exact(b: u32, mut a: u32) -> f64 {
     num as f64 / den as f64
 }
 
-/// The integer hash behind `hash3` (wgsl/shared/rng.wgsl).
-fn lowbias32(mut x: u32) -> u32 {
-    x ^= x >> 16;
-    x = x.wrapping_mul(0x7feb352d);
-    x ^= x >> 15;
-    x = x.wrapping_mul(0x846ca68b);
-    x ^= x >> 16;
-    x
-}
-
 /// The Cranley–Patterson shift of (pixel, dimension, seed): 24 bits of
-/// `hash3`, exactly as the GPU forms it.
+/// `hash3` (wgsl/shared/rng.wgsl; its CPU twin `mdas::rng`), exactly as
+/// the GPU forms it.
 pub fn cp_shift(pixel: u32, dim: u32, seed: u32) -> f64 {
-    let h = lowbias32(pixel ^ lowbias32(dim ^ lowbias32(seed.wrapping_add(0x9e3779b9))));
+    let h = mdas::rng::hash3(pixel, dim, seed);
     (h >> 8) as f64 / 16777216.0
 }
 
