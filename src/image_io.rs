@@ -124,7 +124,11 @@ pub fn stage_exr(
             bail!("cannot write {}: an attribute has no name", path.display());
         }
         let value = match value {
-            ExrAttribute::Text(t) => AttributeValue::Text(text(t)?),
+            // A text value is any bytes (size-prefixed): its UTF-8, so
+            // that any scene path or label is stored (exr's `Text::new`
+            // takes Latin-1 only, and a path beyond it failed the write
+            // after the render; issue 67, hostile inputs class 3).
+            ExrAttribute::Text(t) => AttributeValue::Text(Text::from_slice_unchecked(t.as_bytes())),
             ExrAttribute::F64(v) => AttributeValue::F64(*v),
             ExrAttribute::I32(v) => AttributeValue::I32(*v),
         };
@@ -248,7 +252,12 @@ pub fn read_exr_attributes(path: &Path) -> Result<Vec<(String, ExrAttribute)>> {
         .iter()
         .filter_map(|(name, value)| {
             let value = match value {
-                AttributeValue::Text(t) => ExrAttribute::Text(t.to_string()),
+                // UTF-8 as written above; another tool's Latin-1 bytes
+                // read as Latin-1.
+                AttributeValue::Text(t) => ExrAttribute::Text(
+                    String::from_utf8(t.as_slice().to_vec())
+                        .unwrap_or_else(|_| t.as_slice().iter().map(|&b| char::from(b)).collect()),
+                ),
                 AttributeValue::F64(v) => ExrAttribute::F64(*v),
                 AttributeValue::F32(v) => ExrAttribute::F64(f64::from(*v)),
                 AttributeValue::I32(v) => ExrAttribute::I32(*v),
@@ -408,6 +417,8 @@ mod tests {
         let path = dir.0.join("attrs.exr");
         let attributes = [
             ("method", ExrAttribute::Text("mdas".into())),
+            // Beyond Latin-1 (issue 67, hostile inputs class 3).
+            ("scene", ExrAttribute::Text("scènes/日本/🙂 ☃.toml".into())),
             ("spp", ExrAttribute::F64(7.5)),
             ("seed", ExrAttribute::I32(42)),
         ];

@@ -470,6 +470,41 @@ fn completions_and_man_page_name_every_subcommand() {
     assert!(!o.status.success());
 }
 
+/// Issue 67, hostile inputs class 3: a scene path beyond Latin-1 renders
+/// and its EXR is written, the path in its header as written (the EXR
+/// write failed after the render: exr's text took Latin-1 only).
+#[test]
+fn a_scene_path_beyond_latin_1_is_written_into_the_exr() {
+    let dir = temp_dir("unicode").join("日本☃");
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = dir.join("scène🙂.toml");
+    std::fs::copy("scenes/area_light_plane.toml", &scene).unwrap();
+    let out = dir.join("out.exr");
+    let o = mdas(&[
+        "-q",
+        "render",
+        scene.to_str().unwrap(),
+        "--scale",
+        "0.125",
+        "--spp",
+        "2",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let attributes = mdas::image_io::read_exr_attributes(&out).unwrap();
+    let text = |v: &mdas::image_io::ExrAttribute| match v {
+        mdas::image_io::ExrAttribute::Text(t) => Some(t.clone()),
+        _ => None,
+    };
+    assert!(
+        attributes
+            .iter()
+            .any(|(_, v)| text(v).is_some_and(|t| t.contains("scène🙂.toml"))),
+        "{attributes:?}"
+    );
+}
+
 #[test]
 fn info_names_the_adapter() {
     let o = mdas(&["info"]);
