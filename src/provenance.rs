@@ -66,7 +66,7 @@ impl Provenance {
         mdas: Option<MdasParams>,
     ) -> Provenance {
         Provenance {
-            command_line: std::env::args().collect(),
+            command_line: command_line(),
             scene_sha256: None,
             integrand: integrand.name().to_string(),
             dims: integrand.dims(),
@@ -79,6 +79,16 @@ impl Provenance {
             timestamp_utc: utc_timestamp(std::time::SystemTime::now()),
         }
     }
+}
+
+/// This process's arguments, each as text: bytes that are not UTF-8 (a
+/// file name on Unix may hold any) become U+FFFD. `std::env::args` panics
+/// on them, and did so after a run had written its outputs (issue 67,
+/// hostile inputs class 3).
+fn command_line() -> Vec<String> {
+    std::env::args_os()
+        .map(|a| a.to_string_lossy().into_owned())
+        .collect()
 }
 
 /// One part of a run merged from parts (`mdas merge`): which part, the
@@ -96,7 +106,7 @@ impl Provenance {
     /// `self`: this process's command line and time, the rest unchanged.
     pub fn merged(&self) -> Provenance {
         Provenance {
-            command_line: std::env::args().collect(),
+            command_line: command_line(),
             timestamp_utc: utc_timestamp(std::time::SystemTime::now()),
             ..self.clone()
         }

@@ -505,6 +505,45 @@ fn a_scene_path_beyond_latin_1_is_written_into_the_exr() {
     );
 }
 
+/// Issue 67, hostile inputs class 3: an argument that is not UTF-8 (a
+/// Unix file name may hold any bytes) no longer panics once the outputs
+/// are written (the provenance read the command line with
+/// `std::env::args`); the report records it with U+FFFD in its place.
+#[cfg(unix)]
+#[test]
+fn a_non_utf8_output_directory_is_written_and_recorded() {
+    use std::os::unix::ffi::OsStrExt;
+    let dir = temp_dir("non-utf8");
+    let out = dir.join(std::ffi::OsStr::from_bytes(b"cmp-\xff\xfe"));
+    let o = Command::new(env!("CARGO_BIN_EXE_mdas"))
+        .args([
+            "-q",
+            "compare",
+            "scenes/area_light_plane.toml",
+            "--scale",
+            "0.125",
+            "--spp",
+            "4",
+            "--ref-spp",
+            "16",
+            "--repeats",
+            "1",
+            "--seeds",
+            "2",
+            "--cache",
+        ])
+        .arg(dir.join("cache"))
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    let line = report["provenance"]["command_line"].to_string();
+    assert!(line.contains("cmp-\u{fffd}"), "{line}");
+}
+
 #[test]
 fn info_names_the_adapter() {
     let o = mdas(&["info"]);
