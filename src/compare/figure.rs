@@ -586,7 +586,7 @@ impl TextLayer {
         let _ = write!(
             self.svg,
             r#"<text x="{x:.1}" y="{y:.1}" font-size="{size:.1}" text-anchor="middle">{}</text>"#,
-            escape(t)
+            plot::escape(t)
         );
     }
 
@@ -613,12 +613,6 @@ impl TextLayer {
         canvas.data = pixmap.take();
         Ok(())
     }
-}
-
-fn escape(t: &str) -> String {
-    t.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
 }
 
 #[cfg(test)]

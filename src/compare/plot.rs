@@ -252,15 +252,54 @@ pub fn svg_to_png(svg: &str) -> Result<Vec<u8>> {
     pixmap.encode_png().context("encoding the plot PNG")
 }
 
-fn escape(t: &str) -> String {
-    t.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
+/// Text for an SVG document (the plots' and the figure's labels): the
+/// markup characters escaped, and every character XML 1.0 does not allow
+/// (the controls but tab, line feed and carriage return; U+FFFE, U+FFFF)
+/// replaced by U+FFFD. A control character in a scene's file name made
+/// the figure's SVG unparsable after the reference had been rendered
+/// (issue 67, hostile inputs class 3).
+pub(super) fn escape(t: &str) -> String {
+    let mut out = String::with_capacity(t.len());
+    for c in t.chars() {
+        match c {
+            '&' => out.push_str("&amp;"),
+            '<' => out.push_str("&lt;"),
+            '>' => out.push_str("&gt;"),
+            '\t' | '\n' | '\r' => out.push(c),
+            c if c < ' ' || c == '\u{fffe}' || c == '\u{ffff}' => out.push('\u{fffd}'),
+            c => out.push(c),
+        }
+    }
+    out
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Issue 67, hostile inputs class 3: any text, control characters
+    /// included, makes an SVG that parses.
+    #[test]
+    fn escaped_text_always_parses() {
+        let t = "scene\u{1}\u{1f}<&>\u{ffff} \u{65e5}\t.toml";
+        let e = escape(t);
+        assert_eq!(
+            e,
+            "scene\u{fffd}\u{fffd}&lt;&amp;&gt;\u{fffd} \u{65e5}\t.toml"
+        );
+        let svg = format!(
+            r#"<svg xmlns="http://www.w3.org/2000/svg" width="10" height="10"><text x="1" y="9">{e}</text></svg>"#
+        );
+        assert!(resvg::usvg::Tree::from_str(&svg, font_options()).is_ok());
+        let raw = format!(
+            r#"<svg xmlns="http://www.w3.org/2000/svg" width="10" height="10"><text x="1" y="9">{}</text></svg>"#,
+            "a\u{1}b"
+        );
+        assert!(
+            resvg::usvg::Tree::from_str(&raw, font_options()).is_err(),
+            "the control character itself is refused (the test's premise)"
+        );
+    }
 
     #[test]
     fn svg_has_series_and_decades() {
