@@ -49,15 +49,8 @@ pub struct GpuParams {
 /// thread, so an adaptive iteration's few thousand samples in one
 /// workgroup of 8-sample invocations left the other threads idle and cost
 /// twice an initial sample, BENCHMARKS.md), 1 on a GPU, whose invocations
-/// take one sample each anyway. `MDAS_EVAL_MIN_GROUPS=n` sets it (1 gives
-/// the dispatches as they were before, for benchmarks that compare).
+/// take one sample each anyway. `Mdas::with_eval_min_groups` overrides it.
 pub fn eval_min_groups(gpu: &Gpu) -> u32 {
-    if let Some(n) = std::env::var("MDAS_EVAL_MIN_GROUPS")
-        .ok()
-        .and_then(|v| v.parse::<u32>().ok())
-    {
-        return n.max(1);
-    }
     if gpu.info.device_type == wgpu::DeviceType::Cpu {
         let threads = std::env::var("LP_NUM_THREADS")
             .ok()
