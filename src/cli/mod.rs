@@ -45,8 +45,9 @@ pub(crate) use std::path::{Path, PathBuf};
                   Environment: MDAS_ADAPTER=<substring> picks an adapter by name; WGPU_BACKEND \
                   restricts backends (e.g. vulkan).\n\n\
                   Input limits: a scene file ≤ 16 MiB, an OBJ ≤ 1 GiB and an MTL ≤ 64 MiB (regular files); a film \
-                  side ≤ 16384 and ≤ 2^26 pixels; a shape ≤ 2^25 triangles, at most 16 sharing \
-                  one centre; ≤ 2^24 light-set lights; coordinates within ±1e9; an EXR read ≤ 2^28 \
+                  side ≤ 16384 and ≤ 2^26 pixels; a scene ≤ 2^25 triangles in all, at most 16 sharing \
+                  one centre; a Mitsuba scene ≤ 256 documents and 16 MiB with its includes, and \
+                  ≤ 16 MiB of $parameter text; ≤ 2^24 light-set lights; coordinates within ±1e9; an EXR read ≤ 2^28 \
                   pixels. Outputs land whole or not at all (an interrupt removes partial ones)."
 )]
 pub(crate) struct Cli {

@@ -260,6 +260,22 @@ impl Mesh {
     }
 }
 
+/// Largest number of triangles a scene may hold, all its shapes together
+/// (one shape included). Checked before a shape is tessellated or a mesh
+/// file's faces are read: a few thousand small spheres made tens of
+/// millions of triangles and aborted, a PLY file above the limit ran for
+/// minutes.
+pub const MAX_SCENE_TRIANGLES: u64 = 1 << 25;
+
+/// The error for a shape that would take `triangles` triangles when the
+/// scene may take `left` more; `what` begins the sentence ("its faces
+/// make").
+pub(crate) fn too_many_triangles(what: &str, triangles: u64, left: u64) -> String {
+    format!(
+        "{what} {triangles} triangles, more than the {left} the scene may still take (at most {MAX_SCENE_TRIANGLES} in a scene)"
+    )
+}
+
 /// Reads an input file of at most `limit` bytes: devices, pipes and
 /// directories are refused (a scene naming /dev/zero must not hang or
 /// grow without bound), and so is a larger file, with its size and the

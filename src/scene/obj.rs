@@ -103,18 +103,48 @@ fn mtl_panic(bytes: &[u8]) -> String {
 /// The largest OBJ file read (a 10M-triangle mesh is about 500 MB).
 pub const MAX_OBJ_BYTES: u64 = 1 << 30;
 
-/// Read and triangulate an OBJ file as one mesh (materials ignored). The
-/// error is a sentence naming the file, for the scene loader to place at
-/// the `file` key.
-pub fn load_obj(path: &Path) -> Result<TriMesh, String> {
-    let bytes = read_obj(path)?;
+/// Read and triangulate an OBJ file as one mesh (materials ignored), of
+/// at most `max_triangles` triangles (the scene's budget left, counted
+/// before the faces are parsed). The error is a sentence naming the file,
+/// for the scene loader to place at the `file` key.
+pub fn load_obj(path: &Path, max_triangles: u64) -> Result<TriMesh, String> {
+    let bytes = read_obj(path, max_triangles)?;
     parse_obj(&bytes).map_err(|e| format!("mesh file '{}': {e}", path.display()))
 }
 
-fn read_obj(path: &Path) -> Result<Vec<u8>, String> {
-    super::read_input(path, MAX_OBJ_BYTES)
+/// The file's text, refused if its faces would make more than
+/// `max_triangles` triangles (counted before they are parsed).
+fn read_obj(path: &Path, max_triangles: u64) -> Result<Vec<u8>, String> {
+    let bytes = super::read_input(path, MAX_OBJ_BYTES)
         .map(plain_lines)
-        .map_err(|e| format!("cannot read mesh file '{}': {e}", path.display()))
+        .map_err(|e| format!("cannot read mesh file '{}': {e}", path.display()))?;
+    let triangles = face_triangles(&bytes);
+    if triangles > max_triangles {
+        return Err(format!(
+            "mesh file '{}': {}",
+            path.display(),
+            super::too_many_triangles("its faces make", triangles, max_triangles)
+        ));
+    }
+    Ok(bytes)
+}
+
+/// The triangles an OBJ's `f` lines make (a polygon of k vertices makes
+/// k − 2), counted from the text before it is parsed: the scene's budget
+/// is checked before the work (issue 67, hostile inputs class 1).
+fn face_triangles(bytes: &[u8]) -> u64 {
+    bytes
+        .split(|&b| b == b'\n')
+        .map(|line| {
+            let mut tokens = line
+                .split(|b| b.is_ascii_whitespace())
+                .filter(|t| !t.is_empty());
+            match tokens.next() {
+                Some(b"f") => tokens.count().saturating_sub(2) as u64,
+                _ => 0,
+            }
+        })
+        .sum()
 }
 
 /// The text as the OBJ and MTL parser expects it (issue 54 item 8): a
@@ -138,9 +168,9 @@ fn plain_lines(mut bytes: Vec<u8>) -> Vec<u8> {
 /// relative to the OBJ's directory). Errors: as [`load_obj`]'s, and an
 /// unreadable or invalid material library, or a `usemtl` that names no
 /// material of it (with its line).
-pub fn load_obj_parts(path: &Path) -> Result<ObjFile, String> {
+pub fn load_obj_parts(path: &Path, max_triangles: u64) -> Result<ObjFile, String> {
     let in_file = |e: String| format!("mesh file '{}': {e}", path.display());
-    let bytes = read_obj(path)?;
+    let bytes = read_obj(path, max_triangles)?;
     let dir = path.parent().unwrap_or(Path::new("")).to_path_buf();
     let mtl_files = std::cell::RefCell::new(Vec::new());
     let mtl_error = std::cell::RefCell::new(None);
@@ -488,6 +518,15 @@ pub fn parse_obj(bytes: &[u8]) -> Result<TriMesh, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The pre-count of the triangle budget: fans of polygons, other
+    /// lines (and `f` inside a word) not counted.
+    #[test]
+    fn face_triangles_counts_fans() {
+        let text =
+            b"v 0 0 0\nf 1 2 3\n  f 1/1 2/2 3/3 4/4\r\nfo 1 2 3\nvt 0 0\n#f 1 2 3\nf\t1 2 3 4 5\n";
+        assert_eq!(face_triangles(text), 1 + 2 + 3);
+    }
 
     #[test]
     fn quads_are_fan_triangulated_and_objects_merged() {

@@ -20,14 +20,16 @@ pub const MAX_PLY_BYTES: u64 = 1 << 30;
 /// A PLY mesh and its texture coordinates (one per position, or none).
 pub type PlyMesh = (TriMesh, Vec<Vec2>);
 
-/// Read a PLY file as one mesh. The error is a sentence naming the file,
-/// for the scene loader to place at the element that named it.
-pub fn load_ply(path: &Path) -> Result<PlyMesh, String> {
+/// Read a PLY file as one mesh of at most `max_triangles` triangles (the
+/// scene's budget left, [`super::MAX_SCENE_TRIANGLES`] at most). The error
+/// is a sentence naming the file, for the scene loader to place at the
+/// element that named it.
+pub fn load_ply(path: &Path, max_triangles: u64) -> Result<PlyMesh, String> {
     let bytes = super::read_input(path, MAX_PLY_BYTES)
         .map_err(|e| format!("cannot read mesh file '{}': {e}", path.display()))?;
     // The parser is a dependency: a panic in it is an error, not a crash
     // (issue 54 item 2).
-    super::obj::without_panics(|| parse_ply(&bytes))
+    super::obj::without_panics(|| parse_ply(&bytes, max_triangles))
         .map_err(|panic| format!("the PLY parser failed ({panic})"))
         .and_then(|r| r)
         .map_err(|e| format!("mesh file '{}': {e}", path.display()))
@@ -131,8 +133,11 @@ fn has(def: &ElementDef, name: &str) -> bool {
     def.properties.contains_key(name)
 }
 
-/// Parse a PLY file's bytes.
-pub fn parse_ply(bytes: &[u8]) -> Result<PlyMesh, String> {
+/// Parse a PLY file's bytes into a mesh of at most `max_triangles`
+/// triangles: the header's face count (each face at least one triangle)
+/// is checked before the faces are read, their fans' sum before the mesh
+/// is made.
+pub fn parse_ply(bytes: &[u8], max_triangles: u64) -> Result<PlyMesh, String> {
     let mut reader = Reader::new(std::io::Cursor::new(bytes));
     let header = Parser::<Skip>::new()
         .read_header(&mut reader)
@@ -181,6 +186,13 @@ pub fn parse_ply(bytes: &[u8]) -> Result<PlyMesh, String> {
             "the PLY face property '{index_name}' is not a list"
         ));
     }
+    if face_def.count as u64 > max_triangles {
+        return Err(super::too_many_triangles(
+            "its header lists faces that make at least",
+            face_def.count as u64,
+            max_triangles,
+        ));
+    }
     if vertex_def.count > u32::MAX as usize {
         return Err(format!(
             "{} vertices, more than a mesh may index (2^32 − 1)",
@@ -212,6 +224,17 @@ pub fn parse_ply(bytes: &[u8]) -> Result<PlyMesh, String> {
     }
 
     let n = vertices.len() as i64;
+    let triangles: u64 = faces
+        .iter()
+        .map(|f| f.indices.len().saturating_sub(2) as u64)
+        .sum();
+    if triangles > max_triangles {
+        return Err(super::too_many_triangles(
+            "its faces make",
+            triangles,
+            max_triangles,
+        ));
+    }
     let mut indices = Vec::with_capacity(faces.len());
     for (f, face) in faces.iter().enumerate() {
         let idx = &face.indices;
@@ -284,6 +307,7 @@ pub fn parse_ply(bytes: &[u8]) -> Result<PlyMesh, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scene::MAX_SCENE_TRIANGLES;
 
     const ASCII_QUAD: &str = "ply\nformat ascii 1.0\ncomment a unit quad\nelement vertex 4\n\
         property float x\nproperty float y\nproperty float z\n\
@@ -294,7 +318,7 @@ mod tests {
 
     #[test]
     fn an_ascii_quad_is_two_triangles_with_normalized_normals() {
-        let (m, uvs) = parse_ply(ASCII_QUAD.as_bytes()).unwrap();
+        let (m, uvs) = parse_ply(ASCII_QUAD.as_bytes(), MAX_SCENE_TRIANGLES).unwrap();
         assert_eq!(uvs, vec![Vec2::ZERO, Vec2::X, Vec2::ONE, Vec2::Y]);
         assert_eq!(m.positions.len(), 4);
         assert_eq!(m.indices, vec![[0, 1, 2], [0, 2, 3]]);
@@ -351,7 +375,7 @@ mod tests {
     #[test]
     fn binary_files_of_both_byte_orders_read_the_same() {
         for big in [false, true] {
-            let (m, uvs) = parse_ply(&binary(big)).unwrap();
+            let (m, uvs) = parse_ply(&binary(big), MAX_SCENE_TRIANGLES).unwrap();
             assert!(uvs.is_empty());
             assert_eq!(
                 m.positions,
@@ -395,16 +419,40 @@ mod tests {
             ),
         ];
         for (text, want) in cases {
-            let e = parse_ply(text.as_bytes()).unwrap_err();
+            let e = parse_ply(text.as_bytes(), MAX_SCENE_TRIANGLES).unwrap_err();
             assert!(e.contains(want), "{e:?} should mention {want:?}");
         }
         let mut nan = binary(false);
         let body = nan.windows(11).position(|w| w == b"end_header\n").unwrap() + 11;
         nan[body..body + 8].copy_from_slice(&f64::NAN.to_le_bytes());
-        let e = parse_ply(&nan).unwrap_err();
+        let e = parse_ply(&nan, MAX_SCENE_TRIANGLES).unwrap_err();
         assert!(e.contains("vertex 0") && e.contains("finite"), "{e}");
         let mut truncated = binary(false);
         truncated.truncate(truncated.len() - 10);
-        assert!(parse_ply(&truncated).is_err());
+        assert!(parse_ply(&truncated, MAX_SCENE_TRIANGLES).is_err());
+    }
+
+    /// The triangle budget is checked before the work (issue 67, hostile
+    /// inputs class 1): a header's face count above it is refused before
+    /// a face is read (here a header claiming 2^26 faces over a body of
+    /// one), and a polygon's fan is counted as its triangles (the quad is
+    /// one face and two triangles).
+    #[test]
+    fn the_triangle_budget_is_checked_before_the_faces_are_read() {
+        assert_eq!(
+            parse_ply(ASCII_QUAD.as_bytes(), 2).unwrap().0.indices.len(),
+            2
+        );
+        let e = parse_ply(ASCII_QUAD.as_bytes(), 1).unwrap_err();
+        assert!(
+            e.contains("make 2 triangles, more than the 1 the scene"),
+            "{e}"
+        );
+        let lying = ASCII_QUAD.replace("element face 1", &format!("element face {}", 1u64 << 26));
+        let e = parse_ply(lying.as_bytes(), MAX_SCENE_TRIANGLES).unwrap_err();
+        assert!(
+            e.contains(&format!("at least {} triangles", 1u64 << 26)),
+            "{e}"
+        );
     }
 }

@@ -3,7 +3,7 @@
 
 use super::values::*;
 use super::SceneError;
-use super::MAX_SHAPE_TRIANGLES;
+use super::MAX_SCENE_TRIANGLES;
 use glam::Vec3;
 use std::ops::{Range, RangeInclusive};
 use std::path::Path;
@@ -13,6 +13,9 @@ use std::path::Path;
 pub(super) struct Ctx<'a> {
     pub(super) text: &'a str,
     pub(super) file: &'a Path,
+    /// Triangles of the shapes checked so far, against
+    /// [`MAX_SCENE_TRIANGLES`] ([`Ctx::count_check`]).
+    pub(super) triangles: std::cell::Cell<u64>,
 }
 
 pub(super) type Result<T, E = SceneError> = std::result::Result<T, E>;
@@ -296,15 +299,24 @@ impl Ctx<'_> {
         })
     }
 
+    /// Counts a shape's triangles into the scene's, before it is made:
+    /// an error if the scene would hold more than [`MAX_SCENE_TRIANGLES`].
     pub(super) fn count_check(&self, triangles: u64, span: Range<usize>, kind: &str) -> Result<()> {
-        if triangles > MAX_SHAPE_TRIANGLES {
+        let total = self.triangles.get().saturating_add(triangles);
+        if total > MAX_SCENE_TRIANGLES {
             return Err(self.error(
                 span,
                 format!(
-                    "this {kind} would have {triangles} triangles: absurdly large (at most {MAX_SHAPE_TRIANGLES} per shape)"
+                    "this {kind} would have {triangles} triangles, bringing the scene to {total}: absurdly large (at most {MAX_SCENE_TRIANGLES} in a scene)"
                 ),
             ));
         }
+        self.triangles.set(total);
         Ok(())
+    }
+
+    /// Triangles the scene may still take.
+    pub(super) fn triangles_left(&self) -> u64 {
+        MAX_SCENE_TRIANGLES - self.triangles.get()
     }
 }

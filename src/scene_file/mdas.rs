@@ -146,6 +146,7 @@ pub(super) fn sidecar(
     let ctx = Ctx {
         text: &text,
         file: &path,
+        triangles: Default::default(),
     };
     let raw: Sidecar = toml::from_str(&text).map_err(|e| ctx.toml_error(&e))?;
     let Some(table) = raw.mdas else {

@@ -100,8 +100,7 @@ impl SceneFile {
 pub const MAX_FILM_SIDE: i64 = 16384;
 /// Largest film area, in pixels.
 pub const MAX_FILM_PIXELS: i64 = 1 << 26;
-/// Largest number of triangles one shape may tessellate to.
-pub const MAX_SHAPE_TRIANGLES: u64 = 1 << 25;
+pub use crate::scene::MAX_SCENE_TRIANGLES;
 /// Largest number of point lights all `[[light_set]]`s together may generate.
 pub const MAX_SET_LIGHTS: u64 = 1 << 24;
 /// Largest `cut_size` of the `many_light` integrand.
@@ -206,6 +205,7 @@ pub fn parse(text: &str, file_name: &Path) -> Result<SceneFile, SceneError> {
     let ctx = Ctx {
         text,
         file: file_name,
+        triangles: Default::default(),
     };
     let raw: RawScene = toml::from_str(text).map_err(|e| ctx.toml_error(&e))?;
     ctx.scene_file(raw)

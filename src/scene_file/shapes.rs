@@ -230,13 +230,17 @@ impl Ctx<'_> {
                 let dir = self.file.parent().unwrap_or(Path::new(""));
                 let path = dir.join(file.get_ref());
                 out.inputs.push(path.clone());
-                if material.is_some() {
-                    obj::load_obj(&path).map_err(|e| self.error(file.span(), e))?
+                let left = self.triangles_left();
+                let mesh = if material.is_some() {
+                    obj::load_obj(&path, left).map_err(|e| self.error(file.span(), e))?
                 } else {
-                    let obj = obj::load_obj_parts(&path).map_err(|e| self.error(file.span(), e))?;
+                    let obj =
+                        obj::load_obj_parts(&path, left).map_err(|e| self.error(file.span(), e))?;
                     out.inputs.extend(obj.mtl_files.iter().cloned());
                     self.obj_parts(&obj, &path, file, &name, &mut parts, out)?
-                }
+                };
+                self.count_check(mesh.indices.len() as u64, file.span(), kind)?;
+                mesh
             }
             "lathe" => {
                 let profile_v = self.need(&r.profile, "profile", &r.kind, "shape")?;

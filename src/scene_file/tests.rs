@@ -342,6 +342,7 @@ fn line_column_counts_characters_and_steps_back_inside_one() {
     let ctx = Ctx {
         text: "a = \"é\"\nbé = 1",
         file: Path::new("t.toml"),
+        triangles: Default::default(),
     };
     assert_eq!(ctx.line_column(0), (1, 1));
     assert_eq!(ctx.line_column(5), (1, 6));
@@ -356,7 +357,7 @@ fn line_column_counts_characters_and_steps_back_inside_one() {
 }
 
 /// The limits are inclusive: emission of exactly `MAX_EMISSION` and a
-/// shape of exactly `MAX_SHAPE_TRIANGLES` triangles are accepted, one
+/// scene of exactly `MAX_SCENE_TRIANGLES` triangles are accepted, one
 /// step beyond is refused.
 #[test]
 fn limits_accept_their_own_value() {
@@ -371,13 +372,29 @@ fn limits_accept_their_own_value() {
     let ctx = Ctx {
         text: "x",
         file: Path::new("t.toml"),
+        triangles: Default::default(),
     };
-    assert!(ctx.count_check(MAX_SHAPE_TRIANGLES, 0..1, "mesh").is_ok());
-    let e = ctx
-        .count_check(MAX_SHAPE_TRIANGLES + 1, 0..1, "mesh")
-        .unwrap_err()
-        .to_string();
+    assert!(ctx.count_check(MAX_SCENE_TRIANGLES, 0..1, "mesh").is_ok());
+    let e = ctx.count_check(1, 0..1, "mesh").unwrap_err().to_string();
     assert!(e.contains("absurdly large"), "{e}");
+    // The budget is the scene's: two shapes of half the limit fit, a
+    // third triangle does not.
+    let ctx = Ctx {
+        text: "x",
+        file: Path::new("t.toml"),
+        triangles: Default::default(),
+    };
+    assert!(ctx
+        .count_check(MAX_SCENE_TRIANGLES / 2, 0..1, "sphere")
+        .is_ok());
+    assert!(ctx
+        .count_check(MAX_SCENE_TRIANGLES / 2, 0..1, "sphere")
+        .is_ok());
+    let e = ctx.count_check(1, 0..1, "disk").unwrap_err().to_string();
+    assert!(
+        e.contains(&format!("at most {MAX_SCENE_TRIANGLES} in a scene")),
+        "{e}"
+    );
 }
 
 /// A field of view inside (0, 180) in f64 but 180 as the f32 the GPU uses

@@ -85,14 +85,24 @@ pub(super) fn bsdf<'a, 'i>(d: &Doc<'a, 'i>, node: Node<'a, 'i>) -> Result<Bsdf> 
             })
         }
         "twosided" => {
-            Props::read(d, node)?.finish(d, "bsdf 'twosided'", &[])?;
-            let inner = plugin_children(d, node)?;
-            match inner[..] {
-                [b] if b.tag_name().name() == "bsdf" => Ok(Bsdf {
-                    one_sided: false,
-                    ..bsdf(d, b)?
-                }),
-                _ => Err(d.node_error(node, "a twosided BSDF wraps exactly one <bsdf>")),
+            // A twosided inside a twosided is two-sided still. The wrappers
+            // are walked in a loop, not by recursion: 100 000 nested ones
+            // overflowed the stack.
+            let mut wrapper = node;
+            loop {
+                Props::read(d, wrapper)?.finish(d, "bsdf 'twosided'", &[])?;
+                let inner = plugin_children(d, wrapper)?;
+                let b = match inner[..] {
+                    [b] if b.tag_name().name() == "bsdf" => b,
+                    _ => return Err(d.node_error(wrapper, "a twosided BSDF wraps exactly one <bsdf>")),
+                };
+                if d.need_attr(b, "type")? != "twosided" {
+                    return Ok(Bsdf {
+                        one_sided: false,
+                        ..bsdf(d, b)?
+                    });
+                }
+                wrapper = b;
             }
         }
         other => Err(d.attr_error(

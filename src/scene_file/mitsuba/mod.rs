@@ -35,6 +35,7 @@ mod tests;
 
 use super::{SceneError, SceneFile};
 use roxmltree::{Document, Node};
+use std::cell::Cell;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
@@ -42,12 +43,34 @@ pub(super) type Result<T> = std::result::Result<T, SceneError>;
 
 /// The most nested `<include>`s (a cycle is refused before this).
 pub const MAX_INCLUDE_DEPTH: usize = 16;
+/// The most documents one scene reads, itself and its includes together:
+/// each file including the next a thousand times ran without end.
+pub const MAX_DOCUMENTS: usize = 256;
+/// The most bytes one scene's documents hold together (each is also
+/// within [`super::MAX_SCENE_BYTES`]).
+pub const MAX_DOCUMENT_BYTES: u64 = super::MAX_SCENE_BYTES;
+/// The most attribute text `$parameter` substitution makes in one scene,
+/// checked before the text is made.
+pub const MAX_EXPANDED_BYTES: u64 = super::MAX_SCENE_BYTES;
+
+/// What a scene has used of the budgets above, over all its documents.
+#[derive(Default)]
+pub(super) struct Budget {
+    /// Attribute bytes made by substitution.
+    pub(super) expanded: Cell<u64>,
+    /// Documents read, and their bytes.
+    documents: Cell<usize>,
+    bytes: Cell<u64>,
+}
 
 /// One parsed XML document and the `<default>` parameters in force.
 pub(super) struct Doc<'a, 'i> {
     pub(super) file: &'a Path,
     pub(super) doc: &'a Document<'i>,
     pub(super) defaults: &'a HashMap<String, String>,
+    /// Attribute bytes made by `$parameter` substitution so far (all
+    /// documents), against [`MAX_EXPANDED_BYTES`].
+    pub(super) expanded: &'a Cell<u64>,
 }
 
 impl<'a, 'i> Doc<'a, 'i> {
@@ -89,9 +112,28 @@ impl<'a, 'i> Doc<'a, 'i> {
 /// Load a Mitsuba scene from its text; `file` names it in messages and
 /// resolves relative paths.
 pub(super) fn parse(text: &str, file: &Path) -> Result<SceneFile> {
+    parse_within(text, file, crate::scene::MAX_SCENE_TRIANGLES)
+}
+
+/// [`parse`] with a scene of at most `max_triangles` triangles (tests
+/// reach the budget with a few shapes).
+fn parse_within(text: &str, file: &Path, max_triangles: u64) -> Result<SceneFile> {
     let mut builder = plugins::Builder::default();
+    builder.triangles_left = max_triangles;
     let mut stack: Vec<PathBuf> = file.canonicalize().into_iter().collect();
-    read_document(text, file, &HashMap::new(), &mut builder, &mut stack, true)?;
+    let budget = Budget {
+        documents: Cell::new(1),
+        bytes: Cell::new(text.len() as u64),
+        ..Budget::default()
+    };
+    read_document(
+        text,
+        file,
+        &HashMap::new(),
+        &mut builder,
+        (&mut stack, &budget),
+        true,
+    )?;
     builder.finish(file)
 }
 
@@ -113,7 +155,7 @@ fn read_document(
     file: &Path,
     inherited: &HashMap<String, String>,
     builder: &mut plugins::Builder,
-    stack: &mut Vec<PathBuf>,
+    (stack, budget): (&mut Vec<PathBuf>, &Budget),
     top: bool,
 ) -> Result<()> {
     let options = roxmltree::ParsingOptions {
@@ -129,6 +171,7 @@ fn read_document(
             file,
             doc: &doc,
             defaults: &defaults,
+            expanded: &budget.expanded,
         };
         if root.tag_name().name() != "scene" {
             return Err(d.node_error(
@@ -151,6 +194,7 @@ fn read_document(
             file,
             doc: &doc,
             defaults: &defaults,
+            expanded: &budget.expanded,
         };
         let name = d.need_attr(node, "name")?;
         let value = d.need_attr(node, "value")?;
@@ -162,6 +206,7 @@ fn read_document(
         file,
         doc: &doc,
         defaults: &defaults,
+        expanded: &budget.expanded,
     };
     for node in root.children().filter(|c| c.is_element()) {
         match node.tag_name().name() {
@@ -200,6 +245,27 @@ fn read_document(
                         format!("an include cycle: {}", chain.join(" → ")),
                     ));
                 }
+                if budget.documents.get() >= MAX_DOCUMENTS {
+                    return Err(d.attr_error(
+                        node,
+                        "filename",
+                        format!("this include would make the scene read more than {MAX_DOCUMENTS} documents (the file and its includes, each include counted every time it is read)"),
+                    ));
+                }
+                let too_many_bytes = |total: u64| {
+                    d.attr_error(
+                        node,
+                        "filename",
+                        format!(
+                            "this include brings the scene's documents to {total} bytes: beyond the limit of {} MiB for a file and its includes together",
+                            MAX_DOCUMENT_BYTES >> 20
+                        ),
+                    )
+                };
+                let size = std::fs::metadata(&path).map_or(0, |m| m.len());
+                if budget.bytes.get() + size > MAX_DOCUMENT_BYTES {
+                    return Err(too_many_bytes(budget.bytes.get() + size));
+                }
                 let bytes =
                     crate::scene::read_input(&path, super::MAX_SCENE_BYTES).map_err(|e| {
                         d.attr_error(
@@ -208,6 +274,13 @@ fn read_document(
                             format!("cannot read '{}': {e}", path.display()),
                         )
                     })?;
+                // (The file may have grown since its size was read.)
+                let total = budget.bytes.get() + bytes.len() as u64;
+                if total > MAX_DOCUMENT_BYTES {
+                    return Err(too_many_bytes(total));
+                }
+                budget.bytes.set(total);
+                budget.documents.set(budget.documents.get() + 1);
                 let included = String::from_utf8(bytes).map_err(|_| {
                     d.attr_error(
                         node,
@@ -217,7 +290,7 @@ fn read_document(
                 })?;
                 builder.inputs.push(path.clone());
                 stack.push(canonical);
-                read_document(&included, &path, &defaults, builder, stack, false)?;
+                read_document(&included, &path, &defaults, builder, (stack, budget), false)?;
                 stack.pop();
             }
             _ => builder.top_level(&d, node)?,

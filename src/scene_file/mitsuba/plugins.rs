@@ -11,6 +11,7 @@ use crate::integrand::spec::ManyLightSpec;
 use crate::integrand::IntegrandSpec;
 use crate::integrator::mdas::MdasParams;
 use crate::scene::shapes::{self, TriMesh};
+use crate::scene::too_many_triangles;
 use crate::scene::{obj, ply, Camera, Light, Material, Mesh, Scene};
 use crate::scene_file::shapes::{degenerate, far_vertex};
 use crate::scene_file::{SceneError, SceneFile, MAX_COORDINATE, MAX_EMISSION};
@@ -54,6 +55,9 @@ pub(super) struct Builder {
     /// A material per (albedo, sidedness, emission) in use.
     materials: Vec<Material>,
     meshes: Vec<Mesh>,
+    /// Triangles the scene may still take ([`crate::scene::MAX_SCENE_TRIANGLES`] at
+    /// first; [`super::parse`] sets it).
+    pub(super) triangles_left: u64,
     lights: Vec<Light>,
     sensor: Option<Sensor>,
     integrator: Option<(Method, (PathBuf, usize, usize))>,
@@ -201,15 +205,41 @@ impl Builder {
         }
         let to_world = p.transform(d, "to_world")?.map(|t| t.0);
         let flip = p.boolean(d, "flip_normals")?.unwrap_or(false);
+        // An analytic shape's triangles are counted before it is
+        // tessellated (a file mesh's as it is read, above).
+        let analytic = match kind.as_str() {
+            "rectangle" => 2,
+            "cube" => 12,
+            "disk" => DISK_SEGMENTS as u64,
+            "sphere" => shapes::uv_sphere_triangles(SPHERE_SEGMENTS as u64, SPHERE_RINGS as u64),
+            _ => 0,
+        };
+        if analytic > self.triangles_left {
+            return Err(d.node_error(
+                node,
+                too_many_triangles("this shape makes", analytic, self.triangles_left),
+            ));
+        }
+        self.triangles_left -= analytic;
         let mut file_mesh = |p: &mut Props<'a, 'i>,
-                             load: fn(&Path) -> std::result::Result<ply::PlyMesh, String>|
+                             load: fn(&Path, u64) -> std::result::Result<ply::PlyMesh, String>|
          -> Result<(TriMesh, Vec<Vec2>, bool)> {
             let (name, n) = p
                 .string(d, "filename")?
                 .ok_or_else(|| d.node_error(node, format!("{what} needs 'filename'")))?;
             let path = d.file.parent().unwrap_or(Path::new("")).join(&name);
             self.inputs.push(path.clone());
-            let (mut mesh, uvs) = load(&path).map_err(|e| d.attr_error(n, "value", e))?;
+            let left = self.triangles_left;
+            let (mut mesh, uvs) = load(&path, left).map_err(|e| d.attr_error(n, "value", e))?;
+            let triangles = mesh.indices.len() as u64;
+            if triangles > left {
+                return Err(d.attr_error(
+                    n,
+                    "value",
+                    too_many_triangles("its faces make", triangles, left),
+                ));
+            }
+            self.triangles_left -= triangles;
             // As Mitsuba: a file's vertex normals shade unless
             // `face_normals`; a file without them gets smooth ones (made
             // after the transform, as Mitsuba does: the angles change
@@ -257,8 +287,8 @@ impl Builder {
             "obj" | "ply" => {
                 // OBJ texture coordinates are not read (a checkerboard on
                 // an OBJ is refused below).
-                let load: fn(&Path) -> std::result::Result<ply::PlyMesh, String> = if kind == "obj" {
-                    |path| obj::load_obj(path).map(|m| (m, Vec::new()))
+                let load: fn(&Path, u64) -> std::result::Result<ply::PlyMesh, String> = if kind == "obj" {
+                    |path, max| obj::load_obj(path, max).map(|m| (m, Vec::new()))
                 } else {
                     ply::load_ply
                 };
@@ -276,6 +306,10 @@ impl Builder {
             }
         };
         p.finish(d, &what, supported)?;
+        debug_assert!(
+            analytic == 0 || mesh.indices.len() as u64 == analytic,
+            "{kind}"
+        );
         if let Some(m) = to_world {
             let affine = Affine3A::from_mat4(m.as_mat4());
             mesh.transform(&affine);

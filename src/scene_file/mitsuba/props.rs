@@ -5,7 +5,7 @@
 //! (`translate`, `rotate`, `scale`, `matrix`, `lookat`), composed as
 //! Mitsuba does: each operation applies after the ones before it.
 
-use super::{Doc, Result};
+use super::{Doc, Result, MAX_EXPANDED_BYTES};
 use crate::scene_file::SceneError;
 use glam::{DMat3, DMat4, DVec3, DVec4, Vec3};
 use roxmltree::Node;
@@ -63,17 +63,21 @@ impl<'a, 'i> Doc<'a, 'i> {
         if !raw.contains('$') {
             return Ok(Some(raw.to_string()));
         }
-        let mut out = String::with_capacity(raw.len());
+        // The pieces first, so the length is known (and checked against
+        // the budget) before anything is allocated: `<default>`s that
+        // expand each other grow geometrically (a 1 KB file asked for
+        // 17 GB).
+        let mut pieces: Vec<&str> = Vec::new();
         let mut rest = raw;
         while let Some(i) = rest.find('$') {
-            out.push_str(&rest[..i]);
+            pieces.push(&rest[..i]);
             let after = &rest[i + 1..];
             let len = after
                 .find(|c: char| !(c.is_ascii_alphanumeric() || c == '_'))
                 .unwrap_or(after.len());
             let key = &after[..len];
             match self.defaults.get(key) {
-                Some(v) if !key.is_empty() => out.push_str(v),
+                Some(v) if !key.is_empty() => pieces.push(v),
                 _ => {
                     let mut known: Vec<&str> = self.defaults.keys().map(String::as_str).collect();
                     known.sort_unstable();
@@ -89,8 +93,22 @@ impl<'a, 'i> Doc<'a, 'i> {
             }
             rest = &after[len..];
         }
-        out.push_str(rest);
-        Ok(Some(out))
+        pieces.push(rest);
+        let len: u64 = pieces.iter().map(|p| p.len() as u64).sum();
+        let used = self.expanded.get();
+        if used + len > MAX_EXPANDED_BYTES {
+            return Err(self.attr_error(
+                node,
+                name,
+                format!(
+                    "$parameter substitution would make {} bytes of attribute text in all (this value: {len}): beyond the limit of {} MiB",
+                    used + len,
+                    MAX_EXPANDED_BYTES >> 20
+                ),
+            ));
+        }
+        self.expanded.set(used + len);
+        Ok(Some(pieces.concat()))
     }
 
     /// A required attribute.

@@ -472,3 +472,93 @@ fn checkerboards_read_mitsubas_texture_and_its_coordinates() {
     );
     assert!(error(&bitmap).contains("unsupported texture 'bitmap'"));
 }
+
+/// Amplification is refused before the work, with an error that names the
+/// limit (issue 67, hostile inputs class 1): `<default>`s that expand each
+/// other (here 16 copies a level: 64 bytes became 17 GB), includes fanned
+/// out (each file including the next 20 times: 8,000 documents), and a
+/// scene whose shapes pass its triangle budget (checked before the shape
+/// that passes it is tessellated; a budget of three spheres here, the
+/// real one is `MAX_SCENE_TRIANGLES`). Nested `twosided` wrappers are
+/// read in a loop: 20,000 of them load as one two-sided BSDF.
+#[test]
+fn amplification_is_refused_before_the_work() {
+    let mut defaults = String::from(r#"<default name="a0" value="0.5"/>"#);
+    for i in 1..8 {
+        let value = format!("$a{}", i - 1).repeat(16);
+        defaults += &format!(r#"<default name="a{i}" value="{value}"/>"#);
+    }
+    let e = error(&scene(&defaults));
+    assert!(e.contains("beyond the limit of 16 MiB"), "{e}");
+
+    let dir = std::env::temp_dir().join(format!("mdas-fanout-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for i in 0..4 {
+        let body = match i {
+            3 => String::new(),
+            _ => format!(r#"<include filename="f{}.xml"/>"#, i + 1).repeat(20),
+        };
+        std::fs::write(
+            dir.join(format!("f{i}.xml")),
+            format!(r#"<scene version="3.0.0">{body}</scene>"#),
+        )
+        .unwrap();
+    }
+    let main = dir.join("main.xml");
+    std::fs::write(&main, scene(r#"<include filename="f0.xml"/>"#)).unwrap();
+    let e = super::super::load(&main).unwrap_err().to_string();
+    assert!(e.contains("more than 256 documents"), "{e}");
+    // Two includes of a 9 MiB file pass the 16 MiB of a scene's documents
+    // together: the second is refused before it is read.
+    let comment = "x".repeat(9 << 20);
+    std::fs::write(
+        dir.join("big.xml"),
+        format!(r#"<scene version="3.0.0"><!-- {comment} --></scene>"#),
+    )
+    .unwrap();
+    std::fs::write(
+        &main,
+        scene(r#"<include filename="big.xml"/><include filename="big.xml"/>"#),
+    )
+    .unwrap();
+    let e = super::super::load(&main).unwrap_err().to_string();
+    assert!(
+        e.contains("beyond the limit of 16 MiB for a file and its includes"),
+        "{e}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+
+    let sphere = crate::scene::shapes::uv_sphere_triangles(
+        super::plugins::SPHERE_SEGMENTS as u64,
+        super::plugins::SPHERE_RINGS as u64,
+    );
+    let spheres = |n: usize| scene(&r#"<shape type="sphere"/>"#.repeat(n));
+    let path = Path::new("inline.xml");
+    let s = super::parse_within(&spheres(3), path, 3 * sphere).unwrap();
+    assert_eq!(
+        s.scene
+            .meshes
+            .iter()
+            .map(|m| m.indices.len() as u64)
+            .sum::<u64>(),
+        3 * sphere
+    );
+    let e = super::parse_within(&spheres(4), path, 3 * sphere)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains(&format!(
+            "this shape makes {sphere} triangles, more than the 0 the scene may still take"
+        )),
+        "{e}"
+    );
+
+    let n = 20_000;
+    let nested = format!(
+        r#"<shape type="cube">{}<bsdf type="diffuse"/>{}</shape>"#,
+        r#"<bsdf type="twosided">"#.repeat(n),
+        "</bsdf>".repeat(n)
+    );
+    let s = load(&scene(&nested));
+    assert!(!s.scene.materials[0].one_sided);
+}
