@@ -2774,6 +2774,14 @@ fn merge_checks_every_field_of_its_part_records() {
         );
     }
     assert!(!dir.join("escaped.exr").exists());
+    // A well-formed name of another entry of the same scene (another
+    // spp's, say), in both parts alike: merge computes the entry from the
+    // scene, spp, seed, scale and key the records hold.
+    refused(
+        "reference both",
+        &|v| v["cache_entry"] = json!("area_light_plane-0123456789abcdef01234567.exr"),
+        &["its record names the cache entry area_light_plane-0123456789abcdef01234567.exr, but"],
+    );
     // An array where an object belongs (serde takes a struct's fields in
     // order): indexing it by key panicked.
     refused(

@@ -16,7 +16,8 @@
 use super::outputs::render_attributes;
 use super::prepare::*;
 use super::reference::{
-    check_entry, pixels_sha256, plan, reference_record_path, write_entry, Plan, ReferenceSpec,
+    check_entry, pixels_sha256, plan, reference_cache_path_keyed, reference_record_path,
+    write_entry, Plan, ReferenceSpec,
 };
 use crate::film::Film;
 use crate::gpu::Gpu;
@@ -328,6 +329,53 @@ fn check_entry_name(record_path: &Path, record: &serde_json::Value) -> Result<()
     Ok(())
 }
 
+/// That the cache entry a part's record names is the one its scene (at the
+/// recorded path, with the meshes it loads now), spp, seed, scale and key
+/// give, as `mdas reference` computes it: a record edited to name another
+/// entry of the same scene (another spp's, whose lookups would then find
+/// these pixels) is refused, and so is a part of a scene or mesh changed
+/// since it was rendered. Merge runs where the parts were rendered, as
+/// the Slurm scripts do; a scene it cannot load is an error that says so.
+fn check_entry_against_scene(part: &ReadPart) -> Result<()> {
+    let record = &part.record;
+    let version = record["version"].as_str().unwrap_or("");
+    if version != env!("CARGO_PKG_VERSION") {
+        bail!(
+            "{}: a part of mdas {version}'s, and this is mdas {}: merge the parts with the mdas that rendered them (a reference's cache key holds the version)",
+            part.file.display(),
+            env!("CARGO_PKG_VERSION")
+        );
+    }
+    let scene_path = PathBuf::from(record["scene"].as_str().unwrap_or(""));
+    let scene = SceneFile::load(&scene_path).with_context(|| {
+        format!(
+            "{}: merge checks the part's cache entry against its scene, {}, which does not load here (run merge where the parts were rendered)",
+            part.file.display(),
+            scene_path.display()
+        )
+    })?;
+    let spec = ReferenceSpec {
+        spp: record["spp"].as_u64().unwrap_or(0) as u32,
+        scale: record["scale"].as_f64().unwrap_or(f64::NAN) as f32,
+        seed: record["seed"].as_u64().unwrap_or(0) as u32,
+    };
+    let extra = record["cache_key_extra"].as_str().unwrap_or("");
+    let want = reference_cache_path_keyed(Path::new(""), &scene_path, &scene.inputs, spec, extra)?;
+    let entry = record["cache_entry"].as_str().unwrap_or("");
+    if want.as_os_str() != entry {
+        bail!(
+            "{}: its record names the cache entry {entry}, but its scene {} with spp {}, seed {}, scale {} and its key gives {}: the record was edited, or the scene or a mesh it loads changed since the part was rendered",
+            part.file.display(),
+            scene_path.display(),
+            spec.spp,
+            spec.seed,
+            spec.scale,
+            want.display()
+        );
+    }
+    Ok(())
+}
+
 /// Merges the parts `files` into the reference cache entry in `cache_dir`
 /// they are parts of; returns its path, film and image. Nothing is written
 /// unless every part is there once, all belong to the same reference, and
@@ -379,6 +427,7 @@ pub fn merge_parts(files: &[PathBuf], cache_dir: &Path) -> Result<(PathBuf, Film
         width: first.record["width"].as_u64().unwrap_or(0) as u32,
         height: first.record["height"].as_u64().unwrap_or(0) as u32,
     };
+    check_entry_against_scene(first)?;
     let entry = first.record["cache_entry"].as_str().unwrap_or("");
     let path = cache_dir.join(entry);
     if cache_dir.is_dir() {
