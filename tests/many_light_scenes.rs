@@ -491,6 +491,7 @@ fn many_light_integrand_parses_with_defaults() {
         ManyLightSpec {
             sampler: SamplerKind::Tree,
             cut_size: 8,
+            light_samples: 1,
             cut_sampling: CutSampling::Subtrees,
             block: 8,
             interleave: 1,
@@ -526,6 +527,7 @@ fn many_light_integrand_parses_with_defaults() {
             IntegrandSpec::ManyLight(ManyLightSpec {
                 sampler,
                 cut_size: 64,
+                light_samples: 1,
                 cut_sampling: CutSampling::Mixture,
                 block: 4,
                 interleave: 2,
@@ -681,6 +683,21 @@ fn bad_many_light_input_is_an_error_at_its_position() {
         m.contains("unknown cut_sampling 'stratified', expected one of 'subtrees', 'mixture'"),
         "{m}"
     );
+    let m = error_at("ls0", &integrand("light_samples = 0\n"), 14, 17);
+    assert!(
+        m.contains("light_samples must be at least 1, found 0"),
+        "{m}"
+    );
+    // The default sampler is `tree` (one light per cut subtree).
+    let m = error_at("lstree", &integrand("light_samples = 4\n"), 14, 17);
+    assert!(m.contains("'tree' draws one per cut subtree"), "{m}");
+    let m = error_at(
+        "lslgh",
+        &integrand("sampler = \"lgh\"\nlight_samples = 2\n"),
+        15,
+        17,
+    );
+    assert!(m.contains("'lgh' traces lgh_shadows"), "{m}");
     let m = error_at("block0", &integrand("block = 0\n"), 14, 9);
     assert!(m.contains("block must be at least 1, found 0"), "{m}");
     let m = error_at("interleave0", &integrand("interleave = 0\n"), 14, 14);

@@ -975,6 +975,7 @@ fn many_light_scenes_parse_their_integrand_and_light_sets() {
         IntegrandSpec::ManyLight(ManyLightSpec {
             sampler: SamplerKind::Tree,
             cut_size: 8,
+            light_samples: 1,
             cut_sampling: Default::default(),
             block: 8,
             interleave: 1,

@@ -502,7 +502,7 @@ fn mirrors() -> BTreeMap<(&'static str, &'static str), Layout> {
             count, kind, levels, leaf_count, node_count, cut_size, block_size, blocks_per_row,
             alias_count, interleave, frame, time, vpl_clamp2, sst_nu_min, sst_sigma_max2,
             cut_mixture, lgh_lo, lgh_levels, lgh_h1, lgh_inv_h1, lgh_alpha, lgh_level0, lgh_shadows,
-            lgh_cells_offset, lgh_sorted_offset, lgh_triangles, lgh_soft2, _pad1,
+            lgh_cells_offset, lgh_sorted_offset, lgh_triangles, lgh_soft2, light_samples,
             _pad2, _pad3,
         })),
         (("lights/sample_batch.wgsl", "SampleQuery"), host!(SampleQuery { p, u, n, block })),

@@ -59,7 +59,8 @@ fn ml_subtree_u(u: vec4<f32>, px: vec2<u32>, j: u32) -> vec4<f32> {
 // Radiance reflected at s from the sampler's lights. The kinds with cuts
 // under the paper's estimator (light_per_subtree): one light from each
 // subtree of the pixel's share of the cut, one shadow ray each, summed;
-// otherwise one light picked with u (one shadow ray).
+// otherwise light_samples lights picked (one with u; one shadow ray each),
+// averaged.
 fn ml_direct(s: Surface, px: vec2<u32>, u: vec4<f32>, time: f32) -> vec3<f32> {
     if (all(s.rho == vec3<f32>(0.0))) {
         return vec3<f32>(0.0);
@@ -76,7 +77,14 @@ fn ml_direct(s: Surface, px: vec2<u32>, u: vec4<f32>, time: f32) -> vec3<f32> {
             sum += ml_pick(s, light_descend_subtree(s.x, s.ns, base, j, uj.x), uj.yzw, time);
         }
     } else {
-        sum = ml_pick(s, light_sample(s.x, s.ns, base, u.x), u.yzw, time);
+        // light_samples picks at this point, averaged; pick j draws with
+        // subtree j's numbers (pick 0 with u itself).
+        let n = max(light_params.light_samples, 1u);
+        for (var j = 0u; j < n; j++) {
+            let uj = ml_subtree_u(u, px, j);
+            sum += ml_pick(s, light_sample(s.x, s.ns, base, uj.x), uj.yzw, time);
+        }
+        sum /= f32(n);
     }
     return s.rho * INV_PI * sum * light_interleave_scale();
 }

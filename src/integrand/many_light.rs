@@ -97,16 +97,22 @@ use std::sync::Arc;
 
 /// An upper bound on the loop iterations of one evaluation that draws one
 /// light per subtree of its share of the cut (the kinds with cuts under
-/// [`CutSampling::Subtrees`]; 0 otherwise): a typical ray's traversal for
-/// the camera ray and each shadow ray, and per subtree a descent and the
-/// cut lookups. A pixel's share holds at most ⌈n/m²⌉ of the n nodes.
+/// [`CutSampling::Subtrees`]) or `light_samples` > 1 lights (0 otherwise):
+/// a typical ray's traversal for the camera ray and each shadow ray, and
+/// per light a descent (and the cut lookups). A pixel's share holds at
+/// most ⌈n/m²⌉ of the n nodes.
 fn subtree_loop_iterations(spec: &ManyLightSpec) -> u32 {
-    if !spec.sampler.uses_cut() || spec.cut_sampling != CutSampling::Subtrees {
-        return 0;
-    }
-    let m2 = spec.interleave.max(1).pow(2) as u64;
-    let rays = (spec.cut_size as u64).div_ceil(m2);
-    let per_subtree = bvh::MAX_DEPTH as u64 + 2 * MAX_CUT as u64;
+    let (rays, per_subtree) =
+        if spec.sampler.uses_cut() && spec.cut_sampling == CutSampling::Subtrees {
+            let m2 = spec.interleave.max(1).pow(2) as u64;
+            let rays = (spec.cut_size as u64).div_ceil(m2);
+            (rays, bvh::MAX_DEPTH as u64 + 2 * MAX_CUT as u64)
+        } else if spec.light_samples > 1 && spec.sampler.structure() != Structure::Grid {
+            // `light_samples` picks, each a descent from the root.
+            (spec.light_samples as u64, bvh::MAX_DEPTH as u64)
+        } else {
+            return 0;
+        };
     (RAY_ITERATIONS * (rays + 1) + rays * per_subtree).min(u32::MAX as u64) as u32
 }
 
@@ -356,6 +362,7 @@ impl ManyLight {
         cpu_build_ms: Option<f64>,
     ) -> Result<()> {
         self.sampler.params.frame = spec.frame;
+        self.sampler.params.light_samples = spec.light_samples;
         // set_time uploads the whole parameter block, the clamp with it.
         self.sampler.params.vpl_clamp2 = spec.vpl.clamp * spec.vpl.clamp;
         self.sampler.set_substitute_params(&spec.sst);

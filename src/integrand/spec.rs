@@ -158,6 +158,15 @@ pub struct ManyLightSpec {
     /// Light-cut size, 1..=64: under `cut_sampling = "subtrees"` the
     /// light samples (shadow rays) of one evaluation of the kinds with cuts.
     pub cut_size: u32,
+    /// Light samples (shadow rays) of one evaluation of the kinds that
+    /// pick one light per evaluation (every kind but `lgh`, and the kinds
+    /// with cuts under `cut_sampling = "subtrees"`), 1..=64, default 1:
+    /// n picks at the same shading point, averaged, pick j with the
+    /// evaluation's numbers rotated as the cut's subtree j
+    /// (`ml_subtree_u`). With `cut_size = n` it gives `tree_nocut` the
+    /// shadow rays of `tree` at the same camera samples: the paper's
+    /// equal-count comparison (BENCHMARKS.md).
+    pub light_samples: u32,
     /// How the kinds with cuts estimate from the cut: one light per subtree
     /// (the paper's, the default) or one pick from the cut's mixture.
     pub cut_sampling: CutSampling,
@@ -197,14 +206,15 @@ impl ManyLightSpec {
     /// cuts draw one per node of the pixel's share of the cut, n/m² on
     /// average over a sub-block (at most: a cut holds fewer nodes when
     /// lights run out); `lgh` traces its shadow samples (plus one toward an
-    /// emissive triangle when the scene has them); the others one.
+    /// emissive triangle when the scene has them); the others
+    /// `light_samples`.
     pub fn light_samples_per_eval(&self, kind: SamplerKind) -> f64 {
         if kind.structure() == Structure::Grid {
             self.lgh.shadow_samples as f64
         } else if kind.uses_cut() && self.cut_sampling == CutSampling::Subtrees {
             self.cut_size as f64 / (self.interleave.max(1) as f64).powi(2)
         } else {
-            1.0
+            self.light_samples.max(1) as f64
         }
     }
 
@@ -225,6 +235,7 @@ impl Default for ManyLightSpec {
         ManyLightSpec {
             sampler: SamplerKind::Tree,
             cut_size: 8,
+            light_samples: 1,
             cut_sampling: CutSampling::Subtrees,
             block: 8,
             interleave: 1,

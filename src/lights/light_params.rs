@@ -87,7 +87,9 @@ pub struct LightParams {
     pub lgh_triangles: u32,
     /// `lgh`: the grid lights' additive distance clamp (c·R)².
     pub lgh_soft2: f32,
-    pub _pad1: u32,
+    /// The kinds that pick one light per evaluation: picks per evaluation
+    /// (`light_samples`; 0 reads as 1).
+    pub light_samples: u32,
     pub _pad2: u32,
     pub _pad3: u32,
 }

@@ -9,7 +9,7 @@ use crate::accel::voxel::{self, Visibility, VoxelParams};
 use crate::integrand::ManyLightSpec;
 use crate::lights::lgh::{self, LghParams};
 use crate::lights::registry::SamplerKind;
-use crate::lights::sampler::CutSampling;
+use crate::lights::sampler::{CutSampling, Structure};
 use crate::lights::substitute::SubstituteParams;
 use crate::lights::vpl::{self, VplSpec};
 
@@ -73,6 +73,30 @@ impl Ctx<'_> {
                         format!("interleave = {interleave} must divide block = {block}"),
                     ));
                 }
+                let light_samples = self.opt_int(
+                    &r.light_samples,
+                    "light_samples",
+                    1..=MAX_CUT_SIZE as i64,
+                    d.light_samples as i64,
+                )? as u32;
+                if let Some(v) = &r.light_samples {
+                    let per_subtree = sampler.uses_cut() && cut_sampling == CutSampling::Subtrees;
+                    if light_samples != 1 && (per_subtree || sampler.structure() == Structure::Grid)
+                    {
+                        return Err(self.error(
+                            v.span(),
+                            format!(
+                                "light_samples is for the samplers that pick one light per evaluation; '{}' {}",
+                                sampler.name(),
+                                if per_subtree {
+                                    "draws one per cut subtree (cut_size sets how many)"
+                                } else {
+                                    "traces lgh_shadows shadow samples"
+                                }
+                            ),
+                        ));
+                    }
+                }
                 IntegrandSpec::ManyLight(ManyLightSpec {
                     sampler,
                     cut_size: self.opt_int(
@@ -81,6 +105,7 @@ impl Ctx<'_> {
                         1..=MAX_CUT_SIZE as i64,
                         d.cut_size as i64,
                     )? as u32,
+                    light_samples,
                     cut_sampling,
                     block,
                     interleave,

@@ -27,7 +27,7 @@
 //!             intensity_jitter, color_jitter, orbit_radius, orbit_speed
 //! [integrand] type = area_light | depth_of_field | motion_blur
 //!             | path (max_bounces = 1) | ambient_occlusion (radius)
-//!             | many_light (sampler, cut_size, block, interleave, time, frame);
+//!             | many_light (sampler, cut_size, light_samples, block, interleave, time, frame);
 //!             any type: visibility = bvh | voxel, voxel_directions,
 //!             voxel_resolution, voxel_skip
 //! [mdas]      the keys of crate::integrator::mdas::PARAMS (alpha, pace,

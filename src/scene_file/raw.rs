@@ -229,6 +229,7 @@ pub(super) struct RawIntegrand {
     pub(super) radius: Option<S<Num>>,
     pub(super) sampler: Option<S<String>>,
     pub(super) cut_size: Option<S<i64>>,
+    pub(super) light_samples: Option<S<i64>>,
     pub(super) cut_sampling: Option<S<String>>,
     pub(super) block: Option<S<i64>>,
     pub(super) interleave: Option<S<i64>>,
@@ -255,7 +256,7 @@ pub(super) struct RawIntegrand {
 
 impl RawIntegrand {
     pub(super) fn type_keys(&self) -> Vec<(&'static str, Range<usize>)> {
-        present_keys!(self; max_bounces, radius, sampler, cut_size, cut_sampling, block, interleave, time, frame,
+        present_keys!(self; max_bounces, radius, sampler, cut_size, light_samples, cut_sampling, block, interleave, time, frame,
             frame_duration,
             vpls, vpl_bounces, vpl_seed, vpl_clamp, sst_nu_min, sst_sigma_max, lgh_levels,
             lgh_alpha, lgh_level0, lgh_shadows, lgh_clamp)
@@ -273,6 +274,7 @@ pub(super) const INTEGRAND_TYPES: [(&str, &[&str]); 6] = [
         &[
             "sampler",
             "cut_size",
+            "light_samples",
             "cut_sampling",
             "block",
             "interleave",

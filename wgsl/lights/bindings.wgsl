@@ -79,7 +79,9 @@ struct LightParams {
     lgh_triangles: u32,
     // lgh: the grid lights' additive distance clamp (c·R)².
     lgh_soft2: f32,
-    _pad1: u32,
+    // Kinds picking one light per evaluation: picks per evaluation
+    // (light_samples; 0 reads as 1).
+    light_samples: u32,
     _pad2: u32,
     _pad3: u32,
 }
