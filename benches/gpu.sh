@@ -23,6 +23,13 @@
 #      (its bottom levels gathered on the GPU against the CPU builds:
 #      `cargo bench --bench tree2`), and the GPU tree build of 1k-1M
 #      lights with and without cones (`cargo bench --bench light_tree`).
+#   8. the open issues' figures (65, 66): `mdas compare` (Halton, MDAS and
+#      pixel-adaptive Halton at equal samples and at equal time) on the
+#      paper's seven scenes at full film size, and `tree` against
+#      `tree_nocut` at equal light-sample count with the same camera
+#      samples (benches/cuts_equal_count.sh, PROTOCOL=shared) on
+#      vpl_atrium at full size, one sample per pixel, n = 4, 8, 16, 32.
+#      A short lease runs it first: STEPS="8 1 2".
 # With a baseline binary (another build of mdas that has `bench`), steps 1
 # and 2 also run it, right after the same step of this build.
 #
@@ -33,7 +40,7 @@
 # missing. Environment: REPEATS (default 5), REF_SPP (compare's reference
 # at 1/4 scale, default 16384), REF_SPP_FULL (at full size, default 4096),
 # QUICK=1 (lavapipe smoke run: 1/16 scale, 1 repeat, references of 256 spp),
-# STEPS (the steps to run, in that order; default "1 2 3 4 5 6 7"),
+# STEPS (the steps to run, in that order; default "1 2 3 4 5 6 7 8"),
 # BENCH_BINS (a folder of prebuilt bench executables named light_tree,
 # light_sampling, visibility and tree2, for a machine without cargo: `cargo bench
 # --no-run` prints where cargo put them; default: `cargo bench`),
@@ -196,6 +203,21 @@ step7() {
     fi
 }
 
-for n in ${STEPS:-1 2 3 4 5 6 7}; do
+step8() {
+    # shellcheck disable=SC2086
+    for scene in $PAPER; do
+        local name
+        name=$(basename "$scene" .toml)
+        step "compare-paper-$name" "$BIN" compare "$scene" --scale "$FULL_SCALE" \
+            --ref-spp "$REF_SPP_FULL" --repeats "$REPEATS" --out "$OUT/compare-paper-$name"
+    done
+    local seeds=10 sizes="4 8 16 32"
+    [ "${QUICK:-0}" = 1 ] && seeds=2 sizes="4 8"
+    BIN=$BIN SCENE=scenes/vpl_atrium.toml SCALE=$FULL_SCALE SPP=1 SIZES="$sizes" SEEDS=$seeds \
+        REF_SPP=$REF_SPP_FULL PROTOCOL=shared OUT="$OUT/cuts-vpl_atrium" \
+        benches/cuts_equal_count.sh | tee "$OUT/cuts-vpl_atrium.md"
+}
+
+for n in ${STEPS:-1 2 3 4 5 6 7 8}; do
     "step$n"
 done
