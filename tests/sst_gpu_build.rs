@@ -278,3 +278,66 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         want[bad[0] / 2]
     );
 }
+
+/// `sst` and `sst_nosub` render from the GPU build: on a VPL scene the
+/// frame's set-up runs its phases and no CPU build, and the buffers the
+/// sampler binds (nodes, index table, cones, substitutes) are those of
+/// the CPU oracle over the frame's lights, bit for bit; after
+/// `set_frame` too.
+#[test]
+fn sst_renders_from_the_gpu_build() {
+    use mdas::integrand::{IntegrandSpec, ManyLight};
+    use mdas::lights::registry::SamplerKind;
+    use mdas::lights::substitute::gpu_build::PHASES;
+    let gpu = common::gpu();
+    let scene =
+        mdas::scene_file::SceneFile::load(std::path::Path::new("scenes/tests/moving_lights.toml"))
+            .unwrap();
+    let IntegrandSpec::ManyLight(spec) = &scene.integrand else {
+        panic!("not a many_light scene")
+    };
+    let film = scene.scene.film;
+    let gpu_scene =
+        std::sync::Arc::new(mdas::accel::GpuScene::new(gpu, &scene.scene, film).unwrap());
+    for kind in [SamplerKind::Sst, SamplerKind::SstNoSub] {
+        let spec = mdas::integrand::ManyLightSpec {
+            sampler: kind,
+            ..spec.clone()
+        };
+        let mut ml = ManyLight::new(gpu, &scene.scene, gpu_scene.clone(), film, &spec).unwrap();
+        for frame in [None, Some(3)] {
+            if let Some(f) = frame {
+                ml.set_frame(gpu, &scene.scene, f).unwrap();
+            }
+            let times = ml.setup_times();
+            assert!(times.get(PHASES[5]).is_some(), "{kind}: {times:?}");
+            assert!(
+                times.get("many_light.cpu_build").is_none(),
+                "{kind}: {times:?}"
+            );
+            let prims = ml.lights();
+            assert!(prims.len() > 100, "{kind}: {} lights", prims.len());
+            let c = radix::build(prims).unwrap();
+            let data = ml.sampler_data();
+            let n = prims.len();
+            let m = 2 * n - 1;
+            let nodes: Vec<mdas::lights::TreeNode> = gpu.read_buffer(&data.nodes, m).unwrap();
+            let index: Vec<u32> = gpu.read_buffer(&data.index, n + m).unwrap();
+            let cones: Vec<mdas::lights::LightCone> = gpu.read_buffer(&data.cones, m).unwrap();
+            let subs: Vec<mdas::lights::substitute::Substitute> =
+                gpu.read_buffer(&data.substitutes, m).unwrap();
+            let table: Vec<u32> = c
+                .bvh
+                .leaf_of_light
+                .iter()
+                .chain(&c.bvh.parent)
+                .copied()
+                .collect();
+            assert_eq!(data.params.node_count as usize, m, "{kind}");
+            assert_eq!(index, table, "{kind} {frame:?}: index table");
+            same_bits("node", n, &nodes, &c.bvh.nodes);
+            same_bits("cone", n, &cones, &c.bvh.cones);
+            same_bits("substitute", n, &subs, &c.substitutes);
+        }
+    }
+}

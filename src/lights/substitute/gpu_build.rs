@@ -288,23 +288,24 @@ impl GpuRadixTree {
         (2 * self.light_count).saturating_sub(1)
     }
 
-    /// Binds the tree of the last build as `sst`'s upload would bind the
-    /// oracle's ([`crate::lights::bvh::gpu::upload`] and the substitutes;
-    /// cones only when `cones`).
+    /// Binds the tree's buffers as `sst`'s upload binds the oracle's
+    /// ([`crate::lights::bvh::gpu::upload`] and the substitutes; cones only
+    /// when `cones`) for `params.count` lights, the count of the builds
+    /// that follow (the buffers hold a tree once one has run).
     pub fn bind(
         &self,
         cones: bool,
         params: &mut LightParams,
         out: &mut SamplerBuffers,
     ) -> Result<()> {
-        if self.light_count != params.count {
+        if params.count > self.capacity {
             bail!(
-                "radix substitute tree over {} lights for {} lights",
-                self.light_count,
+                "radix substitute tree for up to {} lights bound for {} lights",
+                self.capacity,
                 params.count
             );
         }
-        params.node_count = self.node_count();
+        params.node_count = (2 * params.count).saturating_sub(1);
         out.nodes = Some(self.nodes.clone());
         out.index = Some(self.index.clone());
         if cones {
