@@ -51,6 +51,7 @@ use mdas::lights::gpu_sampler::{BatchSampler, GpuSamplerData, SampleAnswer, Samp
 use mdas::lights::lgh::gpu::{GpuLgh, LghBuildParams};
 use mdas::lights::lgh::GridLight;
 use mdas::lights::registry::SamplerKind;
+use mdas::lights::substitute::gpu_build::{GpuRadixTree, RadixParams};
 use mdas::lights::tree::gpu_build::{BuildParams, GpuLightTree};
 use mdas::lights::two_level::gpu::{GpuTwoLevel, Tree2Params};
 use mdas::lights::vpl::{VplGenerator, VplParams};
@@ -225,6 +226,18 @@ fn kernels() -> Vec<Kernel> {
     ] {
         let name = format!("light_tree[{}]", file.0);
         all.push(kernel(name, &GpuLightTree::source(file), &tree));
+    }
+    let radix = [
+        GpuRadixTree::layout_entries(),
+        GpuRadixTree::args_layout_entries(),
+    ];
+    for file in [
+        wgsl_file!("lights/bounds.wgsl"),
+        wgsl_file!("lights/morton.wgsl"),
+        wgsl_file!("lights/radix_build.wgsl"),
+    ] {
+        let name = format!("sst_tree[{}]", file.0);
+        all.push(kernel(name, &GpuRadixTree::source(file), &radix));
     }
     let tree2 = [GpuTwoLevel::layout_entries()];
     all.push(kernel("tree2_build", &GpuTwoLevel::source(), &tree2));
@@ -514,6 +527,9 @@ fn mirrors() -> BTreeMap<(&'static str, &'static str), Layout> {
         })),
         (("lights/tree_bindings.wgsl", "BuildParams"), host!(BuildParams {
             n, leaf_count, zero, src_level, levels_up, cones, _pad,
+        })),
+        (("lights/radix_bindings.wgsl", "RadixParams"), host!(RadixParams {
+            n, zero, level, cap, max_groups_x, _pad,
         })),
         (("lights/tree2_build.wgsl", "Tree2Params"), host!(Tree2Params {
             count, first, zero, _pad,

@@ -34,7 +34,9 @@
 //! `[integrand]` asks for VPLs, by the VPLs traced from them on the GPU
 //! ([`crate::lights::vpl`], profiler phase `many_light.vpl`; read back and
 //! appended), are uploaded; the tree kinds build their perfect light tree
-//! **on the GPU** ([`GpuLightTree`], with cones for `tree_cone`), the
+//! **on the GPU** ([`GpuLightTree`], with cones for `tree_cone`), `sst`
+//! and `sst_nosub` their radix substitute tree **on the GPU**
+//! ([`GpuRadixTree`], bit for bit the CPU oracle's), the
 //! `unbalanced` kinds build their BVH on the CPU, `tree2` its two-level
 //! tree (one bottom level per light group of
 //! [`crate::lights::scene_lights::light_groups`], the VPLs as one more;
@@ -84,6 +86,7 @@ use crate::lights::lgh::gpu::GpuLgh;
 use crate::lights::registry::SamplerKind;
 use crate::lights::sampler::{CutSampling, Structure};
 use crate::lights::scene_lights::{self, light_prims};
+use crate::lights::substitute::gpu_build::GpuRadixTree;
 use crate::lights::tree::cut::MAX_CUT;
 use crate::lights::tree::gpu_build::GpuLightTree;
 use crate::lights::two_level::gpu::GpuTwoLevel;
@@ -136,6 +139,9 @@ pub struct ManyLight {
     /// The GPU-built tree (its buffers are bound in `bind_group`); rebuilt
     /// in place for every frame.
     tree: Option<GpuLightTree>,
+    /// `sst`'s radix substitute tree, built on the GPU into the buffers
+    /// bound in `bind_group`; rebuilt in place for every frame.
+    radix: Option<GpuRadixTree>,
     /// `tree2` gathered on the GPU (groups of a fixed shape, no VPLs).
     two_level: Option<GpuTwoLevel>,
     /// The VPL kernel, kept for the next frame.
@@ -154,6 +160,7 @@ pub struct ManyLight {
 struct Built {
     sampler: GpuSamplerData,
     tree: Option<GpuLightTree>,
+    radix: Option<GpuRadixTree>,
     two_level: Option<GpuTwoLevel>,
     loop_iterations: u32,
     cpu_build_ms: Option<f64>,
@@ -270,6 +277,7 @@ impl ManyLight {
             bind_group,
             setup: PhaseTimes::default(),
             tree: built.tree,
+            radix: built.radix,
             two_level: built.two_level,
             vpl,
             cut_pass: None,
@@ -287,10 +295,10 @@ impl ManyLight {
     /// recomputed at its time (VPLs traced again), the light structure is
     /// built again and the cut pre-pass runs again, as the paper does once
     /// per frame. The shaders, the bind group layout and, for the kinds
-    /// built on the GPU (`tree*`, `sst_perfect`, `tree2` gathered on the
+    /// built on the GPU (`tree*`, `sst*`, `tree2` gathered on the
     /// GPU) and `uniform`, every buffer are reused, so an integrator's
     /// pipelines stay valid; the CPU-built kinds (`power`, `unbalanced*`,
-    /// `sst`, `sst_nosub`, `tree2` with VPLs or orbiting light sets) and
+    /// `tree2` with VPLs or orbiting light sets) and
     /// `lgh`, whose
     /// structures change size with the lights, upload new ones. The VPLs keep their seed
     /// (`vpl_seed`): they move with the lights, not with the frame number. The result is the image of
@@ -321,6 +329,12 @@ impl ManyLight {
                 gpu.queue
                     .write_buffer(&self.sampler.prims, 0, bytemuck::cast_slice(&prims));
                 tree.build(gpu, &self.sampler.prims, prims.len() as u32, &mut profiler)
+            })?,
+            None if self.radix.is_some() => gpu.scoped("many_light set-up", || {
+                gpu.queue
+                    .write_buffer(&self.sampler.prims, 0, bytemuck::cast_slice(&prims));
+                let radix = self.radix.as_mut().expect("matched");
+                radix.build(gpu, &self.sampler.prims, prims.len() as u32, &mut profiler)
             })?,
             None if self.two_level.is_some() => gpu.scoped("many_light set-up", || {
                 gpu.queue
@@ -415,6 +429,7 @@ impl ManyLight {
                 Ok(Built {
                     sampler,
                     tree: None,
+                    radix: None,
                     two_level: None,
                     loop_iterations: h.loop_iterations().min(u32::MAX as u64) as u32,
                     cpu_build_ms: None,
@@ -443,6 +458,27 @@ impl ManyLight {
                 Ok(Built {
                     sampler,
                     tree: Some(tree),
+                    radix: None,
+                    two_level: None,
+                    loop_iterations: 0,
+                    cpu_build_ms: None,
+                })
+            } else if kind.builds_radix_tree_on_gpu() && n > 0 {
+                // sst's radix tree, as the perfect tree: from the
+                // sampler's copy of the lights into the buffers it binds.
+                let mut radix = GpuRadixTree::new(gpu, n)?;
+                let sampler = GpuSamplerData::new(
+                    gpu,
+                    kind,
+                    prims,
+                    Some(TreeSource::RadixGpu(&radix)),
+                    cuts,
+                )?;
+                radix.build(gpu, &sampler.prims, n, profiler)?;
+                Ok(Built {
+                    sampler,
+                    tree: None,
+                    radix: Some(radix),
                     two_level: None,
                     loop_iterations: 0,
                     cpu_build_ms: None,
@@ -470,6 +506,7 @@ impl ManyLight {
                 Ok(Built {
                     sampler,
                     tree: None,
+                    radix: None,
                     two_level: Some(two_level),
                     loop_iterations: 0,
                     cpu_build_ms: None,
@@ -492,6 +529,7 @@ impl ManyLight {
                 Ok(Built {
                     sampler,
                     tree: None,
+                    radix: None,
                     two_level: None,
                     loop_iterations: 0,
                     cpu_build_ms: Some(start.elapsed().as_secs_f64() * 1e3),
@@ -577,6 +615,11 @@ impl ManyLight {
 
     pub fn light_count(&self) -> u32 {
         self.prims.len() as u32
+    }
+
+    /// The sampler's buffers (bindings 16–24) as the frame bound them.
+    pub fn sampler_data(&self) -> &GpuSamplerData {
+        &self.sampler
     }
 
     /// The frame's light list as the sampler sees it: the scene's lights at

@@ -25,8 +25,9 @@ use super::lgh::{self, GridLight};
 pub use super::light_params::LightParams;
 use super::light_params::SamplerBuffers;
 use super::registry::SamplerKind;
-use super::sampler::{CutSampling, Structure};
+use super::sampler::{CutSampling, Layout, Structure};
 use super::simple::{self, alias::AliasEntry};
+use super::substitute::gpu_build::GpuRadixTree;
 use super::substitute::{self, Substitute, SubstituteParams, SubstituteTree};
 use super::tree::cut::MAX_CUT;
 use super::tree::gpu::GpuTreeBuffers;
@@ -124,6 +125,9 @@ pub enum TreeSource<'a> {
     /// `tree2` built on the GPU ([`GpuTwoLevel`]): its buffers are bound
     /// as they are.
     TwoLevelGpu(&'a GpuTwoLevel),
+    /// `sst`'s radix substitute tree built on the GPU ([`GpuRadixTree`]):
+    /// its buffers are bound as they are.
+    RadixGpu(&'a GpuRadixTree),
     /// The lighting grid hierarchy (`lgh`), built on the GPU into its own
     /// buffers; its parameters fill the `lgh_*` fields.
     Lgh(&'a GpuLgh),
@@ -280,6 +284,11 @@ impl GpuSamplerData {
             }
             (Structure::SubstituteTree, Some(_)) => other("a substitute tree"),
             (Structure::Technique(t), None) => t.upload(gpu, prims, cones, params, out),
+            (Structure::Technique(t), Some(TreeSource::RadixGpu(r)))
+                if t.layout() == Layout::Bvh && t.substitutes() =>
+            {
+                r.bind(cones, params, out)
+            }
             (Structure::Technique(t), Some(_)) => {
                 bail!("sampler '{kind}' builds its {} itself", t.name())
             }

@@ -200,6 +200,13 @@ impl SamplerKind {
         )
     }
 
+    /// Whether the many-light integrand builds the kind's radix
+    /// substitute tree on the GPU every frame (`sst`, `sst_nosub`;
+    /// [`super::substitute::gpu_build`]).
+    pub fn builds_radix_tree_on_gpu(self) -> bool {
+        self.structure() == Structure::Technique(&super::substitute::radix::RADIX_SUBSTITUTE_TREE)
+    }
+
     /// Whether the kind samples from per-block cuts.
     pub fn uses_cut(self) -> bool {
         self.entry().cut

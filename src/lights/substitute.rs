@@ -71,6 +71,7 @@ use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
 pub mod gpu;
+pub mod gpu_build;
 pub mod radix;
 
 /// A GPU light pick `SUBSTITUTE_BIT | node` is node's substitute

@@ -27,8 +27,10 @@
 //! run split by leaf index (Karras's tie-break, §4: δ(i, j) for equal keys
 //! is 64 + the common prefix of the indices). This is the tree the
 //! per-node construction of Karras 2012 (Fig. 4) builds in parallel on a
-//! GPU; here it is built top-down, which gives the same tree (the unit
-//! tests check the radix property at every node). N lights give N − 1
+//! GPU, as [`super::gpu_build`] does for rendering; here it is built
+//! top-down, which gives the same tree (the unit tests check the radix
+//! property at every node, and that Karras's ranges are these), and this
+//! build is the GPU build's oracle. N lights give N − 1
 //! internal nodes and N leaves, no bogus leaves, unlike the perfect tree
 //! of `sst_perfect` ([`super::build`]), whose equal-count halves straddle
 //! cells and normal classes.
@@ -236,8 +238,11 @@ impl SubstituteLayout for RadixTree {
 }
 
 /// The radix substitute tree as a [`Technique`] (`sst`, `sst_nosub`):
-/// built on the CPU, sampled on the GPU by the BVH-layout descent, which
-/// stops at suitable substitutes when the kind says so.
+/// sampled on the GPU by the BVH-layout descent, which stops at suitable
+/// substitutes when the kind says so. Its upload builds the tree here on
+/// the CPU (tests, tools); the many-light integrand builds it on the GPU
+/// every frame instead ([`super::gpu_build::GpuRadixTree`], the same
+/// buffers bit for bit).
 pub struct RadixSubstituteTree;
 
 /// The technique of the registry's `sst` and `sst_nosub` lines.
