@@ -162,7 +162,7 @@ pub(crate) fn write_outputs(o: &CompareOutputs) -> Result<Written> {
             width: w,
             height: h,
             title,
-            images: [
+            images: vec![
                 figure::ImagePanel {
                     label: "Reference",
                     pixels: reference,
@@ -182,7 +182,7 @@ pub(crate) fn write_outputs(o: &CompareOutputs) -> Result<Written> {
                     caption: caption("Halton", f64::from(o.halton_spp), o.halton_stats, flips[1]),
                 },
             ],
-            maps: [
+            maps: vec![
                 figure::MapPanel {
                     label: "RelMSE, MDAS",
                     values: &relmse_maps[0],
