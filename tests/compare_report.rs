@@ -602,6 +602,7 @@ fn sweep_writes_csv_and_svg() {
             setup: setup("scenes/area_light_plane.toml", 0.25, &out, &params),
             spps: vec![1, 2, 4],
             seeds: 2,
+            adaptive: true,
         },
     )
     .unwrap();
@@ -615,6 +616,19 @@ fn sweep_writes_csv_and_svg() {
         .filter(|r| r.method == "halton")
         .collect();
     assert_eq!(halton.len(), 3);
+    // Pixel-adaptive Halton at every budget, after Halton's rows.
+    let adaptive: Vec<_> = result
+        .rows
+        .iter()
+        .filter(|r| r.method == "adaptive")
+        .collect();
+    assert_eq!(
+        adaptive.iter().map(|r| r.spp).collect::<Vec<_>>(),
+        [1, 2, 4]
+    );
+    assert!(result
+        .rows
+        .ends_with(&adaptive.into_iter().cloned().collect::<Vec<_>>()));
     assert_eq!(
         result.rows.iter().filter(|r| r.method == "mdas").count() + result.mdas_skipped.len(),
         3
@@ -631,7 +645,7 @@ fn sweep_writes_csv_and_svg() {
             r.relmse_ci95[0] <= r.relmse && r.relmse <= r.relmse_ci95[1],
             "{r:?}"
         );
-        if r.method == "halton" {
+        if r.method == "halton" || r.method == "adaptive" {
             assert_eq!(r.seeds, vec![0, 2], "seed 1 is the reference's");
         }
     }
@@ -640,7 +654,12 @@ fn sweep_writes_csv_and_svg() {
     assert_eq!(json["rows"].as_array().unwrap().len(), result.rows.len());
     assert_eq!(json["provenance"]["integrand"], "area_light");
     let svg = std::fs::read_to_string(out.join("sweep.svg")).unwrap();
-    assert!(svg.starts_with("<svg") && svg.contains("Halton") && svg.contains("MDAS"));
+    assert!(
+        svg.starts_with("<svg")
+            && svg.contains("Halton")
+            && svg.contains("MDAS")
+            && svg.contains("adaptive")
+    );
     assert_eq!(svg.matches("<circle").count(), result.rows.len());
     // An error bar and an spp label per point.
     assert_eq!(

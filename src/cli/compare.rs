@@ -82,6 +82,18 @@ pub(crate) struct CompareArgs {
     pub(crate) common: ExperimentArgs,
 }
 
+/// `--methods` of `compare` and `sweep`: halton and mdas must be there.
+pub(crate) fn check_methods(methods: &[IntegratorKind]) -> Result<()> {
+    for required in [IntegratorKind::Halton, IntegratorKind::Mdas] {
+        if !methods.contains(&required) {
+            anyhow::bail!(
+                "--methods must hold halton and mdas (the comparison is built on them); only adaptive may be left out"
+            );
+        }
+    }
+    Ok(())
+}
+
 fn parse_crop(s: &str) -> Result<mdas::compare::figure::Crop, String> {
     mdas::compare::figure::Crop::parse(s).map_err(|e| format!("{e:#}"))
 }
@@ -102,12 +114,8 @@ pub(crate) fn run(args: CompareArgs, ui: Ui) -> Result<()> {
         frames,
         common,
     } = args;
-    for required in [IntegratorKind::Halton, IntegratorKind::Mdas] {
-        if samplers.is_none() && !methods.contains(&required) {
-            anyhow::bail!(
-                "--methods must hold halton and mdas (the comparison is built on them); only adaptive may be left out"
-            );
-        }
+    if samplers.is_none() {
+        check_methods(&methods)?;
     }
     let out = common
         .out
