@@ -1,17 +1,17 @@
 # Two commands set up and exercise a fresh machine:
-#   make run   — build, render the default scene (Cornell box) with Halton and
-#                MDAS, and compare them at equal time against a reference (out/)
+#   make run   — build, and compare Halton, MDAS and pixel-adaptive Halton at
+#                equal time on the default scene (Cornell box) against a
+#                reference (out/)
 #   make test  — the whole test suite (CPU Vulkan driver if there is no GPU)
 # Both install a Vulkan driver first when none is present (.ci/ensure-vulkan.sh).
 # `make help` lists every target.
 
 CARGO ?= cargo
 SCENE ?= scenes/cornell.toml
-# The two renders of `make run` at equal samples: the scene's own 8 spp
-# for both (Halton once rendered at 64 spp here, beside MDAS at 8, which
-# compared nothing); the comparison's images in out/compare-cornell are
-# at equal time.
-SPP ?= 8
+# `make run` writes no render at equal samples beside the comparison (it
+# once rendered Halton and MDAS at the same 8 spp into out/, and before
+# that Halton at 64 spp beside MDAS at 8): every image it writes, in
+# out/compare-cornell, is at equal time.
 
 .PHONY: run test lint crosscheck browser-test slurm-test vulkan build bench info clean clean-cache help mutants mutants-wgsl
 
@@ -29,9 +29,9 @@ info: build
 # `mdas compare scenes/cornell.toml` (full film, 65,536-spp reference).
 run: build
 	./target/release/mdas info
-	./target/release/mdas render $(SCENE) --integrator halton --spp $(SPP) -o out/cornell-halton.exr
-	./target/release/mdas render $(SCENE) --integrator mdas --spp $(SPP) -o out/cornell-mdas.exr
 	./target/release/mdas compare $(SCENE) --scale 0.25 --ref-spp 4096 --out out/compare-cornell
+	@echo 'At equal time: out/compare-cornell/halton.png, mdas.png and adaptive.png (each method'"'"'s first seed),'
+	@echo 'figure.png (the three side by side with their error maps), index.html (open it in a browser).'
 
 # Formatting is checked first (seconds); clippy runs in CI after the tests
 # (`.ci/run`: make test, then make lint), since a clean clippy build costs
@@ -110,7 +110,7 @@ clean-cache:
 	rm -rf .cache/references
 
 help:
-	@echo 'make run           build, print the adapter, render $(SCENE) with Halton and MDAS, compare them at equal time (out/)'
+	@echo 'make run           build, print the adapter, compare Halton, MDAS and pixel-adaptive Halton at equal time on $(SCENE) (out/)'
 	@echo 'make test          rustfmt check, the whole test suite, then the examples'
 	@echo 'make lint          rustfmt check and clippy on every target, warnings as errors'
 	@echo 'make crosscheck    Mitsuba 3 and mdas render tests/crosscheck/scenes/*.xml; statistical comparison'

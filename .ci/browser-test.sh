@@ -75,6 +75,7 @@ big=(scenes/cornell.toml --scale 4)
 "$MDAS" -q render "${big[@]}" --integrator halton --spp 16 --seed 1 -o "$out/large/reference.exr" >/dev/null
 "$MDAS" -q render "${big[@]}" --integrator mdas --spp 2 -o "$out/large/mdas.exr" >/dev/null
 "$MDAS" -q render "${big[@]}" --integrator halton --spp 2 -o "$out/large/halton.exr" >/dev/null
+"$MDAS" -q render "${big[@]}" --integrator adaptive --spp 2 -o "$out/large/adaptive.exr" >/dev/null
 "$MDAS" -q render "${big[@]}" --integrator mdas --spp 2 --alpha 0 --candidates 1 -o "$out/large/mdas-uniform.exr" >/dev/null
 "$python" tests/browser/large_dir.py "$out/compare" "$out/large"
 "$MDAS" -q view "$out/large" >/dev/null

@@ -374,3 +374,44 @@ fn below_the_first_check_it_is_halton() {
         assert_eq!(image_bits(&r), image_bits(&h), "{per_invocation}");
     }
 }
+
+/// `compare`'s budget search for pixel-adaptive Halton on the constant,
+/// whose every pixel converges at the first check (80 samples): at a
+/// target time far beyond that render's, the search finds the plateau (a
+/// budget it did not spend), compares the converged render at both ends
+/// of its bracket, below the target time.
+#[test]
+fn compare_search_stops_at_the_plateau_of_a_converged_render() {
+    use mdas::compare::adaptive::{params, search};
+    let film = Film {
+        width: 16,
+        height: 12,
+    };
+    let integrand = Inline {
+        film,
+        dims: 3,
+        body: CONSTANT,
+    };
+    let exact = vec![[0.25f32, 0.5, 2.0]; 192];
+    let mut a = AdaptiveHalton::new(params(200.0, 0)).unwrap();
+    let converged = mdas::compare::measure(gpu(), &mut a, &integrand, 1)
+        .unwrap()
+        .total_ms();
+    let bar = indicatif::ProgressBar::hidden();
+    let s = search(
+        gpu(),
+        &mut a,
+        &integrand,
+        &exact,
+        50.0 * converged,
+        1,
+        4096,
+        &bar,
+    )
+    .unwrap();
+    let c = s.converged_spp.expect("the plateau was not found");
+    assert!(c > 80, "converged at a budget of {c}");
+    assert_eq!((s.eq.lo.spp, s.eq.hi.spp), (c, c));
+    assert_eq!(s.eq.lo.measured.render.samples, 80 * 192);
+    assert!(s.eq.lo.measured.total_ms() < s.eq.target_ms);
+}

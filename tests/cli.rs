@@ -894,6 +894,18 @@ fn compare_bad_input_fails_without_a_report() {
         &["compare", "scenes/no_such_scene.toml", "--out", o],
         "no_such_scene",
     );
+    // Only pixel-adaptive Halton may be left out of the methods.
+    run(
+        &[
+            "compare",
+            "scenes/area_light_plane.toml",
+            "--methods",
+            "halton,adaptive",
+            "--out",
+            o,
+        ],
+        "--methods must hold halton and mdas",
+    );
     run(
         &[
             "compare",

@@ -193,6 +193,7 @@ fn compare_integrand_runs_on_an_integrand_built_in_code() {
         setup: Setup::new("edge", sweep_out.clone(), &identity),
         spps: vec![4, 8],
         seeds: 2,
+        adaptive: true,
     };
     let sweep =
         mdas::compare::sweep_integrand(gpu, &sweep_spec, &subject(exact.clone().leak())).unwrap();
@@ -218,6 +219,18 @@ fn compare_integrand_runs_on_an_integrand_built_in_code() {
     assert_eq!(points("mdas"), mdas_points);
     assert_eq!(sweep.mdas_skipped.len(), 2 - mdas_points);
     assert_eq!(points("halton"), 2);
+    // Pixel-adaptive Halton at each budget, over Halton's seeds; below its
+    // first check it spends the whole budget.
+    assert_eq!(points("adaptive"), 2);
+    for r in sweep.rows.iter().filter(|r| r.method == "adaptive") {
+        assert_eq!(r.samples, u64::from(r.spp) * 192);
+        let halton = sweep
+            .rows
+            .iter()
+            .find(|h| h.method == "halton" && h.spp == r.spp)
+            .unwrap();
+        assert_eq!(r.seeds, halton.seeds);
+    }
     assert_eq!(sweep.reference_exact.as_deref(), Some("polygon areas"));
     assert!(sweep.provenance.scene_sha256.is_none());
     assert!(sweep

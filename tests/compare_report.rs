@@ -48,6 +48,7 @@ fn spec<'a>(
         seeds: 2,
         crops: vec![],
         uniform: false,
+        adaptive: true,
     }
 }
 
@@ -134,9 +135,10 @@ fn check_report(out: &Path) -> Value {
         )
     );
     let methods = json["methods"].as_array().unwrap();
+    let adaptive = files.contains_key("adaptive");
     assert_eq!(
         methods.len(),
-        2 + files.contains_key("mdas_uniform") as usize
+        2 + adaptive as usize + files.contains_key("mdas_uniform") as usize
     );
     for m in methods {
         let name = m["name"].as_str().unwrap();
@@ -154,6 +156,8 @@ fn check_report(out: &Path) -> Value {
                 "reconstruction",
                 "total",
             ]
+        } else if name == "adaptive" {
+            &["accumulate", "adaptive", "evaluate", "total"]
         } else {
             &["accumulate", "evaluate", "total"]
         };
@@ -231,12 +235,29 @@ fn check_report(out: &Path) -> Value {
     }
     let ratio = mdas_relmse / eq["halton_relmse"].as_f64().unwrap();
     assert!(close(eq["relmse_ratio"].as_f64().unwrap(), ratio, 1e-12));
-    // The figure: three columns of panels at least MIN_PANEL wide (small
-    // films are upscaled), listed with the files.
+    if adaptive {
+        check_adaptive(out, &json);
+        for stem in [
+            "adaptive",
+            "relmse-adaptive",
+            "flip-adaptive",
+            "density-adaptive",
+        ] {
+            for ext in ["exr", "png"] {
+                let name = format!("{stem}.{ext}");
+                assert!(files.values().any(|v| v == &name), "{name} not listed");
+            }
+        }
+    } else {
+        assert!(eq.get("adaptive").is_none() && eq["equal_samples"].get("adaptive").is_none());
+    }
+    // The figure: a column of panels at least MIN_PANEL wide per image
+    // (small films are upscaled), listed with the files.
     assert_eq!(files["figure"], "figure.png");
     let figure = image::open(out.join("figure.png")).unwrap();
+    let columns = 3 + adaptive as u32;
     assert!(
-        figure.width() >= 3 * mdas::compare::figure::MIN_PANEL,
+        figure.width() >= columns * mdas::compare::figure::MIN_PANEL,
         "figure {}×{}",
         figure.width(),
         figure.height()
@@ -250,6 +271,101 @@ fn check_report(out: &Path) -> Value {
         "density sums to {total}, {samples} samples"
     );
     json
+}
+
+/// Pixel-adaptive Halton, the third method: its entry follows Halton's,
+/// its equal-time figures are its entry's (the seed mean at the searched
+/// budget nearer the target, whose run brackets or converged), its ratios
+/// are the quotients of the reported RelMSEs, its written image is
+/// `AdaptiveHalton` at that budget and Halton's first seed bit for bit,
+/// and its density map holds that render's samples.
+fn check_adaptive(out: &Path, json: &Value) {
+    let m = &json["methods"][2];
+    assert_eq!(m["name"], "adaptive");
+    assert_eq!(m["seeds"], json["methods"][1]["seeds"], "Halton's seeds");
+    let eq = &json["equal_time"];
+    let a = &eq["adaptive"];
+    let relmse = a["relmse"].as_f64().unwrap();
+    assert_eq!(relmse, m["relmse"].as_f64().unwrap());
+    assert_eq!(a["spp"].as_f64(), m["spp"].as_f64());
+    assert_eq!(a["spp_used"], m["spp_used"]);
+    assert!(close(
+        a["adaptive_over_halton"].as_f64().unwrap(),
+        relmse / eq["halton_relmse"].as_f64().unwrap(),
+        1e-12
+    ));
+    assert!(close(
+        a["mdas_over_adaptive"].as_f64().unwrap(),
+        eq["mdas_relmse"].as_f64().unwrap() / relmse,
+        1e-12
+    ));
+    let s = &a["search"];
+    let run = &s[s["image_run"].as_str().unwrap()];
+    assert_eq!(run["spp"].as_f64(), m["spp"].as_f64());
+    assert_eq!(run["samples"], m["samples"]);
+    assert_eq!(a["time_ms"], run["time_ms"]);
+    // A search that did not bracket the target says why: it converged.
+    if s["bracketed"] == false && a.get("converged_spp").is_some() {
+        let notes = a["notes"].as_array().unwrap();
+        assert!(notes
+            .iter()
+            .any(|n| n.as_str().unwrap().contains("converged")));
+    }
+    let q = &eq["equal_samples"];
+    let qa = &q["adaptive"];
+    assert_eq!(qa["spp"], q["spp"]);
+    assert!(close(
+        qa["adaptive_over_halton"].as_f64().unwrap(),
+        qa["relmse"].as_f64().unwrap() / q["halton_relmse"].as_f64().unwrap(),
+        1e-12
+    ));
+    // Below the first check adaptive renders Halton's samples at the same
+    // seeds, summed in another order where the spp is not a multiple of
+    // the samples per invocation (pixel values then differ in the last
+    // bits: relative 1e-6 bounds float32 sums of a few dozen samples):
+    // the same RelMSE, and the paired interval is the point 1.
+    let first = a["params"]["first_check"].as_u64().unwrap();
+    if q["spp"].as_u64().unwrap() < first {
+        let r = qa["relmse"].as_f64().unwrap();
+        assert!(close(r, q["halton_relmse"].as_f64().unwrap(), 1e-6));
+        let ci: Vec<f64> = qa["adaptive_over_halton_ci95"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_f64().unwrap())
+            .collect();
+        assert!(ci.iter().all(|&c| (c - 1.0).abs() < 1e-6), "{ci:?}");
+        assert!(qa["notes"][0]
+            .as_str()
+            .unwrap()
+            .contains("below its first check"));
+    }
+    // The written image and its sample counts, rendered again.
+    let scene = json["scene"].as_str().unwrap();
+    let prepared = mdas::session::prepare(
+        gpu(),
+        Path::new(scene),
+        json["scale"].as_f64().unwrap() as f32,
+    )
+    .unwrap();
+    let mut adaptive =
+        mdas::integrator::adaptive::AdaptiveHalton::new(mdas::compare::adaptive::params(
+            m["spp"].as_f64().unwrap(),
+            m["seeds"][0].as_u64().unwrap() as u32,
+        ))
+        .unwrap();
+    let direct =
+        mdas::integrator::Integrator::render(&mut adaptive, gpu(), prepared.integrand.as_ref())
+            .unwrap();
+    let (_, _, written) = read_exr(&out.join("adaptive.exr")).unwrap();
+    assert!(
+        written == direct.image,
+        "adaptive.exr is not AdaptiveHalton's render"
+    );
+    assert_eq!(m["samples"].as_u64(), Some(direct.samples));
+    let (_, _, density) = read_exr(&out.join("density-adaptive.exr")).unwrap();
+    let total: f64 = density.iter().map(|p| p[0] as f64).sum();
+    assert!(close(total, direct.samples as f64, 1e-6), "{total}");
 }
 
 #[test]
@@ -274,9 +390,10 @@ fn compare_area_light_plane_writes_a_consistent_report() {
     assert_eq!(json["methods"][0]["samples"].as_u64(), Some(32 * 24 * 4));
     assert_eq!(json["reference"]["spp"].as_u64(), Some(64));
     assert_eq!(report.methods[1].name, "halton");
+    assert_eq!(report.methods[2].name, "adaptive");
     // --uniform: MDAS-uniform at MDAS's budget and seeds, and the ratio
     // of what adaptivity buys.
-    let u = &json["methods"][2];
+    let u = &json["methods"][3];
     assert_eq!(u["name"], "mdas-uniform");
     assert_eq!(u["samples"], json["methods"][0]["samples"]);
     assert_eq!(u["seeds"], json["methods"][0]["seeds"]);
@@ -339,12 +456,18 @@ fn compare_cornell_writes_every_file() {
     // 16 spp: MDAS adapts (and reports its error and adaptive phases);
     // its automatic grid leaves at least 1/6 of any budget to adaptive samples.
     let params = params_at(0.125, Some(16.0));
+    // `--methods halton,mdas`: pixel-adaptive Halton left out.
     compare(
         gpu(),
-        &spec("scenes/cornell.toml", 0.125, &out, Budget::MdasSpp, &params),
+        &CompareSpec {
+            adaptive: false,
+            ..spec("scenes/cornell.toml", 0.125, &out, Budget::MdasSpp, &params)
+        },
     )
     .unwrap();
-    check_report(&out);
+    let json = check_report(&out);
+    assert_eq!(json["methods"].as_array().unwrap().len(), 2);
+    assert!(!out.join("adaptive.exr").exists());
     std::fs::remove_dir_all(&out).ok();
 }
 
@@ -479,6 +602,7 @@ fn sweep_writes_csv_and_svg() {
             setup: setup("scenes/area_light_plane.toml", 0.25, &out, &params),
             spps: vec![1, 2, 4],
             seeds: 2,
+            adaptive: true,
         },
     )
     .unwrap();
@@ -492,6 +616,19 @@ fn sweep_writes_csv_and_svg() {
         .filter(|r| r.method == "halton")
         .collect();
     assert_eq!(halton.len(), 3);
+    // Pixel-adaptive Halton at every budget, after Halton's rows.
+    let adaptive: Vec<_> = result
+        .rows
+        .iter()
+        .filter(|r| r.method == "adaptive")
+        .collect();
+    assert_eq!(
+        adaptive.iter().map(|r| r.spp).collect::<Vec<_>>(),
+        [1, 2, 4]
+    );
+    assert!(result
+        .rows
+        .ends_with(&adaptive.into_iter().cloned().collect::<Vec<_>>()));
     assert_eq!(
         result.rows.iter().filter(|r| r.method == "mdas").count() + result.mdas_skipped.len(),
         3
@@ -508,7 +645,7 @@ fn sweep_writes_csv_and_svg() {
             r.relmse_ci95[0] <= r.relmse && r.relmse <= r.relmse_ci95[1],
             "{r:?}"
         );
-        if r.method == "halton" {
+        if r.method == "halton" || r.method == "adaptive" {
             assert_eq!(r.seeds, vec![0, 2], "seed 1 is the reference's");
         }
     }
@@ -517,7 +654,12 @@ fn sweep_writes_csv_and_svg() {
     assert_eq!(json["rows"].as_array().unwrap().len(), result.rows.len());
     assert_eq!(json["provenance"]["integrand"], "area_light");
     let svg = std::fs::read_to_string(out.join("sweep.svg")).unwrap();
-    assert!(svg.starts_with("<svg") && svg.contains("Halton") && svg.contains("MDAS"));
+    assert!(
+        svg.starts_with("<svg")
+            && svg.contains("Halton")
+            && svg.contains("MDAS")
+            && svg.contains("adaptive")
+    );
     assert_eq!(svg.matches("<circle").count(), result.rows.len());
     // An error bar and an spp label per point.
     assert_eq!(

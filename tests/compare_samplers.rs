@@ -474,6 +474,7 @@ fn compare_with_a_sampler_override_reports_it() {
         seeds: 1,
         crops: vec![],
         uniform: false,
+        adaptive: false,
     };
     let report = mdas::compare::compare_with(
         gpu(),

@@ -1,5 +1,5 @@
-//! `mdas compare`: MDAS against Halton at equal time (or light samplers
-//! against each other with `--samplers`).
+//! `mdas compare`: MDAS against Halton and pixel-adaptive Halton at equal
+//! time (or light samplers against each other with `--samplers`).
 
 use super::*;
 
@@ -58,6 +58,19 @@ pub(crate) struct CompareArgs {
     /// seeds, and report what adaptivity buys (RelMSE MDAS/MDAS-uniform).
     #[arg(long, conflicts_with = "samplers")]
     pub(crate) uniform: bool,
+    /// The methods compared, comma-separated: halton and mdas always;
+    /// adaptive (pixel-adaptive Halton with Blender Cycles' rule, `render
+    /// --integrator adaptive`'s defaults: threshold 0.01, 64 samples
+    /// before the first check) with its own equal-time budget and at equal
+    /// samples, unless left out (`--methods halton,mdas`).
+    #[arg(
+        long,
+        value_name = "NAMES",
+        value_delimiter = ',',
+        default_value = "halton,mdas,adaptive",
+        conflicts_with = "samplers"
+    )]
+    pub(crate) methods: Vec<IntegratorKind>,
     /// Compare on each frame of a many_light scene's sequence: A..B (B
     /// excluded) or A..=B, frame f at scene time `time + f ·
     /// frame_duration` (as `render --frames`). Each frame gets its own
@@ -67,6 +80,18 @@ pub(crate) struct CompareArgs {
     pub(crate) frames: Option<FrameRange>,
     #[command(flatten)]
     pub(crate) common: ExperimentArgs,
+}
+
+/// `--methods` of `compare` and `sweep`: halton and mdas must be there.
+pub(crate) fn check_methods(methods: &[IntegratorKind]) -> Result<()> {
+    for required in [IntegratorKind::Halton, IntegratorKind::Mdas] {
+        if !methods.contains(&required) {
+            anyhow::bail!(
+                "--methods must hold halton and mdas (the comparison is built on them); only adaptive may be left out"
+            );
+        }
+    }
+    Ok(())
 }
 
 fn parse_crop(s: &str) -> Result<mdas::compare::figure::Crop, String> {
@@ -85,9 +110,13 @@ pub(crate) fn run(args: CompareArgs, ui: Ui) -> Result<()> {
         seeds,
         crop,
         uniform,
+        methods,
         frames,
         common,
     } = args;
+    if samplers.is_none() {
+        check_methods(&methods)?;
+    }
     let out = common
         .out
         .clone()
@@ -131,6 +160,7 @@ pub(crate) fn run(args: CompareArgs, ui: Ui) -> Result<()> {
                     seeds: seeds.unwrap_or(3),
                     crops: crop.clone(),
                     uniform,
+                    adaptive: methods.contains(&IntegratorKind::Adaptive),
                 },
                 IntegrandOverrides {
                     sampler,

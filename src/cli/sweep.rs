@@ -6,8 +6,9 @@ use super::*;
 pub(crate) struct SweepArgs {
     /// Scene file: TOML, or a Mitsuba 3 XML file (.xml; the subset in docs/scene-format.md).
     pub(crate) scene: PathBuf,
-    /// Budgets, samples per pixel, for both methods (MDAS budgets below
-    /// its initial sample count are skipped).
+    /// Budgets, samples per pixel, for every method (MDAS budgets below
+    /// its initial sample count are skipped; pixel-adaptive Halton's is
+    /// the average it may spend).
     #[arg(long, value_delimiter = ',', default_value = "1,2,4,8,16,32")]
     pub(crate) spps: Vec<u32>,
     /// Seeds per point (MDAS from its seed on, Halton from --seed on,
@@ -16,11 +17,21 @@ pub(crate) struct SweepArgs {
     #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=64))]
     pub(crate) seeds: u32,
     /// Measure only part I of N: points ⌊(I−1)·P/N⌋ up to ⌊I·P/N⌋ of the
-    /// P points (MDAS's budgets, then Halton's), written as
+    /// P points (MDAS's budgets, then Halton's, then adaptive's), written as
     /// sweep-part.json in --out (required); `mdas merge` joins the N parts
     /// into the sweep one process writes (scripts/slurm/).
     #[arg(long, value_name = "I/N", requires = "out")]
     pub(crate) part: Option<session::parts::Part>,
+    /// The methods swept, comma-separated: halton and mdas always;
+    /// adaptive (pixel-adaptive Halton, `render --integrator adaptive`'s
+    /// defaults, Halton's seeds) unless left out (`--methods halton,mdas`).
+    #[arg(
+        long,
+        value_name = "NAMES",
+        value_delimiter = ',',
+        default_value = "halton,mdas,adaptive"
+    )]
+    pub(crate) methods: Vec<IntegratorKind>,
     #[command(flatten)]
     pub(crate) common: ExperimentArgs,
 }
@@ -31,8 +42,10 @@ pub(crate) fn run(args: SweepArgs, ui: Ui) -> Result<()> {
         spps,
         seeds,
         part,
+        methods,
         common,
     } = args;
+    super::compare::check_methods(&methods)?;
     let out = common
         .out
         .clone()
@@ -46,6 +59,7 @@ pub(crate) fn run(args: SweepArgs, ui: Ui) -> Result<()> {
         setup: common.setup(ui, scene, out.clone(), &mdas_params),
         spps,
         seeds,
+        adaptive: methods.contains(&IntegratorKind::Adaptive),
     };
     if let Some(part) = part {
         let record = mdas::compare::sweep::sweep_part(Gpu::shared()?, &spec, part)?;

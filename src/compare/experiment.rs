@@ -250,6 +250,10 @@ fn compare_subject(
     let searched = search(gpu, spec, subject, checked.min_spp)?;
     let mut timed = time_interleaved(gpu, spec, subject, &searched)?;
     let seeded = over_seeds(gpu, spec, subject, &checked, &searched, &mut timed)?;
+    let third = spec
+        .adaptive
+        .then(|| third_method(gpu, spec, subject, &checked, &searched, &timed, &seeded))
+        .transpose()?;
     // 4. Sample density of the MDAS run (untimed; same seed, same image).
     timed.status.set_message("mdas sample density");
     let (_, density) = Mdas::new(MdasParams {
@@ -260,7 +264,50 @@ fn compare_subject(
     timed.status.inc(1);
     timed.status.finish_and_clear();
     report(
-        gpu, spec, subject, &checked, &searched, timed, seeded, &density, staged,
+        gpu,
+        spec,
+        subject,
+        &checked,
+        &searched,
+        timed,
+        seeded,
+        third.as_ref(),
+        &density,
+        staged,
+    )
+}
+
+/// Step 3d: pixel-adaptive Halton at the target time and at equal samples
+/// ([`super::adaptive`]), with Halton's seeds.
+fn third_method(
+    gpu: &Gpu,
+    spec: &CompareSpec,
+    subject: &Subject,
+    checked: &Checked,
+    searched: &Searched,
+    timed: &Timed,
+    seeded: &Seeded,
+) -> Result<super::adaptive::Third> {
+    super::adaptive::run(
+        gpu,
+        &super::adaptive::Inputs {
+            integrand: subject.integrand,
+            reference: subject.reference,
+            seeds: &checked.halton_seeds,
+            repeats: spec.setup.repeats,
+            max_spp: spec.max_spp,
+            target_ms: timed.target_ms,
+            target_times: &timed.target_times,
+            halton_fit: timed.halton_fit.as_ref(),
+            halton_spp: timed.halton_spp,
+            halton_n0: &seeded.halton_n0,
+            halton_n1: &seeded.halton_n1,
+            halton_relmse: seeded.halton_relmse,
+            mdas: &seeded.mdas,
+            equal_spp: (searched.mdas_spp.round() as u32).max(1),
+            halton_equal: &seeded.halton_equal,
+        },
+        &timed.status,
     )
 }
 
@@ -412,8 +459,13 @@ struct Seeded {
     mdas: SeedStats,
     /// Halton at the written run's budget.
     halton_main: SeedStats,
-    /// Halton interpolated at the target's spp.
+    /// Halton interpolated at the target's spp, from the whole budgets
+    /// either side of it.
     halton_relmse: f64,
+    halton_n0: SeedStats,
+    halton_n1: SeedStats,
+    /// Halton at equal samples.
+    halton_equal: SeedStats,
     ratio_ci95: [f64; 2],
     uniform: Option<(HaltonRun, SeedStats)>,
     equal_samples: EqualSamplesReport,
@@ -520,6 +572,7 @@ fn over_seeds(
         halton_relmse_ci95: equal_stats.relmse_ci95,
         relmse_ratio: mdas_stats.relmse / equal_stats.relmse,
         relmse_ratio_ci95: ratio(&mdas_stats, &equal_stats),
+        adaptive: None,
     };
     let (ref_estimate, ref_flag) = match &subject.reference_source {
         ReferenceSource::Halton { spp, .. } => {
@@ -538,6 +591,9 @@ fn over_seeds(
         mdas: mdas_stats,
         halton_main: main_stats,
         halton_relmse,
+        halton_n0: n0_stats,
+        halton_n1: n1_stats,
+        halton_equal: equal_stats,
         ratio_ci95,
         uniform,
         equal_samples,
@@ -556,6 +612,7 @@ fn report(
     searched: &Searched,
     timed: Timed,
     seeded: Seeded,
+    third: Option<&super::adaptive::Third>,
     density: &[f32],
     staged: StagedDir,
 ) -> Result<Report> {
@@ -585,6 +642,14 @@ fn report(
         halton_spp: halton_main.spp,
         halton_stats: &seeded.halton_main,
         uniform: seeded.uniform.as_ref().map(|(run, _)| &run.measured.render),
+        adaptive: third.map(|t| super::outputs::ThirdOutput {
+            render: &t.run.measured.render,
+            seed: checked.halton_seeds[0],
+            spp: t.run.spp,
+            spp_used: t.time.at.spp_used,
+            stats: &t.stats,
+            counts: &t.counts,
+        }),
         density,
         target_ms: timed.target_ms,
         ratio: seeded.mdas.relmse / seeded.halton_relmse,
@@ -644,6 +709,14 @@ fn report(
                 .with_flip(flips[1]),
         ]
         .into_iter()
+        .chain(third.map(|t| {
+            let name = super::adaptive::NAME;
+            let mut m = MethodReport::new(name, t.run.spp as f64, &t.run, &format!("{name}.exr"))
+                .with_seeds(&checked.halton_seeds, &t.stats);
+            m.image_flip = flips.get(2).copied();
+            m.spp_used = Some(t.time.at.spp_used);
+            m
+        }))
         .chain(seeded.uniform.as_ref().map(|(run, stats)| {
             MethodReport::new("mdas-uniform", mdas_spp, run, "mdas-uniform.exr")
                 .with_seeds(&checked.mdas_seeds, stats)
@@ -669,7 +742,11 @@ fn report(
             interleaved: Some(timed.timing),
             target_spread: timed.target_spread,
             flags: timed.flags,
-            equal_samples: Some(seeded.equal_samples),
+            equal_samples: Some(EqualSamplesReport {
+                adaptive: third.map(|t| t.samples.clone()),
+                ..seeded.equal_samples
+            }),
+            adaptive: third.map(|t| t.time.clone()),
         },
         maps: MapsReport {
             colormap: "viridis, log scale (FLIP maps: linear)",

@@ -1,17 +1,19 @@
 //! `figure.png` of `mdas compare`: a paper-style comparison figure.
 //!
-//! **Layout** (three columns, [`MARGIN`] around, [`GAP`] between columns):
+//! **Layout** (one column per image, three or more, [`MARGIN`] around,
+//! [`GAP`] between columns):
 //!
 //! - a title line (the caller's: scene, film, equal-time ratio);
-//! - row 1: reference | MDAS | Halton, each with its label above and the
+//! - row 1: reference | MDAS | Halton (| pixel-adaptive Halton), each with
+//!   its label above and the
 //!   caller's caption below, tone-mapped exactly as our PNGs
 //!   ([`image_io::linear_to_srgb8`] per channel), with the inset rectangles
 //!   outlined in their colours ([`CROP_COLOURS`]);
 //! - under each image, its insets: the same crops of every image, zoomed
 //!   (nearest neighbour, an integer factor where they fit) into square
 //!   slots, two per row, each framed in its crop's colour;
-//! - row 2: RelMSE of MDAS | RelMSE of Halton | MDAS sample density
-//!   (viridis, log scale, NaN magenta as in [`heatmap`]), with the crops
+//! - row 2: RelMSE of MDAS | RelMSE of Halton (| RelMSE of adaptive) |
+//!   MDAS sample density, as many maps as images (viridis, log scale, NaN magenta as in [`heatmap`]), with the crops
 //!   outlined too, and under each a colour bar (the viridis gradient over
 //!   the map's log range, ticks and labels at the decades, the ends
 //!   labelled with their values where they are not decades, the unit
@@ -65,6 +67,8 @@ const BAR_H: u32 = 14;
 const TICK: u32 = 4;
 const BAR_TEXT_H: u32 = 30;
 const OUTLINE: u32 = 2;
+/// Fewest columns a figure has (reference and two methods).
+pub const MIN_COLUMNS: usize = 3;
 /// Number of automatic insets.
 pub const AUTO_INSETS: usize = 2;
 /// Most crops a figure takes (one colour each).
@@ -130,10 +134,13 @@ pub struct FigureInput<'a> {
     pub height: u32,
     /// The line at the top.
     pub title: String,
-    /// Reference, MDAS, Halton.
-    pub images: [ImagePanel<'a>; 3],
-    /// RelMSE of MDAS, RelMSE of Halton, MDAS sample density.
-    pub maps: [MapPanel<'a>; 3],
+    /// Reference, MDAS, Halton (and pixel-adaptive Halton): one column
+    /// each, at least [`MIN_COLUMNS`].
+    pub images: Vec<ImagePanel<'a>>,
+    /// RelMSE of MDAS, RelMSE of Halton (RelMSE of adaptive), MDAS sample
+    /// density: as many as `images`, the first two pick the automatic
+    /// insets.
+    pub maps: Vec<MapPanel<'a>>,
     /// Inset rectangles in film pixels (at most [`MAX_CROPS`]); empty:
     /// [`AUTO_INSETS`] automatic ones from the first two maps
     /// ([`auto_insets`] with [`default_inset_size`]).
@@ -154,11 +161,11 @@ pub struct FigureInfo {
     pub downscale: u32,
     /// Panel size: ceil(film / downscale) · upscale.
     pub panel: (u32, u32),
-    /// Number of colour bars drawn (3).
+    /// Number of colour bars drawn (one per column).
     pub colour_bars: usize,
     /// The gradient rectangles of the colour bars.
     pub bar_rects: Vec<Crop>,
-    /// The six panels: row 1 (images) then row 2 (maps), left to right.
+    /// The panels: row 1 (images) then row 2 (maps), left to right.
     pub panel_rects: Vec<Crop>,
     /// The insets' zoomed pictures, image by image, crop by crop (without
     /// their frames).
@@ -199,7 +206,14 @@ struct Layout {
 }
 
 impl Layout {
-    fn new(width: u32, height: u32, crops: usize, lines1: u32, lines2: u32) -> Layout {
+    fn new(
+        width: u32,
+        height: u32,
+        columns: u32,
+        crops: usize,
+        lines1: u32,
+        lines2: u32,
+    ) -> Layout {
         let (up, down) = panel_scale(width, height);
         let (pw, ph) = (width.div_ceil(down) * up, height.div_ceil(down) * up);
         let col_w = pw.max(MIN_PANEL);
@@ -220,7 +234,7 @@ impl Layout {
             col_w,
             inset_cols,
             slot,
-            width: 2 * MARGIN + 3 * col_w + 2 * GAP,
+            width: 2 * MARGIN + columns * col_w + (columns - 1) * GAP,
             height: caption2 + CAPTION_PAD + lines2 * LINE_H + MARGIN,
             panel1,
             caption1,
@@ -276,7 +290,8 @@ impl Layout {
 
 /// Renders the figure and writes it to `path` as a PNG (atomically).
 ///
-/// Errors: a zero film size, a panel with the wrong number of pixels, a
+/// Errors: a zero film size, fewer than [`MIN_COLUMNS`] images or not as
+/// many maps as images, a panel with the wrong number of pixels, a
 /// bad map range, a crop outside the film (the message names the crop and
 /// the film size), more than [`MAX_CROPS`] crops, or a failed write.
 pub fn write_figure(path: &Path, input: &FigureInput) -> Result<FigureInfo> {
@@ -296,7 +311,15 @@ pub fn render_figure(input: &FigureInput) -> Result<(image::RgbImage, FigureInfo
     let lines = |c: &str| c.lines().count().max(1) as u32;
     let lines1 = input.images.iter().map(|p| lines(&p.caption)).max();
     let lines2 = input.maps.iter().map(|p| lines(&p.caption)).max();
-    let l = Layout::new(w, h, crops.len(), lines1.unwrap_or(1), lines2.unwrap_or(1));
+    let columns = input.images.len() as u32;
+    let l = Layout::new(
+        w,
+        h,
+        columns,
+        crops.len(),
+        lines1.unwrap_or(1),
+        lines2.unwrap_or(1),
+    );
     let mut canvas = Canvas::new(l.width, l.height, BACKGROUND);
     let mut text = TextLayer::new(l.width, l.height);
     let fit = f64::from(l.width - 2 * MARGIN);
@@ -371,6 +394,10 @@ fn checked_crops(input: &FigureInput) -> Result<Vec<Crop>> {
     let (w, h) = (input.width, input.height);
     if w == 0 || h == 0 {
         bail!("figure of a {w}×{h} film: the film is empty");
+    }
+    let (images, maps) = (input.images.len(), input.maps.len());
+    if images < MIN_COLUMNS || maps != images {
+        bail!("figure: {images} images and {maps} maps; it needs as many maps as images, at least {MIN_COLUMNS}");
     }
     let n = w as usize * h as usize;
     for p in &input.images {

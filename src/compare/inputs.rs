@@ -142,11 +142,16 @@ pub struct CompareSpec<'a> {
     /// Also MDAS-uniform (α = 0, one candidate) at MDAS's spp and seeds
     /// (`--uniform`, [`intervals::uniform_over_seeds`]).
     pub uniform: bool,
+    /// Also pixel-adaptive Halton, the third method ([`super::adaptive`]),
+    /// at equal time and at equal samples; `--methods halton,mdas` leaves
+    /// it out.
+    pub adaptive: bool,
 }
 
 impl<'a> CompareSpec<'a> {
     /// `mdas compare`'s defaults: spp searches up to 4096, 3 seeds per
-    /// method, automatic insets, no MDAS-uniform.
+    /// method, automatic insets, no MDAS-uniform, pixel-adaptive Halton
+    /// as the third method.
     pub fn new(setup: Setup<'a>, budget: Budget) -> CompareSpec<'a> {
         CompareSpec {
             setup,
@@ -155,6 +160,7 @@ impl<'a> CompareSpec<'a> {
             seeds: 3,
             crops: Vec::new(),
             uniform: false,
+            adaptive: true,
         }
     }
 }

@@ -153,13 +153,16 @@ impl PartRecord for SweepPart {
                 self.spps
             ));
         }
-        let points: Vec<(String, u32)> = self
+        let mdas_spps: Vec<u32> = self
             .spps
             .iter()
+            .copied()
             .filter(|s| !skipped.contains(s))
-            .map(|&s| ("mdas".to_string(), s))
-            .chain(self.spps.iter().map(|&s| ("halton".to_string(), s)))
             .collect();
+        // With pixel-adaptive Halton's points after Halton's, or without
+        // them (`--methods halton,mdas`).
+        let adaptive = self.points.iter().any(|(m, _)| m == super::adaptive::NAME);
+        let points = super::sweep::points_of(&mdas_spps, &self.spps, adaptive);
         if self.points != points {
             return Err(format!(
                 "'points' are not the sweep of 'spps' {:?} less 'result.mdas_skipped' for MDAS",

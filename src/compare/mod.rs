@@ -1,5 +1,5 @@
 //! Equal-time comparison of integrators (the experiment of the MDAS paper,
-//! §5): timing with warm-up and medians, budget matching, interleaved
+//! §5, with pixel-adaptive Halton as a third method, [`adaptive`]): timing with warm-up and medians, budget matching, interleaved
 //! timing rounds with a time fit and statistics over seeds ([`intervals`],
 //! [`seeds`]), `mdas compare` ([`experiment`]) with its report
 //! ([`report`], provenance in `crate::provenance`), its files
@@ -10,6 +10,7 @@
 //! ([`tune`]): MDAS over a grid of parameters, and `mdas bench`
 //! ([`phases`]): MDAS's phases against Halton at equal samples.
 
+pub mod adaptive;
 pub mod csv_table;
 pub mod equal_time;
 pub mod experiment;
@@ -24,6 +25,7 @@ pub mod plot;
 pub mod progress;
 pub mod report;
 pub mod samplers;
+pub mod search_report;
 pub mod seeds;
 pub mod sweep;
 pub mod timing;

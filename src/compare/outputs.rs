@@ -1,7 +1,7 @@
 //! The files of `mdas compare` (step 5 of `experiment`): the reference,
-//! MDAS and Halton images (EXR with method, spp, seed and time in the
+//! MDAS, Halton and pixel-adaptive Halton images (EXR with method, spp, seed and time in the
 //! header, and PNG), per-pixel RelMSE heat maps (log scale) and FLIP maps
-//! (linear), the MDAS sample-density map, and `figure.png` — images side
+//! (linear), the MDAS and adaptive sample-density maps, and `figure.png` — images side
 //! by side with insets where the methods' errors differ most (or the
 //! `--crop`s), captions with each method's RelMSE interval and FLIP, and
 //! the maps with colour bars. `report.json` is written last, by the caller.
@@ -44,6 +44,8 @@ pub(crate) struct CompareOutputs<'a> {
     pub halton_stats: &'a SeedStats,
     /// MDAS-uniform's written run (`compare --uniform`).
     pub uniform: Option<&'a Render>,
+    /// Pixel-adaptive Halton's written run (the third method).
+    pub adaptive: Option<ThirdOutput<'a>>,
     /// MDAS's samples per pixel.
     pub density: &'a [f32],
     pub target_ms: f64,
@@ -52,11 +54,24 @@ pub(crate) struct CompareOutputs<'a> {
     pub ratio_ci95: [f64; 2],
 }
 
+/// Pixel-adaptive Halton's written run: the image at the budget compared
+/// at equal time (its first seed), and its samples per pixel.
+pub(crate) struct ThirdOutput<'a> {
+    pub render: &'a Render,
+    pub seed: u32,
+    pub spp: u32,
+    /// Samples per pixel spent, mean over its seeds.
+    pub spp_used: f64,
+    pub stats: &'a SeedStats,
+    pub counts: &'a [f32],
+}
+
 /// What was written: `files` (report key → file name), the mean FLIP of
-/// MDAS's and Halton's images, and the density map's log range.
+/// MDAS's, Halton's and adaptive's images (as many as were written), and
+/// the MDAS density map's log range.
 pub(crate) struct Written {
     pub files: BTreeMap<String, String>,
-    pub flips: [f64; 2],
+    pub flips: Vec<f64>,
     pub density_range: (f32, f32),
 }
 
@@ -91,6 +106,15 @@ pub(crate) fn write_outputs(o: &CompareOutputs) -> Result<Written> {
         &halton_render.image,
         &session::render_attributes("halton", spec.setup.halton_seed, halton_render, scene_path),
     )?;
+    if let Some(a) = &o.adaptive {
+        let name = super::adaptive::NAME;
+        files.image(
+            name,
+            name,
+            &a.render.image,
+            &session::render_attributes(name, a.seed, a.render, scene_path),
+        )?;
+    }
     if let Some(u) = o.uniform {
         files.image(
             "mdas_uniform",
@@ -102,7 +126,14 @@ pub(crate) fn write_outputs(o: &CompareOutputs) -> Result<Written> {
     }
     let mut relmse_maps = Vec::new();
     let mut flips = Vec::new();
-    for (key, render) in [("mdas", mdas_render), ("halton", halton_render)] {
+    let third = o
+        .adaptive
+        .as_ref()
+        .map(|a| (super::adaptive::NAME, a.render));
+    for (key, render) in [("mdas", mdas_render), ("halton", halton_render)]
+        .into_iter()
+        .chain(third)
+    {
         relmse_maps.push(files.relmse_map(key, key, &render.image, reference)?);
         let flip = metrics::flip(
             &render.image,
@@ -119,6 +150,11 @@ pub(crate) fn write_outputs(o: &CompareOutputs) -> Result<Written> {
     let density_range = heatmap::density_range(density);
     heatmap::write_map(&o.out.join("density-mdas"), w, h, density, density_range)?;
     files.insert("density_mdas", "density-mdas");
+    if let Some(a) = &o.adaptive {
+        let range = heatmap::density_range(a.counts);
+        heatmap::write_map(&o.out.join("density-adaptive"), w, h, a.counts, range)?;
+        files.insert("density_adaptive", "density-adaptive");
+    }
 
     // The figure: images, insets, maps with colour bars.
     let total = mdas_render.samples;
@@ -156,62 +192,72 @@ pub(crate) fn write_outputs(o: &CompareOutputs) -> Result<Written> {
         "{stem} · {w}×{h} · equal time {:.1} ms · RelMSE MDAS/Halton {ratio:.3} [{:.3}, {:.3}]",
         o.target_ms, ratio_ci95[0], ratio_ci95[1]
     );
+    let mut images = vec![
+        figure::ImagePanel {
+            label: "Reference",
+            pixels: reference,
+            caption: match &o.subject.reference_source {
+                ReferenceSource::Halton { spp, .. } => format!("Halton {spp} spp"),
+                ReferenceSource::Exact(how) => how.clone(),
+            },
+        },
+        figure::ImagePanel {
+            label: "MDAS",
+            pixels: &mdas_render.image,
+            caption: caption("MDAS", o.mdas_spp, o.mdas_stats, flips[0]),
+        },
+        figure::ImagePanel {
+            label: "Halton",
+            pixels: &halton_render.image,
+            caption: caption("Halton", f64::from(o.halton_spp), o.halton_stats, flips[1]),
+        },
+    ];
+    let relmse_map = |i: usize, label: &'static str| figure::MapPanel {
+        label,
+        values: &relmse_maps[i],
+        range: heatmap::RELMSE_RANGE,
+        unit: "RelMSE",
+        caption: "per pixel, the image above".into(),
+    };
+    let mut maps = vec![
+        relmse_map(0, "RelMSE, MDAS"),
+        relmse_map(1, "RelMSE, Halton"),
+    ];
+    if let Some(a) = &o.adaptive {
+        images.push(figure::ImagePanel {
+            label: "Pixel-adaptive Halton",
+            pixels: &a.render.image,
+            caption: caption(
+                &format!("Adaptive, budget {}: spent", a.spp),
+                a.spp_used,
+                a.stats,
+                flips[2],
+            ),
+        });
+        maps.push(relmse_map(2, "RelMSE, adaptive"));
+    }
+    maps.push(figure::MapPanel {
+        label: "MDAS sample density",
+        values: density,
+        range: density_range,
+        unit: "spp",
+        caption: density_caption,
+    });
     figure::write_figure(
         &o.out.join("figure.png"),
         &figure::FigureInput {
             width: w,
             height: h,
             title,
-            images: [
-                figure::ImagePanel {
-                    label: "Reference",
-                    pixels: reference,
-                    caption: match &o.subject.reference_source {
-                        ReferenceSource::Halton { spp, .. } => format!("Halton {spp} spp"),
-                        ReferenceSource::Exact(how) => how.clone(),
-                    },
-                },
-                figure::ImagePanel {
-                    label: "MDAS",
-                    pixels: &mdas_render.image,
-                    caption: caption("MDAS", o.mdas_spp, o.mdas_stats, flips[0]),
-                },
-                figure::ImagePanel {
-                    label: "Halton",
-                    pixels: &halton_render.image,
-                    caption: caption("Halton", f64::from(o.halton_spp), o.halton_stats, flips[1]),
-                },
-            ],
-            maps: [
-                figure::MapPanel {
-                    label: "RelMSE, MDAS",
-                    values: &relmse_maps[0],
-                    range: heatmap::RELMSE_RANGE,
-                    unit: "RelMSE",
-                    caption: "per pixel, the image above".into(),
-                },
-                figure::MapPanel {
-                    label: "RelMSE, Halton",
-                    values: &relmse_maps[1],
-                    range: heatmap::RELMSE_RANGE,
-                    unit: "RelMSE",
-                    caption: "per pixel, the image above".into(),
-                },
-                figure::MapPanel {
-                    label: "MDAS sample density",
-                    values: density,
-                    range: density_range,
-                    unit: "spp",
-                    caption: density_caption,
-                },
-            ],
+            images,
+            maps,
             crops: spec.crops.clone(),
         },
     )?;
     files.list.insert("figure".into(), "figure.png".into());
     Ok(Written {
         files: files.list,
-        flips: [flips[0], flips[1]],
+        flips,
         density_range,
     })
 }

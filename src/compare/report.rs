@@ -7,8 +7,9 @@
 //! phases. `relmse`/`mse` follow `metrics::compare`; `nonfinite` counts
 //! non-finite samples and `nonfinite_pixels` non-finite pixels.
 
-use super::equal_time::{interpolate_log_log, EqualTime, HaltonRun, TimeFit};
+use super::equal_time::{HaltonRun, TimeFit};
 use super::intervals::Interleaved;
+pub use super::search_report::{BracketRun, SearchReport};
 use super::seeds::SeedStats;
 use crate::gpu::profiler::PhaseTimes;
 use crate::provenance::Provenance;
@@ -17,8 +18,10 @@ use std::collections::BTreeMap;
 
 /// The version of `report.json`'s layout ([`Report::schema_version`]):
 /// raised when a field is removed, renamed or changes meaning (adding a
-/// field does not raise it). docs/report-schema.md describes version 1.
-pub const REPORT_SCHEMA_VERSION: u32 = 1;
+/// field does not raise it). docs/report-schema.md describes version 2
+/// (2: pixel-adaptive Halton is the third entry of `methods`, before
+/// `mdas-uniform`).
+pub const REPORT_SCHEMA_VERSION: u32 = 2;
 
 /// The whole report.
 #[derive(Clone, Debug, Serialize)]
@@ -48,8 +51,9 @@ pub struct Report {
     pub version: String,
     pub repeats: u32,
     pub reference: ReferenceReport,
-    /// MDAS first, then Halton (the bracketing run nearer to equal time).
-    /// `compare --samplers`: `mdas+tree`, then `halton+<sampler>` per
+    /// MDAS first, then Halton (the bracketing run nearer to equal time),
+    /// then pixel-adaptive Halton (`adaptive`, unless left out), then
+    /// `mdas-uniform` (`--uniform`). `compare --samplers`: `mdas+tree`, then `halton+<sampler>` per
     /// listed sampler, in the order listed.
     pub methods: Vec<MethodReport>,
     pub equal_time: EqualTimeReport,
@@ -118,8 +122,12 @@ pub struct ReferenceReport {
 #[derive(Clone, Debug, Serialize)]
 pub struct MethodReport {
     pub name: String,
-    /// Samples per pixel asked for (MDAS: an average, may be fractional).
+    /// Samples per pixel asked for (MDAS: an average, may be fractional;
+    /// adaptive: its budget, an average it may stop below).
     pub spp: f64,
+    /// Samples per pixel spent, mean over `seeds` (adaptive only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub spp_used: Option<f64>,
     /// Integrand evaluations performed.
     pub samples: u64,
     /// Median milliseconds per phase, and `total`.
@@ -159,6 +167,7 @@ impl MethodReport {
         MethodReport {
             name: name.to_string(),
             spp,
+            spp_used: None,
             samples: r.samples,
             time_ms: time_map(&run.measured.times),
             samples_per_s: r.samples as f64 / (total / 1e3).max(1e-12),
@@ -203,71 +212,6 @@ pub fn time_map(times: &PhaseTimes) -> BTreeMap<String, f64> {
     let mut m: BTreeMap<String, f64> = times.0.iter().cloned().collect();
     m.insert("total".into(), times.total());
     m
-}
-
-/// A run of a budget search, as reported.
-#[derive(Clone, Debug, Serialize)]
-pub struct BracketRun {
-    pub spp: u32,
-    pub samples: u64,
-    pub time_ms: f64,
-    pub relmse: f64,
-    pub mse: f64,
-}
-
-impl From<&HaltonRun> for BracketRun {
-    fn from(r: &HaltonRun) -> Self {
-        BracketRun {
-            spp: r.spp,
-            samples: r.measured.render.samples,
-            time_ms: r.measured.total_ms(),
-            relmse: r.error.relmse,
-            mse: r.error.mse,
-        }
-    }
-}
-
-/// A method's budget search at the target time.
-#[derive(Clone, Debug, Serialize)]
-pub struct SearchReport {
-    /// The time the search looked for (mode `"mdas"`: MDAS's first timed
-    /// run; the equal-time target itself comes from the interleaved rounds).
-    pub target_ms: f64,
-    /// Largest spp measured at or below the target time.
-    pub lo: BracketRun,
-    /// Smallest spp measured above it (= `lo` when the target lies outside
-    /// what the search can reach).
-    pub hi: BracketRun,
-    /// Whether the target lies within [lo, hi] in time.
-    pub bracketed: bool,
-    /// RelMSE at exactly the target time, interpolated log–log between lo
-    /// and hi.
-    pub relmse: f64,
-    /// MSE at exactly the target time, interpolated the same way.
-    pub mse: f64,
-    /// `"lo"` or `"hi"`: the run nearer in time, whose image is written.
-    pub image_run: String,
-}
-
-impl SearchReport {
-    pub fn new(eq: &EqualTime) -> SearchReport {
-        let t = eq.target_ms;
-        let (lo, hi) = (eq.lo.measured.total_ms(), eq.hi.measured.total_ms());
-        SearchReport {
-            target_ms: t,
-            lo: (&eq.lo).into(),
-            hi: (&eq.hi).into(),
-            bracketed: lo <= t && t <= hi,
-            relmse: eq.relmse,
-            mse: interpolate_log_log(t, (lo, eq.lo.error.mse), (hi, eq.hi.error.mse)),
-            image_run: if (t - lo).abs() <= (hi - t).abs() {
-                "lo"
-            } else {
-                "hi"
-            }
-            .into(),
-        }
-    }
 }
 
 /// The comparison at equal time.
@@ -321,6 +265,10 @@ pub struct EqualTimeReport {
     /// The same methods at equal samples per pixel.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub equal_samples: Option<EqualSamplesReport>,
+    /// Pixel-adaptive Halton at the target time (`mdas compare`, unless
+    /// left out): its search, its RelMSE and its ratios to Halton and MDAS.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub adaptive: Option<super::adaptive::AdaptiveTimeReport>,
 }
 
 /// MDAS against Halton at the same samples per pixel (Halton at MDAS's spp,
@@ -343,6 +291,9 @@ pub struct EqualSamplesReport {
     pub adaptivity_ratio: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub adaptivity_ratio_ci95: Option<[f64; 2]>,
+    /// Pixel-adaptive Halton at the same budget (it may spend less).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub adaptive: Option<super::adaptive::AdaptiveReport>,
 }
 
 /// One light sampler under Halton at the equal-time target
@@ -687,6 +638,14 @@ pub fn table(report: &Report) -> String {
                 interval(Some(ci))
             );
         }
+    }
+    if e.adaptive.is_some() {
+        out += &super::adaptive::table_lines(
+            e.adaptive.as_ref(),
+            e.equal_samples
+                .as_ref()
+                .and_then(|q| q.adaptive.as_ref().map(|a| (q.spp, a))),
+        );
     }
     for flag in e.flags.iter() {
         out += &format!("warning: {flag}\n");

@@ -381,6 +381,7 @@ fn run(gpu: &Gpu, spec: &SamplersSpec) -> Result<Report> {
             target_spread: None,
             flags: Vec::new(),
             equal_samples: None,
+            adaptive: None,
         },
         maps: MapsReport {
             colormap: "viridis, log scale",

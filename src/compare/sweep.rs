@@ -1,11 +1,14 @@
-//! `mdas sweep`: RelMSE against time for MDAS and Halton over a list of
-//! budgets (samples per pixel), written as `sweep.csv`, `sweep.json` (the
+//! `mdas sweep`: RelMSE against time for MDAS, Halton and pixel-adaptive
+//! Halton ([`super::adaptive`], unless left out) over a list of budgets
+//! (samples per pixel; adaptive's is the average it may spend, and its
+//! `samples` what it spent), written as `sweep.csv`, `sweep.json` (the
 //! rows and the run's provenance) and a log–log plot, `sweep.svg` and
 //! `sweep.png` (time on x, RelMSE on y, each point labelled with its spp)
 //! — speed against error in one picture. Each point's time is a
 //! [`measure`]d run of the method's first seed (warm-up, median of the
 //! repeats); its RelMSE is the mean over `seeds` seeds (the first and
-//! `seeds − 1` more untimed renders; Halton's skip the reference's seed)
+//! `seeds − 1` more untimed renders; Halton's and adaptive's skip the
+//! reference's seed)
 //! with a 95% Student-t interval, drawn as an error bar. MDAS budgets
 //! below its initial sample count are skipped and listed in the result.
 
@@ -18,6 +21,7 @@ use super::seeds::mean_ci95;
 use crate::atomic::StagedDir;
 use crate::gpu::Gpu;
 use crate::image_io;
+use crate::integrator::adaptive::AdaptiveHalton;
 use crate::integrator::mdas::MdasParams;
 use crate::integrator::{Halton, Integrator, Mdas};
 use crate::metrics;
@@ -31,6 +35,8 @@ pub struct SweepSpec<'a> {
     pub spps: Vec<u32>,
     /// Seeds per point (1..=64).
     pub seeds: u32,
+    /// Also pixel-adaptive Halton at every budget (`--methods`).
+    pub adaptive: bool,
 }
 
 /// One measured point.
@@ -183,7 +189,7 @@ fn sweep_subject(
     plan: Plan,
     staged: StagedDir,
 ) -> Result<SweepResult> {
-    let points = points(&plan, &spec.spps);
+    let points = points(&plan, spec);
     let rows = measure_points(gpu, spec, subject, &plan, &points)?;
     let result = result(gpu, spec, subject, plan, rows)?;
     write_sweep(staged.path(), &result)?;
@@ -193,11 +199,21 @@ fn sweep_subject(
 }
 
 /// The sweep's points, in the order of its rows: MDAS's budgets, then
-/// Halton's.
-fn points(plan: &Plan, spps: &[u32]) -> Vec<(String, u32)> {
-    let mdas = plan.mdas_spps.iter().map(|&s| ("mdas".to_string(), s));
+/// Halton's, then adaptive's.
+fn points(plan: &Plan, spec: &SweepSpec) -> Vec<(String, u32)> {
+    points_of(&plan.mdas_spps, &spec.spps, spec.adaptive)
+}
+
+/// The points of a sweep of `spps` whose MDAS budgets are `mdas_spps`
+/// (`mdas merge` checks a part's against them).
+pub fn points_of(mdas_spps: &[u32], spps: &[u32], adaptive: bool) -> Vec<(String, u32)> {
+    let mdas = mdas_spps.iter().map(|&s| ("mdas".to_string(), s));
     let halton = spps.iter().map(|&s| ("halton".to_string(), s));
-    mdas.chain(halton).collect()
+    let third = spps
+        .iter()
+        .filter(|_| adaptive)
+        .map(|&s| (super::adaptive::NAME.to_string(), s));
+    mdas.chain(halton).chain(third).collect()
 }
 
 /// Measures `points` (a run of [`points`]), in order.
@@ -218,10 +234,24 @@ fn measure_points(
     // One integrator per method, so pipelines compile once.
     let mut mdas = Mdas::new(params)?;
     let mut halton = Halton::new(1, spec.setup.halton_seed);
+    let mut adaptive = AdaptiveHalton::new(super::adaptive::params(1.0, spec.setup.halton_seed))?;
     for (method, spp) in points {
         let spp = *spp;
         bar.set_message(format!("{method} {spp} spp"));
-        let row = if method == "mdas" {
+        let row = if method == super::adaptive::NAME {
+            adaptive.set_spp(f64::from(spp))?;
+            point(
+                gpu,
+                spec,
+                integrand,
+                reference,
+                super::adaptive::NAME,
+                spp,
+                &plan.halton_seeds,
+                &mut adaptive,
+                AdaptiveHalton::set_seed,
+            )?
+        } else if method == "mdas" {
             mdas.set_spp(spp as f32)?;
             point(
                 gpu,
@@ -312,7 +342,11 @@ pub(crate) fn write_sweep(dir: &std::path::Path, result: &SweepResult) -> Result
         &[
             series("mdas", "MDAS", "#d62728"),
             series("halton", "Halton", "#1f77b4"),
-        ],
+            series(super::adaptive::NAME, "adaptive", "#2ca02c"),
+        ]
+        .into_iter()
+        .filter(|s| !s.points.is_empty() || s.name != "adaptive")
+        .collect::<Vec<_>>(),
     );
     let text = csv(rows);
     image_io::write_atomic(&dir.join("sweep.csv"), |t| {
@@ -369,7 +403,7 @@ pub fn sweep_part(gpu: &Gpu, spec: &SweepSpec, part: session::parts::Part) -> Re
     let integrand = prepared.integrand.as_ref();
     let params = (spec.setup.mdas_params)(prepared.scene.mdas);
     let plan = plan(spec, params, integrand)?;
-    let points = points(&plan, &spec.spps);
+    let points = points(&plan, spec);
     if part.count as usize > points.len() {
         bail!(
             "{} parts of a sweep of {} points: every part needs a point (at most {} parts)",

@@ -514,6 +514,15 @@
       lines.push(`Equal samples (${es.spp} spp): RelMSE MDAS / Halton = ${withCi(es.relmse_ratio, es.relmse_ratio_ci95)} (MDAS ${withCi(es.mdas_relmse, es.mdas_relmse_ci95)}, Halton ${withCi(es.halton_relmse, es.halton_relmse_ci95)}).`);
       if (es.adaptivity_ratio !== undefined) lines.push(`Adaptivity: RelMSE MDAS / MDAS-uniform = ${withCi(es.adaptivity_ratio, es.adaptivity_ratio_ci95)}.`);
     }
+    // Pixel-adaptive Halton, the third method (report.json equal_time.adaptive).
+    const third = (what, a) => `${what}: pixel-adaptive Halton at a budget of ${a.spp} spp (spent ${num(a.spp_used)}), RelMSE ${withCi(a.relmse, a.relmse_ci95)}; ` +
+      `adaptive / Halton = ${withCi(a.adaptive_over_halton, a.adaptive_over_halton_ci95)}, MDAS / adaptive = ${withCi(a.mdas_over_adaptive, a.mdas_over_adaptive_ci95)}.` +
+      (a.notes && a.notes.length ? ` ${a.notes.join(' ')}` : '');
+    if (eq.adaptive) {
+      const a = eq.adaptive;
+      lines.push(third(`Equal time (its run ${num(a.time_ms)} ms${a.search && a.search.bracketed === false ? ', NOT bracketed' : ''})`, a));
+    }
+    if (es && es.adaptive) lines.push(third(`Equal samples (${es.spp} spp)`, es.adaptive));
     const flags = [].concat(eq.flags || [], (eq.halton_fit && eq.halton_fit.flags) || [], ref.flag || []);
     let samplers = null;
     if (Array.isArray(eq.samplers)) {

@@ -3,16 +3,17 @@ test times (.ci/browser-test.sh).
 
 A real `mdas compare` at 1024×1024 renders some 70 films (nine interleaved
 timing rounds of six renders, the budget search, the seeds): minutes on
-lavapipe. The page's load time depends on what it carries — four films of
-half floats and six map PNGs — not on how the record was measured, so the
-test renders the four films with `mdas render` at 1024×1024 (reference,
-MDAS, Halton, MDAS-uniform; given here as EXRs), computes the maps from
-them here, and takes the record of the small real comparison, its film
-size changed. The page then holds what `compare --uniform` writes at that
-size: the reference and three methods, RelMSE maps of the three, two FLIP
-slots and a density slot. FLIP and density are not recomputed here: their
-slots hold |error| (linear over [0, 1]) and MDAS's luminance (log), maps
-of the same size and comparable PNG entropy.
+lavapipe. The page's load time depends on what it carries — five films of
+half floats and nine map PNGs — not on how the record was measured, so the
+test renders the five films with `mdas render` at 1024×1024 (reference,
+MDAS, Halton, pixel-adaptive Halton, MDAS-uniform; given here as EXRs),
+computes the maps from them here, and takes the record of the small real
+comparison, its film size changed. The page then holds what `compare
+--uniform` writes at that size: the reference and four methods, RelMSE
+maps of the four, three FLIP slots and two density slots. FLIP and
+density are not recomputed here: their slots hold |error| (linear over
+[0, 1]) and the method's luminance (log), maps of the same size and
+comparable PNG entropy.
 
     python large_dir.py SMALL_COMPARE_DIR LARGE_DIR
 """
@@ -69,21 +70,22 @@ def main():
     ref = read_exr(os.path.join(large, "reference.exr")).astype(np.float64)
     h, w, _ = ref.shape
     images = {}
-    for name in ["mdas", "halton", "mdas-uniform"]:
+    for name in ["mdas", "halton", "adaptive", "mdas-uniform"]:
         images[name] = read_exr(os.path.join(large, f"{name}.exr")).astype(np.float64)
         relmse = ((images[name] - ref) ** 2 / (ref**2 + 0.01)).mean(axis=-1)
         write_png(os.path.join(large, f"relmse-{name}.png"), viridis(log_position(relmse, 1e-6, 10.0)))
-    for name in ["mdas", "halton"]:
+    for name in ["mdas", "halton", "adaptive"]:
         error = np.abs(images[name] - ref).mean(axis=-1)
         write_png(os.path.join(large, f"flip-{name}.png"), viridis(error))
-    luminance = images["mdas"].mean(axis=-1)
-    write_png(os.path.join(large, "density-mdas.png"), viridis(log_position(luminance, 1e-3, 10.0)))
+    for name in ["mdas", "adaptive"]:
+        luminance = images[name].mean(axis=-1)
+        write_png(os.path.join(large, f"density-{name}.png"), viridis(log_position(luminance, 1e-3, 10.0)))
 
     with open(os.path.join(small, "report.json")) as f:
         report = json.load(f)
     names = [m["name"] for m in report["methods"]]
-    if names != ["mdas", "halton", "mdas-uniform"]:
-        sys.exit(f"the small comparison's methods are {names}: run it with --uniform")
+    if names != ["mdas", "halton", "adaptive", "mdas-uniform"]:
+        sys.exit(f"the small comparison's methods are {names}: run it with --uniform (and adaptive)")
     report["film"] = {"width": w, "height": h}
     report["scale"] = report["scale"] * w / 64
     report["browser_test"] = (
@@ -92,7 +94,8 @@ def main():
     )
     with open(os.path.join(large, "report.json"), "w") as f:
         json.dump(report, f, indent=1)
-    print(f"{large}: {w}×{h}, {len(names) + 1} films, {len(names) * 2} maps")
+    maps = sum(name.endswith(".png") and name.split("-")[0] in ("relmse", "flip", "density") for name in os.listdir(large))
+    print(f"{large}: {w}×{h}, {len(names) + 1} films, {maps} maps")
 
 
 if __name__ == "__main__":

@@ -8,8 +8,8 @@ use super::*;
 struct Films {
     w: u32,
     h: u32,
-    images: [Vec<[f32; 3]>; 3],
-    maps: [Vec<f32>; 3],
+    images: Vec<Vec<[f32; 3]>>,
+    maps: Vec<Vec<f32>>,
 }
 
 fn films(w: u32, h: u32) -> Films {
@@ -34,8 +34,8 @@ fn films(w: u32, h: u32) -> Films {
     Films {
         w,
         h,
-        images: [reference, mdas, halton],
-        maps: [a, b, density],
+        images: vec![reference, mdas, halton],
+        maps: vec![a, b, density],
     }
 }
 
@@ -49,8 +49,8 @@ fn input<'a>(f: &'a Films, crops: Vec<Crop>) -> FigureInput<'a> {
         width: f.w,
         height: f.h,
         title: format!("test scene · {}×{} · equal time 1.00", f.w, f.h),
-        images: [image(0, "Reference"), image(1, "MDAS"), image(2, "Halton")],
-        maps: [
+        images: vec![image(0, "Reference"), image(1, "MDAS"), image(2, "Halton")],
+        maps: vec![
             MapPanel {
                 label: "RelMSE MDAS",
                 values: &f.maps[0],
@@ -268,6 +268,59 @@ fn user_crops_and_bad_inputs() {
     let mut i = input(&f, Vec::new());
     i.maps[2].range = (0.0, 1.0);
     assert!(render_figure(&i).is_err());
+    // As many maps as images, at least three of each.
+    let mut i = input(&f, Vec::new());
+    i.maps.pop();
+    let e = render_figure(&i).unwrap_err().to_string();
+    assert!(e.contains("3 images and 2 maps"), "{e}");
+    let mut i = input(&f, Vec::new());
+    i.images.pop();
+    i.maps.pop();
+    let e = render_figure(&i).unwrap_err().to_string();
+    assert!(e.contains("at least 3"), "{e}");
+}
+
+/// A fourth method (pixel-adaptive Halton in `compare`) adds a column:
+/// one more column of the same width and gap, its image with its insets,
+/// its map with its colour bar; the height is unchanged.
+#[test]
+fn four_columns() {
+    let mut f = films(32, 32);
+    let n = 32 * 32;
+    f.images
+        .push((0..n).map(|k| [(k % 32) as f32 / 40.0, 0.1, 0.2]).collect());
+    f.maps.insert(2, vec![2e-3f32; n]);
+    let mut i = input(&f, Vec::new());
+    i.images.push(ImagePanel {
+        label: "Adaptive",
+        pixels: &f.images[3],
+        caption: "Adaptive 8.0 spp".into(),
+    });
+    i.maps.insert(
+        2,
+        MapPanel {
+            label: "RelMSE Adaptive",
+            values: &f.maps[2],
+            range: heatmap::RELMSE_RANGE,
+            unit: "RelMSE",
+            caption: "mean 2.0e-3".into(),
+        },
+    );
+    // input() points its third map at f.maps[2], now adaptive's: point it
+    // back at the density.
+    i.maps[3].values = &f.maps[3];
+    let (img, info) = render_figure(&i).unwrap();
+    let (w3, h3) = predicted(384, 384);
+    assert_eq!((info.width, info.height), (w3 + 384 + GAP, h3));
+    assert_eq!((img.width(), img.height()), (info.width, info.height));
+    assert_eq!(info.panel_rects.len(), 8);
+    assert_eq!(info.inset_rects.len(), 8);
+    assert_eq!(info.colour_bars, 4);
+    // The fourth image's panel sits in the fourth column and shows it.
+    let p = info.panel_rects[3];
+    assert_eq!(p.x, MARGIN + 3 * (384 + GAP));
+    let want = f.images[3][5 * 32 + 20].map(image_io::linear_to_srgb8);
+    assert_eq!(img.get_pixel(p.x + 20 * 12 + 6, p.y + 5 * 12 + 6).0, want);
 }
 
 /// A 2048×1024 film is box-downscaled by 2 to 1024×512 panels; insets
