@@ -487,33 +487,7 @@ mod tests {
 
     /// A run at `spp` that took `ms` with RelMSE 1/spp.
     fn run_at(spp: u32, ms: f64) -> HaltonRun {
-        let mut times = crate::gpu::profiler::PhaseTimes::default();
-        times.add("evaluate", ms);
-        HaltonRun {
-            spp,
-            measured: super::super::equal_time::Measured {
-                render: crate::integrator::Render {
-                    film: crate::film::Film {
-                        width: 1,
-                        height: 1,
-                    },
-                    image: vec![[0.0; 3]],
-                    samples: spp as u64,
-                    nonfinite: 0,
-                    times: times.clone(),
-                    clock: crate::gpu::profiler::Clock::GpuTimestamps,
-                    gpu_bytes: 0,
-                },
-                times,
-            },
-            error: metrics::ErrorStats {
-                relmse: 1.0 / spp as f64,
-                mse: 0.0,
-                mae: 0.0,
-                nonfinite_pixels: 0,
-                pixels: 1,
-            },
-        }
+        HaltonRun::for_test(spp, ms, 1.0 / spp as f64)
     }
 
     /// A method whose every pixel converges after 100 samples: 1 ms per

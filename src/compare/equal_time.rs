@@ -77,6 +77,41 @@ pub struct HaltonRun {
     pub error: ErrorStats,
 }
 
+#[cfg(test)]
+impl HaltonRun {
+    /// A run of a one-pixel film at `spp` whose evaluate phase took `ms`,
+    /// with RelMSE `relmse` (unit tests of the searches and intervals).
+    pub(crate) fn for_test(spp: u32, ms: f64, relmse: f64) -> Self {
+        let mut times = crate::gpu::profiler::PhaseTimes::default();
+        times.add("evaluate", ms);
+        HaltonRun {
+            spp,
+            measured: Measured {
+                render: crate::integrator::Render {
+                    film: crate::film::Film {
+                        width: 1,
+                        height: 1,
+                    },
+                    image: vec![[0.0; 3]],
+                    samples: spp as u64,
+                    nonfinite: 0,
+                    times: times.clone(),
+                    clock: crate::gpu::profiler::Clock::GpuTimestamps,
+                    gpu_bytes: 0,
+                },
+                times,
+            },
+            error: ErrorStats {
+                relmse,
+                mse: 0.0,
+                mae: 0.0,
+                nonfinite_pixels: 0,
+                pixels: 1,
+            },
+        }
+    }
+}
+
 /// Runs bracketing a target time, and the RelMSE interpolated at it.
 #[derive(Clone, Debug)]
 pub struct EqualTime {

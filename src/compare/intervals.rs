@@ -365,33 +365,7 @@ mod tests {
 
     /// A Halton run at `spp` that took `ms`.
     fn run_at(spp: u32, ms: f64) -> crate::compare::HaltonRun {
-        let mut times = crate::gpu::profiler::PhaseTimes::default();
-        times.add("evaluate", ms);
-        crate::compare::HaltonRun {
-            spp,
-            measured: crate::compare::equal_time::Measured {
-                render: crate::integrator::Render {
-                    film: crate::film::Film {
-                        width: 1,
-                        height: 1,
-                    },
-                    image: vec![[0.0; 3]],
-                    samples: spp as u64,
-                    nonfinite: 0,
-                    times: times.clone(),
-                    clock: crate::gpu::profiler::Clock::GpuTimestamps,
-                    gpu_bytes: 0,
-                },
-                times,
-            },
-            error: crate::metrics::ErrorStats {
-                relmse: 0.0,
-                mse: 0.0,
-                mae: 0.0,
-                nonfinite_pixels: 0,
-                pixels: 1,
-            },
-        }
+        crate::compare::HaltonRun::for_test(spp, ms, 0.0)
     }
 
     #[test]
