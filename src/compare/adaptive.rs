@@ -530,20 +530,7 @@ mod tests {
     }
 
     fn stats_of(per_seed: &[f64]) -> SeedStats {
-        let r = mean(per_seed);
-        SeedStats {
-            seeds: per_seed.len(),
-            relmse_per_seed: per_seed.to_vec(),
-            relmse: r,
-            relmse_ci95: [r, r],
-            relative_bias: [0.0; 3],
-            relative_bias_ci95: [[0.0; 2]; 3],
-            mse: 0.0,
-            mse_bias2: 0.0,
-            mse_variance: 0.0,
-            mae: 0.0,
-            excluded_pixels: 0,
-        }
+        SeedStats::with_relmse(per_seed)
     }
 
     /// The same images at every seed: the paired interval is the point 1,

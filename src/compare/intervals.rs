@@ -345,22 +345,8 @@ mod tests {
         assert!(seed_plan(MAX_SEEDS + 1, 0, 0, 1).is_err());
     }
 
-    /// Seed statistics with these per-seed RelMSEs (the rest zero).
     fn stats_of(per_seed: &[f64]) -> SeedStats {
-        let r = mean(per_seed);
-        SeedStats {
-            seeds: per_seed.len(),
-            relmse_per_seed: per_seed.to_vec(),
-            relmse: r,
-            relmse_ci95: [r, r],
-            relative_bias: [0.0; 3],
-            relative_bias_ci95: [[0.0; 2]; 3],
-            mse: 0.0,
-            mse_bias2: 0.0,
-            mse_variance: 0.0,
-            mae: 0.0,
-            excluded_pixels: 0,
-        }
+        SeedStats::with_relmse(per_seed)
     }
 
     /// A Halton run at `spp` that took `ms`.

@@ -101,6 +101,28 @@ pub struct SeedStats {
     pub excluded_pixels: u64,
 }
 
+#[cfg(test)]
+impl SeedStats {
+    /// Seed statistics with these per-seed RelMSEs and the rest zero (unit
+    /// tests of the ratio intervals).
+    pub(crate) fn with_relmse(per_seed: &[f64]) -> SeedStats {
+        let r = mean(per_seed);
+        SeedStats {
+            seeds: per_seed.len(),
+            relmse_per_seed: per_seed.to_vec(),
+            relmse: r,
+            relmse_ci95: [r, r],
+            relative_bias: [0.0; 3],
+            relative_bias_ci95: [[0.0; 2]; 3],
+            mse: 0.0,
+            mse_bias2: 0.0,
+            mse_variance: 0.0,
+            mae: 0.0,
+            excluded_pixels: 0,
+        }
+    }
+}
+
 impl SeedStats {
     /// The statistics of `images` (one per seed, each the reference's size).
     pub fn new(images: &[&[[f32; 3]]], reference: &[[f32; 3]]) -> Result<SeedStats> {
