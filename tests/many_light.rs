@@ -30,14 +30,23 @@ fn integrand(scene: &SceneFile, film: Film, sampler: SamplerKind) -> ManyLight {
 }
 
 fn integrand_interleaved(scene: &SceneFile, film: Film, sampler: SamplerKind, m: u32) -> ManyLight {
+    integrand_edited(scene, film, |spec| {
+        spec.sampler = sampler;
+        spec.interleave = m;
+    })
+}
+
+/// The scene's integrand on `film` with its `[integrand]` table edited.
+fn integrand_edited(
+    scene: &SceneFile,
+    film: Film,
+    edit: impl FnOnce(&mut mdas::integrand::ManyLightSpec),
+) -> ManyLight {
     let IntegrandSpec::ManyLight(spec) = &scene.integrand else {
         panic!("not a many_light scene")
     };
-    let spec = mdas::integrand::ManyLightSpec {
-        sampler,
-        interleave: m,
-        ..spec.clone()
-    };
+    let mut spec = spec.clone();
+    edit(&mut spec);
     let gpu_scene = Arc::new(mdas::accel::GpuScene::new(gpu(), &scene.scene, film).unwrap());
     ManyLight::new(gpu(), &scene.scene, gpu_scene, film, &spec).unwrap()
 }
@@ -252,18 +261,11 @@ fn light_samples_average_unbiased_picks_at_one_shading_point() {
         .iter()
         .map(|p| p.map(|v| v as f32))
         .collect();
-    let IntegrandSpec::ManyLight(spec) = &scene.integrand else {
-        panic!("not a many_light scene")
-    };
     let with = |n: u32| {
-        let spec = mdas::integrand::ManyLightSpec {
-            sampler: SamplerKind::TreeNoCut,
-            light_samples: n,
-            ..spec.clone()
-        };
-        let film = scene.scene.film;
-        let gpu_scene = Arc::new(mdas::accel::GpuScene::new(gpu(), &scene.scene, film).unwrap());
-        ManyLight::new(gpu(), &scene.scene, gpu_scene, film, &spec).unwrap()
+        integrand_edited(&scene, scene.scene.film, |spec| {
+            spec.sampler = SamplerKind::TreeNoCut;
+            spec.light_samples = n;
+        })
     };
     let four = with(4);
     const K: u32 = 8;
@@ -1136,17 +1138,10 @@ mod lgh {
     use mdas::lights::lgh::{self, LghParams};
 
     fn integrand_lgh(scene: &SceneFile, params: LghParams) -> ManyLight {
-        let IntegrandSpec::ManyLight(spec) = &scene.integrand else {
-            panic!("not a many_light scene")
-        };
-        let spec = mdas::integrand::ManyLightSpec {
-            sampler: SamplerKind::Lgh,
-            lgh: params,
-            ..spec.clone()
-        };
-        let film = scene.scene.film;
-        let gpu_scene = Arc::new(mdas::accel::GpuScene::new(gpu(), &scene.scene, film).unwrap());
-        ManyLight::new(gpu(), &scene.scene, gpu_scene, film, &spec).unwrap()
+        super::integrand_edited(scene, scene.scene.film, |spec| {
+            spec.sampler = SamplerKind::Lgh;
+            spec.lgh = params;
+        })
     }
 
     /// Issue 51: the grid hierarchy rejects light from behind the
