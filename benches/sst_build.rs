@@ -14,6 +14,7 @@
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use glam::Vec3;
+use mdas::compare::equal_time::median;
 use mdas::gpu::Gpu;
 use mdas::lights::substitute::gpu_build::{GpuRadixTree, PHASES};
 use mdas::lights::substitute::radix;
@@ -46,12 +47,6 @@ fn lights(n: usize) -> Vec<LightPrim> {
         .collect()
 }
 
-/// The median (NaN when criterion's filter skipped the measurement).
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(|a, b| a.partial_cmp(b).unwrap());
-    v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
-}
-
 fn bench(c: &mut Criterion) {
     let gpu = Gpu::shared().expect("benches need a wgpu adapter");
     eprintln!("{}", gpu.describe());
@@ -81,8 +76,16 @@ fn bench(c: &mut Criterion) {
             })
         });
         group.finish();
-        let phase = |name: &str| median(times.iter().map(|t| t.get(name).unwrap_or(0.0)).collect());
-        let total = median(times.iter().map(|t| t.total()).collect());
+        // (NaN when criterion's filter skipped the measurement.)
+        let phase = |name: &str| {
+            median(
+                &times
+                    .iter()
+                    .map(|t| t.get(name).unwrap_or(0.0))
+                    .collect::<Vec<_>>(),
+            )
+        };
+        let total = median(&times.iter().map(|t| t.total()).collect::<Vec<_>>());
         rows.push((size, PHASES.map(phase), total, times.len()));
     }
     let clock = mdas::gpu::Profiler::new(gpu).clock();
